@@ -1,0 +1,1 @@
+//! Controllers: the escape controller and RL action adapters (design §1).

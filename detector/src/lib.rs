@@ -1,0 +1,16 @@
+//! Looming detectors: frames in, scalar signals out.
+//!
+//! This crate knows nothing about rendering or physics. It holds
+//! - [`Frame`], the n×n grayscale image every detector consumes,
+//! - the [`Detector`] trait that every model implements,
+//! - the modern-Hopfield looming detector of Keil (paper §2.2) and the
+//!   classic temporal-contrast baselines it is compared with,
+//! - the paper's artificial approach videos ([`stimulus`]) and video input ([`video`]).
+
+pub mod error;
+pub mod frame;
+pub mod signals;
+
+pub use error::DetectorError;
+pub use frame::{Frame, NonSquare};
+pub use signals::{Detector, Signals};

@@ -1,0 +1,1 @@
+//! Scenario schema, closed-loop runner and scoring (design §6).

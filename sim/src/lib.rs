@@ -1,0 +1,1 @@
+//! rapier3d world, wgpu offscreen renderer and ground truth (design §5).

@@ -1,0 +1,28 @@
+//! `loomlab`: closed-loop testbed for looming detectors. Thin binary over `loomlab::cli`.
+
+use clap::{Parser, Subcommand};
+
+/// loomlab: a closed-loop testbed for vision-based looming (collision) detectors.
+#[derive(Parser)]
+#[command(version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    // Subcommands are added here, one variant each, dispatching to loomlab::cli::<name>::run.
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result: anyhow::Result<i32> = match cli.command {};
+    match result {
+        Ok(code) => std::process::exit(code),
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::exit(2);
+        }
+    }
+}
