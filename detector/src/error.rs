@@ -16,7 +16,9 @@ pub enum DetectorError {
         reason: String,
     },
     /// A frame does not have the size the detector was built for.
-    #[error("frame is {got}×{got} pixels but the detector was built for {expected}×{expected}; rebuild the detector with n = {got} or resize the frames")]
+    #[error(
+        "frame is {got}×{got} pixels but the detector was built for {expected}×{expected}; rebuild the detector with n = {got} or resize the frames"
+    )]
     FrameSize {
         /// Expected side length.
         expected: usize,

@@ -34,7 +34,9 @@ impl Frame {
     /// Wraps row-major luminance values (length n·n).
     pub fn from_f32(n: usize, mut data: Vec<f32>) -> Result<Self, DetectorError> {
         if n == 0 {
-            return Err(DetectorError::InvalidImage("frame size is 0; frames need at least 1×1 pixels".into()));
+            return Err(DetectorError::InvalidImage(
+                "frame size is 0; frames need at least 1×1 pixels".into(),
+            ));
         }
         if data.len() != n * n {
             return Err(DetectorError::InvalidImage(format!(
@@ -59,7 +61,9 @@ impl Frame {
     /// or cropping per `mode`. `pixels` is row-major with length rows·cols.
     pub fn from_rect_f32(rows: usize, cols: usize, pixels: &[f32], mode: NonSquare) -> Result<Self, DetectorError> {
         if rows == 0 || cols == 0 {
-            return Err(DetectorError::InvalidImage(format!("image is {cols}×{rows} pixels; it must not be empty")));
+            return Err(DetectorError::InvalidImage(format!(
+                "image is {cols}×{rows} pixels; it must not be empty"
+            )));
         }
         if pixels.len() != rows * cols {
             return Err(DetectorError::InvalidImage(format!(
