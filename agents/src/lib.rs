@@ -1,1 +1,23 @@
 //! Controllers: the escape controller and RL action adapters (design §1).
+//!
+//! This crate turns detector [`Signals`](loomlab_detector::Signals) into velocity commands:
+//! - [`EscapeController`]: a threshold-triggered escape manoeuvre (lateral dodge, stop or reverse)
+//!   with a fixed duration and a cooldown, configured by [`EscapeConfig`];
+//! - [`DiscreteAction`] and [`ContinuousAction`]: the action spaces offered to external RL agents,
+//!   mapped to [`VelocityCommand`]s through an [`ActionConfig`].
+//!
+//! # Conventions
+//! Commands are in the robot's body frame (REP 103): x forward, y left, z up. So
+//! `lateral_mps > 0` moves the robot to its **left** and `yaw_rate_rps > 0` turns it to the left
+//! (counter-clockwise seen from above). Image x runs from −1 (left edge of the camera image) to +1
+//! (right edge). The simulator has its own command type; the scenario runner converts.
+
+pub mod action;
+pub mod command;
+pub mod error;
+pub mod escape;
+
+pub use action::{ActionConfig, ContinuousAction, DiscreteAction};
+pub use command::VelocityCommand;
+pub use error::AgentError;
+pub use escape::{ControllerEvent, DodgeSide, EscapeConfig, EscapeController, Manoeuvre, TriggerSignal};
