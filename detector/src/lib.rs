@@ -10,6 +10,8 @@
 pub mod error;
 pub mod frame;
 pub mod signals;
+pub mod stimulus;
+pub mod video;
 
 pub use error::DetectorError;
 pub use frame::{Frame, NonSquare};
