@@ -3,3 +3,4 @@
 //! The binary (`src/main.rs`) only parses arguments and maps errors to exit codes.
 
 pub mod cli;
+pub mod plot;

@@ -13,11 +13,15 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     // Subcommands are added here, one variant each, dispatching to loomlab::cli::<name>::run.
+    /// Run looming detectors on a stimulus file or a video; writes responses.csv and a plot.
+    Detect(loomlab::cli::detect::DetectArgs),
 }
 
 fn main() {
     let cli = Cli::parse();
-    let result: anyhow::Result<i32> = match cli.command {};
+    let result: anyhow::Result<i32> = match cli.command {
+        Command::Detect(a) => loomlab::cli::detect::run(a),
+    };
     match result {
         Ok(code) => std::process::exit(code),
         Err(e) => {

@@ -1,0 +1,42 @@
+# loomlab — common tasks. `make run` is the main job, `make test` runs every test
+# (and installs what it needs on a fresh Debian machine with Rust).
+SHELL := /bin/bash
+CARGO ?= cargo
+OUT ?= out/run
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+
+.PHONY: run test deps lint rust-test bench figures fmt
+
+## Run the default scenario suite: prints the results table, writes $(OUT)/report.json and plots.
+run: deps
+	$(CARGO) run --release -- run --out $(OUT)
+
+## Install system packages: Mesa's lavapipe (software Vulkan) so wgpu renders without a GPU.
+deps:
+	@if ! ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1; then \
+	  echo "installing mesa-vulkan-drivers (lavapipe) ..."; \
+	  $(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq mesa-vulkan-drivers libvulkan1; \
+	fi
+
+## Formatting and lints (warnings are errors).
+lint:
+	$(CARGO) fmt --all -- --check
+	$(CARGO) clippy --workspace --all-targets -- -D warnings
+
+## All Rust tests (unit, integration, doc).
+rust-test: deps
+	$(CARGO) test --workspace
+
+## Everything CI runs.
+test: deps lint rust-test
+
+## Criterion benchmarks (detector, baselines, simulator step).
+bench: deps
+	$(CARGO) bench --workspace
+
+## Regenerate the paper's artificial-video figures into out/figures.
+figures:
+	$(CARGO) run --release -- figures --out out/figures
+
+fmt:
+	$(CARGO) fmt --all

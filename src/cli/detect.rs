@@ -1,0 +1,303 @@
+//! `loomlab detect`: run detectors on a stimulus file or a video, write `responses.csv` and a plot.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use clap::{Args, ValueEnum};
+use loomlab_detector::hopfield::{HopfieldConfig, Implementation};
+use loomlab_detector::stimulus::StimulusSpec;
+use loomlab_detector::video::load_video;
+use loomlab_detector::{DetectorSet, Frame, NonSquare, parse_detector_list};
+
+use crate::plot::{LineChart, Series, line_chart};
+
+/// Implementation of the Hopfield detector (both give the same numbers to 1e-6).
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum ImplArg {
+    /// Literal dense equations of the paper (slow; for checking).
+    Reference,
+    /// Exact fast path: shared product, pattern-space iteration, sparse templates.
+    Fast,
+}
+
+/// How to make non-square video frames square (paper §2.2.1).
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum NonSquareArg {
+    /// Embed in an n = max(rows, cols) square of luminance 0.5.
+    Embed,
+    /// Crop to an n = min(rows, cols) square.
+    Crop,
+}
+
+/// Arguments of `loomlab detect`.
+#[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("input").required(true).args(["stimulus", "video"])))]
+pub struct DetectArgs {
+    /// Stimulus file (TOML, see stimuli/README.md): an analytic approach video with its true angular size.
+    #[arg(long, value_name = "FILE.toml")]
+    pub stimulus: Option<PathBuf>,
+    /// Video: a folder of PNG/JPEG frames (natural filename order) or an animated GIF, read as grayscale.
+    #[arg(long, value_name = "DIR|FILE.gif")]
+    pub video: Option<PathBuf>,
+    /// Detector ids, comma-separated, or `all`: hopfield, soc, keil2004, cizek2019, fu2020.
+    #[arg(long, short, default_value = "hopfield", value_name = "ID[,ID...]|all")]
+    pub detector: String,
+    /// Hopfield implementation.
+    #[arg(long = "impl", value_enum, default_value = "fast")]
+    pub implementation: ImplArg,
+    /// Hopfield parameters as a TOML file (keys of HopfieldConfig; unknown keys are errors).
+    /// `n` is always taken from the frames.
+    #[arg(long, value_name = "FILE.toml")]
+    pub hopfield_config: Option<PathBuf>,
+    /// Camera field of view in degrees for the angular-size readout of videos (stimuli carry their own).
+    #[arg(long, default_value_t = 60.0)]
+    pub fov_deg: f64,
+    /// Frame rate of a folder of frames (GIFs carry their own).
+    #[arg(long, default_value_t = 120.0)]
+    pub fps: f64,
+    /// Non-square video frames: embed in gray or crop.
+    #[arg(long, value_enum, default_value = "embed")]
+    pub non_square: NonSquareArg,
+    /// Output folder for responses.csv and responses.png (created if missing).
+    #[arg(long, short, default_value = "out/detect")]
+    pub out: PathBuf,
+}
+
+/// Frames to process plus their timing and ground truth.
+struct Input {
+    frames: Vec<Frame>,
+    t_s: Vec<f64>,
+    theta_true_deg: Option<Vec<f64>>,
+    fov_deg: f64,
+    label: String,
+}
+
+fn load_input(args: &DetectArgs) -> anyhow::Result<Input> {
+    if let Some(path) = &args.stimulus {
+        let spec = StimulusSpec::load(path)?;
+        let rendered = spec.render();
+        return Ok(Input {
+            t_s: rendered.iter().map(|f| f.t_s).collect(),
+            theta_true_deg: Some(rendered.iter().map(|f| f.theta_true_deg).collect()),
+            frames: rendered.into_iter().map(|f| f.frame).collect(),
+            fov_deg: spec.stimulus.fov_deg,
+            label: path.display().to_string(),
+        });
+    }
+    let path = args.video.as_ref().expect("clap requires --stimulus or --video");
+    let mode = match args.non_square {
+        NonSquareArg::Embed => NonSquare::Embed,
+        NonSquareArg::Crop => NonSquare::Crop,
+    };
+    let video = load_video(path, mode)?;
+    let fps = video.fps.unwrap_or(args.fps);
+    if !(fps.is_finite() && fps > 0.0) {
+        bail!("--fps must be a positive number of frames per second, got {fps}");
+    }
+    let invalid: usize = video.frames.iter().map(Frame::invalid_pixels).sum();
+    if invalid > 0 {
+        eprintln!(
+            "warning: {invalid} non-finite pixel values in {} were read as black",
+            path.display()
+        );
+    }
+    Ok(Input {
+        t_s: (0..video.len()).map(|k| k as f64 / fps).collect(),
+        theta_true_deg: None,
+        frames: video.frames,
+        fov_deg: args.fov_deg,
+        label: path.display().to_string(),
+    })
+}
+
+/// One output column of responses.csv.
+struct Column {
+    name: String,
+    values: Vec<f64>,
+}
+
+/// Runs `loomlab detect`.
+pub fn run(args: DetectArgs) -> anyhow::Result<i32> {
+    let ids = parse_detector_list(&args.detector)?;
+    let input = load_input(&args)?;
+    let n = input.frames.first().map(Frame::n).context("the input has no frames")?;
+
+    let mut hopfield = match &args.hopfield_config {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).with_context(|| format!("cannot read {}", p.display()))?;
+            HopfieldConfig::from_toml_str(&text).with_context(|| format!("in {}", p.display()))?
+        }
+        None => HopfieldConfig {
+            fov_deg: input.fov_deg,
+            ..HopfieldConfig::default()
+        },
+    };
+    hopfield.implementation = match args.implementation {
+        ImplArg::Reference => Implementation::Reference,
+        ImplArg::Fast => Implementation::Fast,
+    };
+    let set = DetectorSet {
+        hopfield,
+        ..DetectorSet::default()
+    };
+    let mut detectors = ids.iter().map(|id| set.build(id, n)).collect::<Result<Vec<_>, _>>()?;
+
+    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    let csv_path = args.out.join("responses.csv");
+    let mut csv =
+        BufWriter::new(File::create(&csv_path).with_context(|| format!("cannot create {}", csv_path.display()))?);
+    let has_hopfield = ids.contains(&"hopfield");
+    let mut header = vec!["frame".to_string(), "t_s".into(), "theta_true_deg".into()];
+    header.extend(ids.iter().map(|s| s.to_string()));
+    if has_hopfield {
+        header.extend(["hopfield_on".into(), "hopfield_off".into(), "hopfield_theta_deg".into()]);
+    }
+    writeln!(csv, "{}", header.join(","))?;
+
+    let mut columns: Vec<Column> = ids
+        .iter()
+        .map(|id| Column {
+            name: id.to_string(),
+            values: vec![],
+        })
+        .collect();
+    let mut hopfield_theta = Vec::new();
+    let bar = super::progress(input.frames.len() as u64, "detect");
+    for (k, frame) in input.frames.iter().enumerate() {
+        let theta = input
+            .theta_true_deg
+            .as_ref()
+            .map_or(String::new(), |t| format!("{:.6}", t[k]));
+        let mut row = vec![k.to_string(), format!("{:.6}", input.t_s[k]), theta];
+        let mut extra = Vec::new();
+        for (det, col) in detectors.iter_mut().zip(&mut columns) {
+            let s = det.step(frame)?;
+            row.push(format!("{:.9}", s.output));
+            col.values.push(s.output);
+            if det.id() == "hopfield" {
+                let aux = |name| s.aux.iter().find(|(k, _)| *k == name).map_or(f64::NAN, |(_, v)| *v);
+                let theta_hat = s.angular_size_deg.unwrap_or(f64::NAN);
+                extra = vec![
+                    format!("{:.9}", aux("on")),
+                    format!("{:.9}", aux("off")),
+                    format!("{theta_hat:.6}"),
+                ];
+                hopfield_theta.push(theta_hat);
+            }
+        }
+        row.extend(extra);
+        writeln!(csv, "{}", row.join(","))?;
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    csv.flush()?;
+
+    let plot_path = args.out.join("responses.png");
+    let memory_columns = set.hopfield.template.template_count(n) + 1;
+    plot_responses(&plot_path, &input, &columns, memory_columns)?;
+    if has_hopfield && input.theta_true_deg.is_some() {
+        let chart = LineChart {
+            title: "Hopfield angular-size estimate".into(),
+            x_label: "t [s]".into(),
+            y_label: "angle [deg]".into(),
+            series: vec![
+                Series::new("θ̂ (hopfield)", input.t_s.clone(), hopfield_theta),
+                Series::new(
+                    "θ true",
+                    input.t_s.clone(),
+                    input.theta_true_deg.clone().unwrap_or_default(),
+                )
+                .dashed(),
+            ],
+            ..Default::default()
+        };
+        line_chart(&args.out.join("angular_size.png"), &chart, (800, 450))?;
+    }
+    println!(
+        "{} frames of {} ({n}×{n}) through {}",
+        input.frames.len(),
+        input.label,
+        ids.join(", ")
+    );
+    println!("wrote {} and {}", csv_path.display(), plot_path.display());
+    Ok(0)
+}
+
+fn plot_responses(path: &Path, input: &Input, columns: &[Column], memory_columns: usize) -> anyhow::Result<()> {
+    let named: Vec<(&str, &[f64])> = columns.iter().map(|c| (c.name.as_str(), c.values.as_slice())).collect();
+    let (scaled, theta) = display_normalise(&named, input.theta_true_deg.as_deref(), memory_columns);
+    let mut series: Vec<Series> = scaled
+        .into_iter()
+        .map(|(name, y)| Series::new(name, input.t_s.clone(), y))
+        .collect();
+    if let Some(theta) = theta {
+        series.push(Series::new("θ (normalised)", input.t_s.clone(), theta).dashed());
+    }
+    let chart = LineChart {
+        title: format!("Detector responses — {}", input.label),
+        x_label: "t [s]".into(),
+        y_label: "response (normalised, paper §3.2)".into(),
+        series,
+        ..Default::default()
+    };
+    line_chart(path, &chart, (900, 500))?;
+    Ok(())
+}
+
+/// Normalises detector outputs for joint display as in the paper's §3.2: Hopfield z is divided by
+/// its maximum possible value (memory columns)², FuHuPe20's filtered spikes by 2; every other
+/// curve (and the true angular size θ) is divided by its own maximum and multiplied by the largest
+/// value of the scaled Hopfield/FuHuPe20 curves (or 1 when neither is shown).
+pub fn display_normalise(
+    columns: &[(&str, &[f64])],
+    theta: Option<&[f64]>,
+    memory_columns: usize,
+) -> (Vec<(String, Vec<f64>)>, Option<Vec<f64>>) {
+    let max_of = |v: &[f64]| v.iter().copied().filter(|x| x.is_finite()).fold(0.0f64, f64::max);
+    let fixed = |id: &str| match id {
+        "hopfield" => Some(1.0 / (memory_columns * memory_columns) as f64),
+        "fu2020" => Some(0.5),
+        _ => None,
+    };
+    let reference = columns
+        .iter()
+        .filter_map(|(id, v)| fixed(id).map(|k| k * max_of(v)))
+        .fold(0.0f64, f64::max);
+    let reference = if reference > 0.0 { reference } else { 1.0 };
+    let by_max = |v: &[f64]| {
+        let m = max_of(v);
+        v.iter()
+            .map(|x| if m > 0.0 { x / m * reference } else { 0.0 })
+            .collect::<Vec<_>>()
+    };
+    let scaled = columns
+        .iter()
+        .map(|(id, v)| {
+            let y = match fixed(id) {
+                Some(k) => v.iter().map(|x| x * k).collect(),
+                None => by_max(v),
+            };
+            (id.to_string(), y)
+        })
+        .collect();
+    (scaled, theta.map(by_max))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn normalisation_follows_paper() {
+        let h = [1.0, 4.0, 16.0];
+        let soc = [0.0, 5.0, 10.0];
+        let (s, theta) = display_normalise(&[("hopfield", &h), ("soc", &soc)], Some(&[1.0, 2.0, 4.0]), 4);
+        assert_eq!(s[0].1, vec![1.0 / 16.0, 0.25, 1.0]);
+        assert_eq!(s[1].1, vec![0.0, 0.5, 1.0]);
+        assert_eq!(theta.unwrap(), vec![0.25, 0.5, 1.0]);
+        let (s, _) = display_normalise(&[("soc", &soc)], None, 4);
+        assert_eq!(s[0].1, vec![0.0, 0.5, 1.0]);
+    }
+}
