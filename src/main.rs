@@ -15,12 +15,15 @@ enum Command {
     // Subcommands are added here, one variant each, dispatching to loomlab::cli::<name>::run.
     /// Run looming detectors on a stimulus file or a video; writes responses.csv and a plot.
     Detect(loomlab::cli::detect::DetectArgs),
+    /// Regenerate the paper's artificial-video experiments (Figs. 3-8) as PNG + CSV.
+    Figures(loomlab::cli::figures::FiguresArgs),
 }
 
 fn main() {
     let cli = Cli::parse();
     let result: anyhow::Result<i32> = match cli.command {
         Command::Detect(a) => loomlab::cli::detect::run(a),
+        Command::Figures(a) => loomlab::cli::figures::run(a),
     };
     match result {
         Ok(code) => std::process::exit(code),

@@ -1,6 +1,7 @@
 //! Subcommands of the `loomlab` CLI, one module each; `src/main.rs` only dispatches.
 
 pub mod detect;
+pub mod figures;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
