@@ -532,7 +532,13 @@ fn every_shipped_stimulus_file_loads_and_renders() {
     );
     for file in &files {
         let s = StimulusSpec::load(file).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(s.frame_count(), 86, "{}", file.display());
+        // The paper's approach (86 frames at 120 fps); Fig. 1 is filmed at 180 fps.
+        let expected = if file.ends_with("fig1_uniform_disk.toml") {
+            129
+        } else {
+            86
+        };
+        assert_eq!(s.frame_count(), expected, "{}", file.display());
         let last = s.render_frame(s.frame_count() - 1);
         assert_eq!(last.frame.n(), s.stimulus.size);
     }
@@ -543,4 +549,32 @@ fn every_shipped_stimulus_file_loads_and_renders() {
     ] {
         assert!(files.iter().any(|f| f.ends_with(name)), "missing {name}");
     }
+}
+
+/// Mean absolute temporal contrast per pixel between frames t−1 and t (SOC / n²).
+fn soc(frames: &[loomlab_detector::stimulus::StimulusFrame], t: usize) -> f64 {
+    let (a, b) = (frames[t - 1].frame.data(), frames[t].frame.data());
+    a.iter().zip(b).map(|(x, y)| (x - y).abs() as f64).sum::<f64>() / a.len() as f64
+}
+
+#[test]
+fn noise_patch_contrast_decides_whether_temporal_contrast_rises() {
+    // Design §4 / paper Fig. 7b: over uniform dynamic noise (mean |Δ| = 1/3 per pixel) a
+    // uniform-[0, 1] patch keeps SOC flat, a binary patch makes it rise towards 1/2.
+    let mut s = spec(64);
+    s.object.texture = Texture::Noise;
+    s.background.kind = BackgroundKind::Noise;
+    s.object.noise = NoiseDistribution::Uniform;
+    let uniform = s.render();
+    s.object.noise = NoiseDistribution::Binary;
+    let binary = s.render();
+    for t in [20, 60, 80, 82, 84] {
+        assert!(
+            (soc(&uniform, t) - 1.0 / 3.0).abs() < 0.03,
+            "uniform patch, t = {t}: {}",
+            soc(&uniform, t)
+        );
+    }
+    assert!((soc(&binary, 20) - 1.0 / 3.0).abs() < 0.03);
+    assert!(soc(&binary, 83) > 0.45, "binary patch: {}", soc(&binary, 83));
 }
