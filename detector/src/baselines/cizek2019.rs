@@ -1,0 +1,208 @@
+//! "CizFai19" — Čížek & Faigl (2019) LGMD1 with Keil's adaptive thresholds, detector id `cizek2019`.
+//!
+//! Keil 2025 implemented Čížek & Faigl's Eqs. 7–11 (photoreceptor … summation layer),
+//! dropped their fixed threshold (their Eq. 12) and added two adaptive thresholds
+//! (Keil 2025 Eqs. `EqCizekFaigl19a–c`, exact; baselines.md §4). Čížek & Faigl's own text
+//! could not be read, so **the presynaptic chain is the standard LGMD1 P→E→I→S form**
+//! (Yue & Rind 2006; kernel from Fu's `LGMDSingle.cs`), baselines.md §4.2. **Unverified:**
+//! the value of `W_I` (0.6 assumed), signed vs absolute P/S (signed by default;
+//! [`Cizek2019Config::absolute_summation`] gives the other reading), border handling
+//! (clamp-to-edge).
+//!
+//! Per frame t ≥ 1 (baselines.md §4.4):
+//! 1. photoreceptors `P_t = F_t − F_{t−1}` (Č&F Eq. 7), excitation `E_t = P_t`;
+//! 2. lateral inhibition `I_t = w_I ⋆ P_{t−1}` (3×3, centre 0, nearest 1/4, diagonal 1/8,
+//!    clamp-to-edge; `P_0 := 0`);
+//! 3. summation `S_t = E_t − W_I·I_t` (Č&F Eq. 11);
+//! 4. cell threshold `T_s = LP[mean|P_t|, α_s]` (Eq. `EqCizekFaigl19a`); `S ← 0` where `S ≤ 2·T_s`;
+//! 5. membrane potential `ẑ = mean|S|`;
+//! 6. output gate `T_l = LP[ẑ, α_l]` (Eq. `EqCizekFaigl19c`); `z = ẑ` if `ẑ > 0.95·T_l`, else 0
+//!    (Eq. `EqCizekFaigl19b`).
+//!
+//! Both lowpasses update first, then compare (baselines.md §2.3). Frame 0 only stores the
+//! frame and reports 0 (§2.2).
+
+use serde::Deserialize;
+
+use super::common::{FrameStep, PreviousFrame, Range, check, zeroed};
+use super::lowpass::LowPass;
+use super::stencil::{SymKernel, corr3};
+use crate::{Detector, DetectorError, Frame, Signals};
+
+/// The 3×3 lateral-inhibition kernel `w_I` (baselines.md §4.2; sum 1.5, centre 0).
+const INHIBITION_KERNEL: SymKernel = SymKernel {
+    centre: 0.0,
+    near: 0.25,
+    diag: 0.125,
+};
+
+/// Parameters of [`Cizek2019`]. Defaults: baselines.md §4.3.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Cizek2019Config {
+    /// `W_I`: weight of the lateral inhibition in `S = E − W_I·I`, ≥ 0. Default 0.6
+    /// (assumed: Fu's Yue & Rind implementation; Čížek & Faigl's value unknown).
+    pub w_i: f64,
+    /// `α_s`: memory of the cell-threshold lowpass `T_s`, in [0, 1). Keil 2025: 0.75.
+    pub alpha_s: f64,
+    /// Summation cells with `S ≤ threshold_factor·T_s` are zeroed, ≥ 0. Keil 2025: 2.
+    pub threshold_factor: f64,
+    /// `α_l`: memory of the output-gate lowpass `T_l`, in [0, 1). Keil 2025: 0.75.
+    pub alpha_l: f64,
+    /// The output passes only if `ẑ > gate_factor·T_l`, ≥ 0. Keil 2025: 0.95.
+    pub gate_factor: f64,
+    /// `false` (default): signed S, the literal reading (thresholding also deletes every
+    /// negative S). `true`: `S ← |S|` before thresholding (symmetric dark/light responses),
+    /// baselines.md §8 #5.
+    pub absolute_summation: bool,
+}
+
+impl Default for Cizek2019Config {
+    fn default() -> Self {
+        Self {
+            w_i: 0.6,
+            alpha_s: 0.75,
+            threshold_factor: 2.0,
+            alpha_l: 0.75,
+            gate_factor: 0.95,
+            absolute_summation: false,
+        }
+    }
+}
+
+impl Cizek2019Config {
+    /// Checks every parameter against its valid range.
+    pub fn validate(&self) -> Result<(), DetectorError> {
+        let d = Self::default();
+        check(
+            "cizek2019.w_i",
+            self.w_i,
+            Range::NonNegative,
+            d.w_i,
+            "weight of the lateral inhibition",
+        )?;
+        check(
+            "cizek2019.alpha_s",
+            self.alpha_s,
+            Range::ClosedOpen(0.0, 1.0),
+            d.alpha_s,
+            "memory of the cell-threshold lowpass T_s",
+        )?;
+        check(
+            "cizek2019.threshold_factor",
+            self.threshold_factor,
+            Range::NonNegative,
+            d.threshold_factor,
+            "summation cells S <= threshold_factor·T_s are zeroed",
+        )?;
+        check(
+            "cizek2019.alpha_l",
+            self.alpha_l,
+            Range::ClosedOpen(0.0, 1.0),
+            d.alpha_l,
+            "memory of the output-gate lowpass T_l",
+        )?;
+        check(
+            "cizek2019.gate_factor",
+            self.gate_factor,
+            Range::NonNegative,
+            d.gate_factor,
+            "the output passes only if z_hat > gate_factor·T_l",
+        )
+    }
+}
+
+/// "CizFai19" looming model, see the module docs.
+///
+/// `output` = z; `aux` = `z_hat` (membrane potential before the gate), `t_s` (cell
+/// threshold `T_s`), `t_l` (output-gate threshold `T_l`).
+#[derive(Debug, Clone)]
+pub struct Cizek2019 {
+    config: Cizek2019Config,
+    prev: PreviousFrame,
+    /// `P_t` of this frame.
+    contrast: Vec<f64>,
+    /// `P_{t−1}` (0 before the second frame).
+    prev_contrast: Vec<f64>,
+    cell_threshold: LowPass,
+    gate_threshold: LowPass,
+}
+
+impl Cizek2019 {
+    /// Builds the model after validating `config`. The first frame fixes n.
+    pub fn new(config: Cizek2019Config) -> Result<Self, DetectorError> {
+        config.validate()?;
+        Ok(Self {
+            config,
+            prev: PreviousFrame::default(),
+            contrast: Vec::new(),
+            prev_contrast: Vec::new(),
+            cell_threshold: LowPass::new(config.alpha_s),
+            gate_threshold: LowPass::new(config.alpha_l),
+        })
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &Cizek2019Config {
+        &self.config
+    }
+
+    fn signals(z: f64, z_hat: f64, t_s: f64, t_l: f64) -> Signals {
+        Signals {
+            output: z,
+            angular_size_deg: None,
+            aux: vec![("z_hat", z_hat), ("t_s", t_s), ("t_l", t_l)],
+        }
+    }
+}
+
+impl Detector for Cizek2019 {
+    fn id(&self) -> &'static str {
+        "cizek2019"
+    }
+
+    fn reset(&mut self) {
+        self.prev.reset();
+        self.cell_threshold.reset();
+        self.gate_threshold.reset();
+    }
+
+    fn step(&mut self, frame: &Frame) -> Result<Signals, DetectorError> {
+        let n = match self.prev.begin(frame)? {
+            FrameStep::First(n) => {
+                zeroed(&mut self.contrast, n * n);
+                zeroed(&mut self.prev_contrast, n * n);
+                return Ok(Self::signals(0.0, 0.0, 0.0, 0.0));
+            }
+            FrameStep::Next(n) => n,
+        };
+        let count = (n * n) as f64;
+        // 1. photoreceptors P_t and the cell threshold T_s (Eq. EqCizekFaigl19a).
+        let sum_abs = self.prev.contrast_into(frame, 1.0, &mut self.contrast);
+        let t_s = self.cell_threshold.update(sum_abs / count);
+        let cut = self.config.threshold_factor * t_s;
+        let (w_i, absolute) = (self.config.w_i, self.config.absolute_summation);
+        // 2.–5. inhibition from P_{t−1}, summation, thresholding and pooling in one pass.
+        let contrast = &self.contrast;
+        let mut sum_s = 0.0;
+        corr3(n, INHIBITION_KERNEL, &self.prev_contrast, |idx, inhibition| {
+            let mut s = contrast[idx] - w_i * inhibition;
+            if absolute {
+                s = s.abs();
+            }
+            if s > cut {
+                sum_s += s.abs();
+            }
+        });
+        std::mem::swap(&mut self.contrast, &mut self.prev_contrast);
+        let z_hat = sum_s / count;
+        // 6. adaptive output gate (Eqs. EqCizekFaigl19b, EqCizekFaigl19c).
+        let t_l = self.gate_threshold.update(z_hat);
+        let z = if z_hat > self.config.gate_factor * t_l {
+            z_hat
+        } else {
+            0.0
+        };
+        Ok(Self::signals(z, z_hat, t_s, t_l))
+    }
+}

@@ -1,0 +1,100 @@
+//! SOC — the spatial sum of absolute temporal contrast (detector id `soc`).
+//!
+//! Keil 2025, caption of Fig. `FigApproachCurves`: `SOC(t) = Σ_ij |F_ij(t) − F_ij(t−1)|`.
+//! It is the common input of the three "SOC-based" baselines and tracks the angular
+//! velocity of an approaching object when there is no background motion.
+//! Frame 0 has no previous frame and reports 0 (baselines.md §2.2).
+
+use serde::Deserialize;
+
+use super::common::{FrameStep, PreviousFrame, zeroed};
+use crate::{Detector, DetectorError, Frame, Signals};
+
+/// How the absolute temporal contrast is pooled over the frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SocPooling {
+    /// `Σ_ij |P_ij|` — Keil's definition (grows with the frame size, N = n² pixels).
+    #[default]
+    Sum,
+    /// `Σ_ij |P_ij| / n²` — frame-size independent, in [0, 1].
+    Mean,
+}
+
+/// Parameters of [`Soc`].
+#[derive(Debug, Clone, Copy, PartialEq, Default, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SocConfig {
+    /// Sum (Keil's definition, default) or mean over the frame.
+    pub pooling: SocPooling,
+}
+
+impl SocConfig {
+    /// Every value of this config is valid; kept for symmetry with the other models.
+    pub fn validate(&self) -> Result<(), DetectorError> {
+        Ok(())
+    }
+}
+
+/// Sum of absolute temporal contrast (see the module docs).
+///
+/// `output` is the pooled contrast per [`SocConfig::pooling`]; `aux` holds
+/// `mean` (= Σ|P|/n², whatever the pooling).
+#[derive(Debug, Clone)]
+pub struct Soc {
+    config: SocConfig,
+    prev: PreviousFrame,
+    contrast: Vec<f64>,
+}
+
+impl Soc {
+    /// Builds the model after validating `config`. The first frame fixes n.
+    pub fn new(config: SocConfig) -> Result<Self, DetectorError> {
+        config.validate()?;
+        Ok(Self {
+            config,
+            prev: PreviousFrame::default(),
+            contrast: Vec::new(),
+        })
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &SocConfig {
+        &self.config
+    }
+
+    fn signals(output: f64, mean: f64) -> Signals {
+        Signals {
+            output,
+            angular_size_deg: None,
+            aux: vec![("mean", mean)],
+        }
+    }
+}
+
+impl Detector for Soc {
+    fn id(&self) -> &'static str {
+        "soc"
+    }
+
+    fn reset(&mut self) {
+        self.prev.reset();
+    }
+
+    fn step(&mut self, frame: &Frame) -> Result<Signals, DetectorError> {
+        let n = match self.prev.begin(frame)? {
+            FrameStep::First(n) => {
+                zeroed(&mut self.contrast, n * n);
+                return Ok(Self::signals(0.0, 0.0));
+            }
+            FrameStep::Next(n) => n,
+        };
+        let sum = self.prev.contrast_into(frame, 1.0, &mut self.contrast);
+        let mean = sum / (n * n) as f64;
+        let output = match self.config.pooling {
+            SocPooling::Sum => sum,
+            SocPooling::Mean => mean,
+        };
+        Ok(Self::signals(output, mean))
+    }
+}
