@@ -1,0 +1,622 @@
+//! Parameters of the modern-Hopfield looming detector ([`HopfieldConfig`]), with the paper's
+//! values (Keil, §2.2) as defaults.
+//!
+//! In a TOML file (e.g. a `[hopfield]` table) every key is optional and unknown keys are errors:
+//!
+//! ```toml
+//! n = 256                 # frame side length the pattern memory is built for
+//! beta = 500.0            # inverse temperature β (eq. 5)
+//! delay = 5               # the first memory column is the query of `delay` frames ago
+//! alpha = 0.85            # low-pass memory coefficient α (eq. 10)
+//! tolerance = 0.01        # stop when ‖ξ(τ+1) − ξ(τ)‖ ≤ tolerance …
+//! max_iterations = 5      # … or after this many updates (eq. 5)
+//! fov_deg = 60.0          # camera field of view, for the angular-size readout only
+//! implementation = "fast" # or "reference" (literal dense matrices, slow)
+//! frame_border = "replicate" # or "zero": padding of the 3×3 S_odd convolution
+//! mask = { radius_frac = 0.9, blur_sigma_px = 20.0 }   # or mask = "none" / mask = false
+//!
+//! [template]
+//! kind = "striped_disk"   # or "uniform_disk"
+//! cycles = 2.0            # stripes: square-wave cycles per disk diameter
+//! phase = 0.25            # stripes: phase in cycles (0.25: disk centre in a bright stripe)
+//! offset_px = 0.5         # template centre this many pixels below the frame centre
+//! scale_start = 0.1       # first disk diameter, fraction of n
+//! # scale_step = 0.005859375  # default 3/(2n)
+//! scale_end = 1.0         # last diameter ≤ scale_end·n
+//! ```
+
+use std::fmt;
+use std::str::FromStr;
+
+use serde::{Deserialize, Deserializer, Serialize};
+
+use crate::DetectorError;
+
+/// Which implementation of the (identical) equations runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Implementation {
+    /// Literal dense d×(N+1) pattern matrices, exactly the paper's equations, f64. Slow
+    /// (tens of frames per second at n = 256) and memory hungry (2·d·(N+1) f64), kept as the
+    /// executable specification the fast path is tested against.
+    Reference,
+    /// The same numbers (to ~1e-12) via exact identities: one shared sparse product for ON and
+    /// OFF, iteration in pattern space with the Gram matrix, run-length templates.
+    #[default]
+    Fast,
+}
+
+impl Implementation {
+    /// The name used in config files and on the command line (`reference` / `fast`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Implementation::Reference => "reference",
+            Implementation::Fast => "fast",
+        }
+    }
+}
+
+impl fmt::Display for Implementation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl FromStr for Implementation {
+    type Err = DetectorError;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "reference" => Ok(Implementation::Reference),
+            "fast" => Ok(Implementation::Fast),
+            other => Err(DetectorError::InvalidParameter {
+                name: "implementation",
+                value: other.to_string(),
+                reason: "expected `reference` or `fast`".into(),
+            }),
+        }
+    }
+}
+
+/// Padding of the frame for the 3×3 S_odd convolution (the paper does not say).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FrameBorder {
+    /// Pixels outside the frame repeat the nearest border pixel: the frame border is not an
+    /// edge, so a uniform frame gives a zero (degenerate) query. Default.
+    #[default]
+    Replicate,
+    /// Pixels outside the frame are black (MATLAB `conv2(…, 'same')`): the frame border of a
+    /// bright image becomes a static horizontal edge at the top and bottom rows.
+    Zero,
+}
+
+/// The region-of-interest mask R_oi (paper §2.2.1): a white disk of radius
+/// `radius_frac·n/2` centred in the frame, blurred with a Gaussian of `blur_sigma_px`.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MaskConfig {
+    /// Disk radius as a fraction of n/2 (paper: 0.9, chosen from 0.5, 0.75, 0.9).
+    pub radius_frac: f64,
+    /// Standard deviation of the Gaussian blur in pixels (paper: 20; 0 = sharp disk).
+    pub blur_sigma_px: f64,
+}
+
+impl Default for MaskConfig {
+    fn default() -> Self {
+        Self {
+            radius_frac: 0.9,
+            blur_sigma_px: 20.0,
+        }
+    }
+}
+
+/// The gray-level template image P̃(s) drawn at every scale (paper Fig. "Pattern Memory").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TemplateKind {
+    /// A disk (luminance 1) on black with a horizontal square-wave grating: luminance 1 where
+    /// frac(cycles·b + phase) < ½, else 0, with b the upward vertical coordinate from the
+    /// disk centre in disk diameters (the convention of the stimulus `grating` texture).
+    /// The paper's default template.
+    #[default]
+    StripedDisk,
+    /// A uniform white disk (luminance 1) on black.
+    UniformDisk,
+}
+
+/// Template images and their scale schedule (paper §2.2.3).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TemplateConfig {
+    /// Image drawn at each scale. Default: striped disk.
+    pub kind: TemplateKind,
+    /// Square-wave cycles per disk diameter of the striped disk (paper: 2).
+    pub cycles: f64,
+    /// Stripe phase in cycles (see [`TemplateKind::StripedDisk`]). Default 0.25: the disk
+    /// centre lies in the middle of a bright stripe, the same as the stimulus default, so no
+    /// stripe edge sits still at the centre while a disk grows (with 0 one does, and the
+    /// delayed frame keeps winning: z stays at 1).
+    pub phase: f64,
+    /// Vertical position of every template disk's centre, in pixels below the frame's
+    /// geometric centre (n/2 in continuous coordinates whose pixel centres are at k + ½).
+    ///
+    /// Default 0.5: the template is centred on the centre of pixel row n/2 (0-based), the
+    /// usual integer-grid convention (`cy = n // 2`), half a pixel below the geometric centre
+    /// where the stimulus objects are centred. Why not 0: the query is an *odd* (Sobel) edge
+    /// response and the template an *even* (Laplacian) one. Across one edge the Sobel response
+    /// is a symmetric bump and the Laplacian an antisymmetric doublet, so their dot product
+    /// vanishes when the edges coincide and is largest when the template edge is about a pixel
+    /// off. A disk mirror-symmetric about the frame centre and a template symmetric about the
+    /// same centre are therefore exactly orthogonal (measured: z stays at 1 for the whole
+    /// approach of a white disk); any half-pixel or pixel shift makes the edges of a matching
+    /// disk add up (0.5, 1, 1.5 and 2 px give the same rise within a frame or two; 0.5 keeps
+    /// retrieving the largest template one frame longer when the disk overfills the frame).
+    pub offset_px: f64,
+    /// Scale s of the first (smallest) template: disk diameter s·n pixels (paper: 0.1).
+    pub scale_start: f64,
+    /// Scale increment Δs; `None` = the paper's 3/(2n).
+    pub scale_step: Option<f64>,
+    /// Largest scale: N = 1 + ⌊(scale_end − scale_start)/Δs⌋ templates (paper: 1, giving
+    /// N = 1 + ⌊3n/5⌋).
+    pub scale_end: f64,
+}
+
+impl Default for TemplateConfig {
+    fn default() -> Self {
+        Self {
+            kind: TemplateKind::StripedDisk,
+            cycles: 2.0,
+            phase: 0.25,
+            offset_px: 0.5,
+            scale_start: 0.1,
+            scale_step: None,
+            scale_end: 1.0,
+        }
+    }
+}
+
+impl TemplateConfig {
+    /// Δs for frames of side n: `scale_step` or the paper's 3/(2n).
+    pub fn scale_step_for(&self, n: usize) -> f64 {
+        self.scale_step.unwrap_or(3.0 / (2.0 * n as f64))
+    }
+
+    /// Number N of templates for frames of side n (paper: 1 + ⌊3n/5⌋).
+    pub fn template_count(&self, n: usize) -> usize {
+        let steps = (self.scale_end - self.scale_start) / self.scale_step_for(n);
+        // The epsilon makes exact multiples (n divisible by 5 with the paper's schedule) count.
+        1 + (steps + 1e-9).floor().max(0.0) as usize
+    }
+
+    /// Scale s_i of template i (1-based, as in the paper): s_start + (i − 1)·Δs.
+    pub fn scale(&self, n: usize, i: usize) -> f64 {
+        self.scale_start + (i as f64 - 1.0) * self.scale_step_for(n)
+    }
+}
+
+/// Largest template count accepted (guards against absurd schedules eating memory).
+pub const MAX_TEMPLATES: usize = 4096;
+
+/// All parameters of the Hopfield detector. `Default` = the paper's values for 256×256 frames.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct HopfieldConfig {
+    /// Frame side length n the pattern memory is built for (d = n² pixels). Default 256.
+    pub n: usize,
+    /// Inverse temperature β of the softmax (paper: 500).
+    pub beta: f64,
+    /// Delay (frames) of the dynamic first memory column ξ(t − delay) (paper: 5).
+    pub delay: usize,
+    /// Low-pass memory coefficient α of eq. 10 (paper: 0.85).
+    pub alpha: f64,
+    /// Convergence tolerance on ‖ξ(τ+1) − ξ(τ)‖₂ (paper: 0.01).
+    pub tolerance: f64,
+    /// Maximum number of updates ξ ← X·softmax(β Xᵀξ) per frame and channel (paper: 5).
+    pub max_iterations: usize,
+    /// Region-of-interest mask; `None` = no mask (in TOML: `mask = "none"` or `mask = false`).
+    #[serde(deserialize_with = "deserialize_mask", serialize_with = "serialize_mask")]
+    pub mask: Option<MaskConfig>,
+    /// Padding of the S_odd convolution. Default replicate.
+    pub frame_border: FrameBorder,
+    /// Template image and scale schedule.
+    pub template: TemplateConfig,
+    /// Horizontal = vertical field of view of the camera in degrees, used only to turn the
+    /// winning template size into an angular size (default 60).
+    pub fov_deg: f64,
+    /// Which implementation runs (default fast).
+    pub implementation: Implementation,
+}
+
+impl Default for HopfieldConfig {
+    fn default() -> Self {
+        Self {
+            n: 256,
+            beta: 500.0,
+            delay: 5,
+            alpha: 0.85,
+            tolerance: 0.01,
+            max_iterations: 5,
+            mask: Some(MaskConfig::default()),
+            frame_border: FrameBorder::Replicate,
+            template: TemplateConfig::default(),
+            fov_deg: 60.0,
+            implementation: Implementation::Fast,
+        }
+    }
+}
+
+fn invalid(name: &'static str, value: impl fmt::Display, reason: impl Into<String>) -> DetectorError {
+    DetectorError::InvalidParameter {
+        name,
+        value: value.to_string(),
+        reason: reason.into(),
+    }
+}
+
+impl HopfieldConfig {
+    /// The paper's parameters for frames of side `n`.
+    pub fn for_size(n: usize) -> Self {
+        Self { n, ..Self::default() }
+    }
+
+    /// Same parameters, other implementation.
+    pub fn with_implementation(self, implementation: Implementation) -> Self {
+        Self { implementation, ..self }
+    }
+
+    /// Parses a TOML table (all keys optional, unknown keys rejected) and validates it.
+    pub fn from_toml_str(text: &str) -> Result<Self, DetectorError> {
+        let cfg: Self = toml::from_str(text).map_err(|e| DetectorError::InvalidParameter {
+            name: "hopfield",
+            value: "<toml>".into(),
+            reason: e.to_string(),
+        })?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// Number N of templates (paper: 1 + ⌊3n/5⌋).
+    pub fn template_count(&self) -> usize {
+        self.template.template_count(self.n)
+    }
+
+    /// Number of columns of each pattern memory: N + 1 (the delayed query plus N templates;
+    /// 2 + ⌊3n/5⌋ with the paper's schedule).
+    pub fn memory_columns(&self) -> usize {
+        self.template_count() + 1
+    }
+
+    /// Checks every parameter; the error names the key, the value and the valid range.
+    pub fn validate(&self) -> Result<(), DetectorError> {
+        let n = self.n;
+        if !(16..=4096).contains(&n) {
+            return Err(invalid("n", n, "frame side must be in 16..=4096 pixels"));
+        }
+        if !(self.beta.is_finite() && self.beta > 0.0) {
+            return Err(invalid(
+                "beta",
+                self.beta,
+                "inverse temperature must be a positive finite number (paper: 500)",
+            ));
+        }
+        if self.delay == 0 || self.delay > 1000 {
+            return Err(invalid(
+                "delay",
+                self.delay,
+                "delay must be 1..=1000 frames (0 would store the query itself: it always wins; paper: 5)",
+            ));
+        }
+        if !(self.alpha.is_finite() && (0.0..1.0).contains(&self.alpha)) {
+            return Err(invalid(
+                "alpha",
+                self.alpha,
+                "low-pass memory must be in [0, 1) (paper: 0.85)",
+            ));
+        }
+        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
+            return Err(invalid(
+                "tolerance",
+                self.tolerance,
+                "must be a finite number ≥ 0 (paper: 0.01)",
+            ));
+        }
+        if self.max_iterations == 0 || self.max_iterations > 1000 {
+            return Err(invalid(
+                "max_iterations",
+                self.max_iterations,
+                "must be 1..=1000 (paper: 5)",
+            ));
+        }
+        if let Some(m) = &self.mask {
+            if !(m.radius_frac.is_finite() && m.radius_frac > 0.0) {
+                return Err(invalid(
+                    "mask.radius_frac",
+                    m.radius_frac,
+                    "mask radius must be a positive fraction of n/2 (paper: 0.9); use mask = \"none\" for no mask",
+                ));
+            }
+            if !(m.blur_sigma_px.is_finite() && m.blur_sigma_px >= 0.0 && m.blur_sigma_px <= 1000.0) {
+                return Err(invalid(
+                    "mask.blur_sigma_px",
+                    m.blur_sigma_px,
+                    "blur must be in [0, 1000] pixels (paper: 20)",
+                ));
+            }
+        }
+        let t = &self.template;
+        if !(t.cycles.is_finite() && t.cycles > 0.0 && t.cycles <= n as f64) {
+            return Err(invalid(
+                "template.cycles",
+                t.cycles,
+                "must be in (0, n] cycles per disk (paper: 2)",
+            ));
+        }
+        if !t.phase.is_finite() {
+            return Err(invalid(
+                "template.phase",
+                t.phase,
+                "must be a finite number of cycles (default 0.25)",
+            ));
+        }
+        if !(t.offset_px.is_finite() && t.offset_px.abs() <= n as f64 / 4.0) {
+            return Err(invalid(
+                "template.offset_px",
+                t.offset_px,
+                "must be finite and within ±n/4 pixels (default 0.5)",
+            ));
+        }
+        if !(t.scale_start.is_finite() && t.scale_start * n as f64 >= 2.0) {
+            return Err(invalid(
+                "template.scale_start",
+                t.scale_start,
+                format!(
+                    "the smallest disk must be at least 2 pixels wide: scale_start ≥ 2/n = {}",
+                    2.0 / n as f64
+                ),
+            ));
+        }
+        if let Some(step) = t.scale_step
+            && !(step.is_finite() && step > 0.0)
+        {
+            return Err(invalid(
+                "template.scale_step",
+                step,
+                "must be a positive number (paper: 3/(2n))",
+            ));
+        }
+        if !(t.scale_end.is_finite() && t.scale_end >= t.scale_start && t.scale_end <= 4.0) {
+            return Err(invalid(
+                "template.scale_end",
+                t.scale_end,
+                format!("must be in [scale_start = {}, 4] (paper: 1)", t.scale_start),
+            ));
+        }
+        let count = self.template_count();
+        if count > MAX_TEMPLATES {
+            return Err(invalid(
+                "template.scale_step",
+                t.scale_step_for(n),
+                format!("gives {count} templates, more than {MAX_TEMPLATES}; use a larger step"),
+            ));
+        }
+        if !(self.fov_deg.is_finite() && self.fov_deg > 0.0 && self.fov_deg < 180.0) {
+            return Err(invalid(
+                "fov_deg",
+                self.fov_deg,
+                "field of view must be in (0, 180) degrees",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// `mask` in TOML: a table, or `"none"` / `false` for no mask (`true` = the paper's mask).
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum MaskSetting {
+    Flag(bool),
+    Word(String),
+    Table(MaskConfig),
+}
+
+fn deserialize_mask<'de, D: Deserializer<'de>>(d: D) -> Result<Option<MaskConfig>, D::Error> {
+    match MaskSetting::deserialize(d)? {
+        MaskSetting::Flag(false) => Ok(None),
+        MaskSetting::Flag(true) => Ok(Some(MaskConfig::default())),
+        MaskSetting::Word(w) if w == "none" => Ok(None),
+        MaskSetting::Word(w) if w == "paper" || w == "default" => Ok(Some(MaskConfig::default())),
+        MaskSetting::Word(w) => Err(serde::de::Error::custom(format!(
+            "mask = \"{w}\": expected \"none\", \"paper\", true/false or a table {{ radius_frac, blur_sigma_px }}"
+        ))),
+        MaskSetting::Table(m) => Ok(Some(m)),
+    }
+}
+
+fn serialize_mask<S: serde::Serializer>(mask: &Option<MaskConfig>, s: S) -> Result<S::Ok, S::Error> {
+    match mask {
+        None => s.serialize_str("none"),
+        Some(m) => m.serialize(s),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_the_paper_values() {
+        let c = HopfieldConfig::default();
+        assert_eq!((c.n, c.delay, c.max_iterations), (256, 5, 5));
+        assert_eq!((c.beta, c.alpha, c.tolerance, c.fov_deg), (500.0, 0.85, 0.01, 60.0));
+        assert_eq!(
+            c.mask,
+            Some(MaskConfig {
+                radius_frac: 0.9,
+                blur_sigma_px: 20.0
+            })
+        );
+        assert_eq!(c.implementation, Implementation::Fast);
+        assert_eq!(c.template.kind, TemplateKind::StripedDisk);
+        assert_eq!(c.template_count(), 154); // the paper's N at n = 256
+        c.validate().unwrap();
+    }
+
+    #[test]
+    fn template_count_is_one_plus_floor_three_n_over_five() {
+        for n in [16, 20, 25, 32, 50, 64, 100, 128, 200, 250, 256, 300, 512] {
+            let c = HopfieldConfig::for_size(n);
+            assert_eq!(c.template_count(), 1 + 3 * n / 5, "n = {n}");
+            assert_eq!(c.memory_columns(), 2 + 3 * n / 5, "n = {n}");
+        }
+    }
+
+    #[test]
+    fn toml_keys_masks_and_unknown_keys() {
+        let c = HopfieldConfig::from_toml_str("n = 64\nmask = \"none\"\nimplementation = \"reference\"").unwrap();
+        assert_eq!((c.n, c.mask, c.implementation), (64, None, Implementation::Reference));
+        let c = HopfieldConfig::from_toml_str("mask = false").unwrap();
+        assert_eq!(c.mask, None);
+        let c =
+            HopfieldConfig::from_toml_str("mask = { radius_frac = 0.5 }\n[template]\nkind = \"uniform_disk\"").unwrap();
+        assert_eq!(
+            c.mask,
+            Some(MaskConfig {
+                radius_frac: 0.5,
+                blur_sigma_px: 20.0
+            })
+        );
+        assert_eq!(c.template.kind, TemplateKind::UniformDisk);
+        assert!(
+            HopfieldConfig::from_toml_str("betta = 3")
+                .unwrap_err()
+                .to_string()
+                .contains("betta")
+        );
+        assert!(HopfieldConfig::from_toml_str("mask = \"round\"").is_err());
+        assert!(HopfieldConfig::from_toml_str("[template]\nsize = 3").is_err());
+    }
+
+    #[test]
+    fn invalid_values_name_the_key() {
+        let bad = [
+            (
+                "n",
+                HopfieldConfig {
+                    n: 4,
+                    ..Default::default()
+                },
+            ),
+            (
+                "beta",
+                HopfieldConfig {
+                    beta: f64::NAN,
+                    ..Default::default()
+                },
+            ),
+            (
+                "delay",
+                HopfieldConfig {
+                    delay: 0,
+                    ..Default::default()
+                },
+            ),
+            (
+                "alpha",
+                HopfieldConfig {
+                    alpha: 1.0,
+                    ..Default::default()
+                },
+            ),
+            (
+                "tolerance",
+                HopfieldConfig {
+                    tolerance: -1.0,
+                    ..Default::default()
+                },
+            ),
+            (
+                "max_iterations",
+                HopfieldConfig {
+                    max_iterations: 0,
+                    ..Default::default()
+                },
+            ),
+            (
+                "mask.radius_frac",
+                HopfieldConfig {
+                    mask: Some(MaskConfig {
+                        radius_frac: 0.0,
+                        blur_sigma_px: 1.0,
+                    }),
+                    ..Default::default()
+                },
+            ),
+            (
+                "mask.blur_sigma_px",
+                HopfieldConfig {
+                    mask: Some(MaskConfig {
+                        radius_frac: 0.9,
+                        blur_sigma_px: -1.0,
+                    }),
+                    ..Default::default()
+                },
+            ),
+            (
+                "template.scale_start",
+                HopfieldConfig {
+                    template: TemplateConfig {
+                        scale_start: 0.001,
+                        ..Default::default()
+                    },
+                    ..Default::default()
+                },
+            ),
+            (
+                "template.scale_step",
+                HopfieldConfig {
+                    template: TemplateConfig {
+                        scale_step: Some(0.0),
+                        ..Default::default()
+                    },
+                    ..Default::default()
+                },
+            ),
+            (
+                "template.scale_step",
+                HopfieldConfig {
+                    template: TemplateConfig {
+                        scale_step: Some(1e-6),
+                        ..Default::default()
+                    },
+                    ..Default::default()
+                },
+            ),
+            (
+                "template.cycles",
+                HopfieldConfig {
+                    template: TemplateConfig {
+                        cycles: 0.0,
+                        ..Default::default()
+                    },
+                    ..Default::default()
+                },
+            ),
+            (
+                "fov_deg",
+                HopfieldConfig {
+                    fov_deg: 180.0,
+                    ..Default::default()
+                },
+            ),
+        ];
+        for (key, cfg) in bad {
+            match cfg.validate() {
+                Err(DetectorError::InvalidParameter { name, .. }) => assert_eq!(name, key),
+                other => panic!("{key}: expected InvalidParameter, got {other:?}"),
+            }
+        }
+        assert_eq!("fast".parse::<Implementation>().unwrap(), Implementation::Fast);
+        assert!("slow".parse::<Implementation>().is_err());
+    }
+}

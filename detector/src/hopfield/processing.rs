@@ -1,0 +1,364 @@
+//! Video frame processing (paper §2.2.1, eq. 3–4) and image-to-vector conversion (§2.2.2).
+//!
+//! F(t) = R_oi ⊙ [F̃(t) ∗ S_odd]: the frame is convolved with the horizontal-edge kernel
+//! S_odd (a true convolution, i.e. the kernel flipped: the result is positive where luminance
+//! increases downwards) and multiplied pixel-wise with the region-of-interest mask. The vector
+//! ξ(t) is F(t) with its mean subtracted, divided by its Euclidean norm.
+//!
+//! Decisions where the paper is silent:
+//! - Convolution border: [`FrameBorder`] (default replicate, so a uniform frame has no edges).
+//! - Mask geometry: pixel (i, j) has its centre at (j + ½, i + ½); the mask disk is centred at
+//!   (n/2, n/2) and contains the pixel centres within radius ρ = `radius_frac`·n/2; the blur is
+//!   a normalised Gaussian truncated at ⌈4σ⌉ pixels, applied to the disk drawn on an infinite
+//!   black plane (so pixels near the border see the true disk, not a padded one).
+//! - A processed frame whose centred norm is ≤ [`MIN_QUERY_NORM`] (a blank or constant frame,
+//!   no edges inside the mask) carries no evidence: normalising it would divide zero by zero.
+//!   Both implementations then report the delayed column as retrieved (ẑ = 1, the floor) and
+//!   store the zero vector as that frame's query (see `hopfield/mod.rs`).
+//! - Element order of the vectors: the paper maps V_ij to v_{i+(j−1)n} (column-major); the
+//!   reference implementation does exactly that, the fast one uses row-major order. Every
+//!   quantity the detector uses is a dot product between vectors with the same ordering, so
+//!   the results are identical.
+
+use super::config::{FrameBorder, MaskConfig};
+
+/// The modified Sobel–Feldman kernel S_odd of eq. 3 (rows top to bottom).
+pub const S_ODD: [[f64; 3]; 3] = [
+    [3.0 / 16.0, 10.0 / 16.0, 3.0 / 16.0],
+    [0.0, 0.0, 0.0],
+    [-3.0 / 16.0, -10.0 / 16.0, -3.0 / 16.0],
+];
+
+/// A processed frame with a centred Euclidean norm at or below this (in luminance units) is
+/// treated as blank ("no evidence"). Real 8-bit content has steps of 1/255, giving norms
+/// above 1e-4, so this only catches frames without edges and floating-point noise.
+pub const MIN_QUERY_NORM: f64 = 1e-6;
+
+/// Reads a frame pixel as f64, guarding against non-finite values (frames constructed through
+/// [`crate::Frame`] never hold them; a NaN would otherwise poison every dot product).
+#[inline]
+pub(crate) fn pixel(v: f32) -> f64 {
+    if v.is_finite() { v as f64 } else { 0.0 }
+}
+
+/// The region-of-interest mask R_oi as an n×n row-major image; all ones for `None`.
+pub fn roi_mask(n: usize, mask: Option<&MaskConfig>) -> Vec<f64> {
+    let Some(m) = mask else {
+        return vec![1.0; n * n];
+    };
+    let rho = m.radius_frac * n as f64 / 2.0;
+    let centre = n as f64 / 2.0;
+    let sigma = m.blur_sigma_px;
+    let k = if sigma > 0.0 { (4.0 * sigma).ceil() as usize } else { 0 };
+    // Gaussian weights, normalised.
+    let mut w: Vec<f64> = (0..=2 * k)
+        .map(|i| {
+            let x = i as f64 - k as f64;
+            if sigma > 0.0 {
+                (-x * x / (2.0 * sigma * sigma)).exp()
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let sum: f64 = w.iter().sum();
+    w.iter_mut().for_each(|v| *v /= sum);
+    // The disk on an (n + 2k)² canvas, then separable blur, then crop.
+    let m_ext = n + 2 * k;
+    let disk = |i: usize, j: usize| -> f64 {
+        let y = i as f64 - k as f64 + 0.5 - centre;
+        let x = j as f64 - k as f64 + 0.5 - centre;
+        if x * x + y * y <= rho * rho { 1.0 } else { 0.0 }
+    };
+    // Horizontal pass on the extended rows, kept only for the n output columns.
+    let mut horiz = vec![0.0; m_ext * n];
+    for i in 0..m_ext {
+        for j in 0..n {
+            let mut acc = 0.0;
+            for (t, wt) in w.iter().enumerate() {
+                acc += wt * disk(i, j + t);
+            }
+            horiz[i * n + j] = acc;
+        }
+    }
+    let mut out = vec![0.0; n * n];
+    for i in 0..n {
+        for j in 0..n {
+            let mut acc = 0.0;
+            for (t, wt) in w.iter().enumerate() {
+                acc += wt * horiz[(i + t) * n + j];
+            }
+            out[i * n + j] = acc;
+        }
+    }
+    out
+}
+
+/// Literal eq. 4 without the mask: the true 2-D convolution F̃ ∗ S_odd, "same" size, with the
+/// given border padding. Row-major n×n in, row-major out. Used by the reference implementation.
+pub fn convolve_s_odd(frame: &[f32], n: usize, border: FrameBorder) -> Vec<f64> {
+    let at = |i: isize, j: isize| -> f64 {
+        let inside = (0..n as isize).contains(&i) && (0..n as isize).contains(&j);
+        match border {
+            FrameBorder::Zero if !inside => 0.0,
+            _ => {
+                let ii = i.clamp(0, n as isize - 1) as usize;
+                let jj = j.clamp(0, n as isize - 1) as usize;
+                pixel(frame[ii * n + jj])
+            }
+        }
+    };
+    let mut out = vec![0.0; n * n];
+    for i in 0..n {
+        for j in 0..n {
+            let mut acc = 0.0;
+            // (F ∗ S)[i, j] = Σ_{a,b} S[a][b] · F[i − (a − 1), j − (b − 1)]
+            for (a, row) in S_ODD.iter().enumerate() {
+                for (b, s) in row.iter().enumerate() {
+                    acc += s * at(i as isize + 1 - a as isize, j as isize + 1 - b as isize);
+                }
+            }
+            out[i * n + j] = acc;
+        }
+    }
+    out
+}
+
+/// Subtracts the mean and divides by the Euclidean norm in place (§2.2.2, properties 2–3).
+/// Returns the centred norm; if it is ≤ [`MIN_QUERY_NORM`] the vector is set to zero instead
+/// and `None` is returned (the "no evidence" query).
+pub fn center_and_normalize(v: &mut [f64]) -> Option<f64> {
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    v.iter_mut().for_each(|x| *x -= mean);
+    let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    if !(norm.is_finite() && norm > MIN_QUERY_NORM) {
+        v.iter_mut().for_each(|x| *x = 0.0);
+        return None;
+    }
+    let inv = 1.0 / norm;
+    v.iter_mut().for_each(|x| *x *= inv);
+    Some(norm)
+}
+
+/// Row-major n×n image → the paper's column-major vector (v_{i+(j−1)n} = V_ij).
+pub fn image_to_vector(image: &[f64], n: usize) -> Vec<f64> {
+    let mut v = vec![0.0; n * n];
+    for i in 0..n {
+        for j in 0..n {
+            v[i + j * n] = image[i * n + j];
+        }
+    }
+    v
+}
+
+/// The fast path's frame processing: the same F(t) and ξ(t) with reused buffers and a
+/// separable formulation of the S_odd convolution (a [3, 10, 3] horizontal smoothing, then the
+/// difference of the rows below and above), in f64.
+#[derive(Debug, Clone)]
+pub struct FrameProcessor {
+    n: usize,
+    border: FrameBorder,
+    mask: Vec<f64>,
+    /// Horizontally smoothed rows, (n + 2) rows of n (one padding row above and below).
+    smooth: Vec<f64>,
+}
+
+impl FrameProcessor {
+    /// Builds the processor (computes the mask once).
+    pub fn new(n: usize, mask: Option<&MaskConfig>, border: FrameBorder) -> Self {
+        Self {
+            n,
+            border,
+            mask: roi_mask(n, mask),
+            smooth: vec![0.0; (n + 2) * n],
+        }
+    }
+
+    /// The mask R_oi (row-major).
+    pub fn mask(&self) -> &[f64] {
+        &self.mask
+    }
+
+    /// Computes ξ(t) row-major into `query` (length n²). Returns the centred norm of F(t), or
+    /// `None` (and a zero `query`) for a blank frame.
+    pub fn query(&mut self, frame: &[f32], query: &mut [f64]) -> Option<f64> {
+        let n = self.n;
+        debug_assert_eq!(frame.len(), n * n);
+        debug_assert_eq!(query.len(), n * n);
+        // Horizontal [3, 10, 3]/16 smoothing into rows 1..=n of `smooth` (replicate or zero
+        // padding at the left/right ends).
+        for i in 0..n {
+            let src = &frame[i * n..(i + 1) * n];
+            let dst = &mut self.smooth[(i + 1) * n..(i + 2) * n];
+            smooth_row(src, dst, self.border);
+        }
+        // Padding rows above and below.
+        match self.border {
+            FrameBorder::Replicate => {
+                self.smooth.copy_within(n..2 * n, 0);
+                self.smooth.copy_within(n * n..(n + 1) * n, (n + 1) * n);
+            }
+            FrameBorder::Zero => {
+                self.smooth[..n].fill(0.0);
+                self.smooth[(n + 1) * n..].fill(0.0);
+            }
+        }
+        // F = mask ⊙ (row below − row above); true convolution puts S_odd's top row on i + 1.
+        let mut sum = 0.0;
+        for i in 0..n {
+            let below = &self.smooth[(i + 2) * n..(i + 3) * n];
+            let above = &self.smooth[i * n..(i + 1) * n];
+            let mask = &self.mask[i * n..(i + 1) * n];
+            let out = &mut query[i * n..(i + 1) * n];
+            let mut row_sum = 0.0;
+            for j in 0..n {
+                let v = mask[j] * (below[j] - above[j]);
+                out[j] = v;
+                row_sum += v;
+            }
+            sum += row_sum;
+        }
+        let mean = sum / (n * n) as f64;
+        let mut sq = 0.0;
+        for v in query.iter_mut() {
+            *v -= mean;
+            sq += *v * *v;
+        }
+        let norm = sq.sqrt();
+        if !(norm.is_finite() && norm > MIN_QUERY_NORM) {
+            query.fill(0.0);
+            return None;
+        }
+        let inv = 1.0 / norm;
+        query.iter_mut().for_each(|v| *v *= inv);
+        Some(norm)
+    }
+}
+
+/// dst[j] = (3·src[j−1] + 10·src[j] + 3·src[j+1]) / 16 with the given padding.
+#[inline]
+fn smooth_row(src: &[f32], dst: &mut [f64], border: FrameBorder) {
+    let n = src.len();
+    let (left, right) = match border {
+        FrameBorder::Replicate => (pixel(src[0]), pixel(src[n - 1])),
+        FrameBorder::Zero => (0.0, 0.0),
+    };
+    const A: f64 = 3.0 / 16.0;
+    const B: f64 = 10.0 / 16.0;
+    let mut prev = left;
+    let mut cur = pixel(src[0]);
+    for j in 0..n {
+        let next = if j + 1 < n { pixel(src[j + 1]) } else { right };
+        dst[j] = A * prev + B * cur + A * next;
+        prev = cur;
+        cur = next;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stripes(n: usize) -> Vec<f32> {
+        (0..n * n)
+            .map(|k| {
+                if (k / n) % 7 < 3 {
+                    0.9
+                } else {
+                    0.1 + 0.001 * (k % n) as f32
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn kernel_sign_convention_brighter_below_is_positive() {
+        let n = 16;
+        let f: Vec<f32> = (0..n * n).map(|k| if k / n >= 8 { 1.0 } else { 0.0 }).collect();
+        let c = convolve_s_odd(&f, n, FrameBorder::Replicate);
+        assert!((c[7 * n + 5] - 1.0).abs() < 1e-15 && (c[8 * n + 5] - 1.0).abs() < 1e-15);
+        assert_eq!(c[3 * n + 5], 0.0);
+    }
+
+    #[test]
+    fn fast_processing_matches_literal_convolution() {
+        for border in [FrameBorder::Replicate, FrameBorder::Zero] {
+            for mask in [
+                None,
+                Some(MaskConfig {
+                    radius_frac: 0.9,
+                    blur_sigma_px: 3.0,
+                }),
+            ] {
+                let n = 32;
+                let f = stripes(n);
+                let lit = convolve_s_odd(&f, n, border);
+                let r = roi_mask(n, mask.as_ref());
+                let mut lit: Vec<f64> = lit.iter().zip(&r).map(|(a, b)| a * b).collect();
+                center_and_normalize(&mut lit).unwrap();
+                let mut fp = FrameProcessor::new(n, mask.as_ref(), border);
+                let mut q = vec![0.0; n * n];
+                fp.query(&f, &mut q).unwrap();
+                for (a, b) in lit.iter().zip(&q) {
+                    assert!((a - b).abs() < 1e-14, "{border:?} {mask:?}: {a} vs {b}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn mask_is_a_blurred_centred_disk() {
+        let n = 64;
+        let m = roi_mask(
+            n,
+            Some(&MaskConfig {
+                radius_frac: 0.5,
+                blur_sigma_px: 2.0,
+            }),
+        );
+        let c = n / 2;
+        assert!((m[c * n + c] - 1.0).abs() < 1e-9);
+        assert!(m[0] < 1e-9);
+        // Symmetric about the centre (pixel k ↔ n−1−k).
+        for i in 0..n {
+            for j in 0..n {
+                assert!((m[i * n + j] - m[(n - 1 - i) * n + (n - 1 - j)]).abs() < 1e-12);
+                assert!((m[i * n + j] - m[j * n + i]).abs() < 1e-12);
+            }
+        }
+        // Half height at the disk radius (16 px from the centre).
+        let edge = m[c * n + c + 16];
+        assert!((0.3..0.7).contains(&edge), "{edge}");
+        let sharp = roi_mask(
+            n,
+            Some(&MaskConfig {
+                radius_frac: 0.5,
+                blur_sigma_px: 0.0,
+            }),
+        );
+        assert!(sharp.iter().all(|&v| v == 0.0 || v == 1.0));
+        assert!(roi_mask(n, None).iter().all(|&v| v == 1.0));
+    }
+
+    #[test]
+    fn blank_frames_give_the_zero_query() {
+        let n = 16;
+        for lum in [0.0f32, 0.3, 1.0] {
+            let mut fp = FrameProcessor::new(n, Some(&MaskConfig::default()), FrameBorder::Replicate);
+            let mut q = vec![1.0; n * n];
+            assert!(fp.query(&vec![lum; n * n], &mut q).is_none());
+            assert!(q.iter().all(|&v| v == 0.0));
+        }
+        let mut v = vec![0.25; 9];
+        assert!(center_and_normalize(&mut v).is_none());
+        let mut v = vec![f64::NAN; 9];
+        assert!(center_and_normalize(&mut v).is_none());
+        assert!(v.iter().all(|&x| x == 0.0));
+    }
+
+    #[test]
+    fn column_major_mapping() {
+        let img = [1.0, 2.0, 3.0, 4.0]; // [[1, 2], [3, 4]]
+        assert_eq!(image_to_vector(&img, 2), vec![1.0, 3.0, 2.0, 4.0]);
+    }
+}

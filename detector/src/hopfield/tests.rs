@@ -1,0 +1,368 @@
+//! Unit tests of the Hopfield detector on small self-made frames (stimulus-file based tests
+//! live in `detector/tests/hopfield*.rs`).
+
+use super::*;
+
+/// Deterministic pseudo-random numbers in [0, 1) (SplitMix64).
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+fn frame(n: usize, f: impl Fn(f64, f64) -> f32) -> Frame {
+    let data = (0..n * n)
+        .map(|k| {
+            let (i, j) = (k / n, k % n);
+            f(i as f64 + 0.5 - n as f64 / 2.0, j as f64 + 0.5 - n as f64 / 2.0)
+        })
+        .collect();
+    Frame::from_f32(n, data).unwrap()
+}
+
+/// A disk of radius r (pixels) centred at (cy, cx) from the frame centre, over `bg`.
+fn disk(n: usize, r: f64, cy: f64, cx: f64, lum: f32, bg: f32) -> Frame {
+    frame(n, |y, x| {
+        if (y - cy).powi(2) + (x - cx).powi(2) <= r * r {
+            lum
+        } else {
+            bg
+        }
+    })
+}
+
+fn noise(n: usize, seed: u64) -> Frame {
+    let mut rng = Rng(seed);
+    Frame::from_f32(n, (0..n * n).map(|_| rng.next()).collect()).unwrap()
+}
+
+/// Named test videos (each a list of frames) at size n.
+fn videos(n: usize) -> Vec<(&'static str, Vec<Frame>)> {
+    let nf = n as f64;
+    let approach: Vec<Frame> = (0..24)
+        .map(|t| disk(n, 2.0 + 1.03f64.powi(t * 4) * 1.5, 0.0, 0.0, 1.0, 0.0))
+        .collect();
+    let dark_approach: Vec<Frame> = (0..20)
+        .map(|t| disk(n, 3.0 + 0.4 * (t * t) as f64 / 10.0 * nf / 32.0, 1.3, -2.1, 0.1, 0.7))
+        .collect();
+    let striped: Vec<Frame> = (0..20)
+        .map(|t| {
+            let r = 4.0 + t as f64 * nf / 50.0;
+            frame(n, |y, x| {
+                if y * y + x * x <= r * r {
+                    let b = -y / (2.0 * r);
+                    let w = 2.0 * b + 0.25;
+                    if w - w.floor() < 0.5 { 1.0 } else { 0.0 }
+                } else {
+                    0.5
+                }
+            })
+        })
+        .collect();
+    let dyn_noise: Vec<Frame> = (0..12).map(|t| noise(n, 100 + t)).collect();
+    let drifting: Vec<Frame> = (0..16)
+        .map(|t| {
+            frame(n, |y, _| {
+                (0.5 + 0.5 * (2.0 * std::f64::consts::PI * (8.0 * y / nf + t as f64 / 15.0)).sin()) as f32
+            })
+        })
+        .collect();
+    let rotating: Vec<Frame> = (0..12)
+        .map(|t| {
+            let a = (t as f64 * 8.0).to_radians();
+            frame(n, |y, x| {
+                let u = x * a.sin() + y * a.cos();
+                (0.5 + 0.5 * (2.0 * std::f64::consts::PI * 6.0 * u / nf).sin()) as f32
+            })
+        })
+        .collect();
+    let mut with_blanks = approach[..10].to_vec();
+    with_blanks.insert(3, Frame::uniform(n, 0.0));
+    with_blanks.insert(7, Frame::uniform(n, 1.0));
+    with_blanks.push(Frame::uniform(n, 0.5));
+    with_blanks.extend(approach[10..16].iter().cloned());
+    vec![
+        ("approaching white disk", approach),
+        ("approaching dark disk off-centre", dark_approach),
+        ("striped disk over gray", striped),
+        ("dynamic noise", dyn_noise),
+        ("drifting grating", drifting),
+        ("rotating grating", rotating),
+        ("blanks interleaved", with_blanks),
+    ]
+}
+
+fn run(cfg: HopfieldConfig, frames: &[Frame]) -> Vec<HopfieldSignals> {
+    let mut det = Hopfield::new(cfg).unwrap();
+    frames.iter().map(|f| det.step_hopfield(f).unwrap()).collect()
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / a.abs().max(b.abs()).max(1e-300)
+}
+
+#[test]
+fn reference_memory_has_two_plus_floor_three_n_over_five_columns() {
+    for n in [16, 32, 45] {
+        let cfg = HopfieldConfig::for_size(n);
+        let r = ReferenceHopfield::new(&cfg);
+        assert_eq!(r.columns(), 2 + 3 * n / 5);
+        assert_eq!(r.pattern_memory_on().len(), n * n * (2 + 3 * n / 5));
+        assert_eq!(r.pattern_memory_off().len(), n * n * (2 + 3 * n / 5));
+        let det = Hopfield::new(cfg).unwrap();
+        assert_eq!(det.memory_columns(), 2 + 3 * n / 5);
+        assert_eq!(det.fast().unwrap().templates().len(), 1 + 3 * n / 5);
+    }
+}
+
+#[test]
+fn stored_and_query_vectors_are_zero_mean_unit_norm() {
+    let n = 32;
+    let cfg = HopfieldConfig::for_size(n).with_implementation(Implementation::Reference);
+    let mut det = Hopfield::new(cfg).unwrap();
+    let frames = &videos(n)[0].1;
+    for f in &frames[..8] {
+        det.step_hopfield(f).unwrap();
+    }
+    let r = det.reference().unwrap();
+    let d = n * n;
+    let check = |v: &[f64], what: &str| {
+        let mean = v.iter().sum::<f64>() / d as f64;
+        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        assert!(mean.abs() < 1e-15, "{what}: mean {mean}");
+        assert!((norm - 1.0).abs() < 1e-12, "{what}: norm {norm}");
+    };
+    for k in 0..r.columns() {
+        check(&r.pattern_memory_on()[k * d..(k + 1) * d], &format!("ON column {k}"));
+        check(&r.pattern_memory_off()[k * d..(k + 1) * d], &format!("OFF column {k}"));
+        for (a, b) in r.pattern_memory_on()[k * d..(k + 1) * d]
+            .iter()
+            .zip(&r.pattern_memory_off()[k * d..(k + 1) * d])
+        {
+            assert_eq!(*a, if k == 0 { *b } else { -*b });
+        }
+    }
+    check(r.last_query(), "query");
+    let mut fast = Hopfield::new(HopfieldConfig::for_size(n)).unwrap();
+    fast.step_hopfield(&frames[5]).unwrap();
+    check(fast.fast().unwrap().last_query(), "fast query");
+}
+
+#[test]
+fn activities_stay_in_their_ranges() {
+    let n = 32;
+    let cfg = HopfieldConfig::for_size(n);
+    let top = cfg.memory_columns() as f64;
+    for (name, frames) in videos(n) {
+        for s in run(cfg, &frames) {
+            for v in [s.z_on, s.z_off, s.z_hat_on, s.z_hat_off] {
+                assert!((1.0..=top).contains(&v), "{name}: {v} ∉ [1, N+1 = {top}]");
+            }
+            assert!((1.0..=top * top).contains(&s.z), "{name}: z = {}", s.z);
+            assert!((s.z - s.z_on * s.z_off).abs() <= 1e-12 * s.z);
+            assert!(s.angular_size_deg.is_finite() && s.angular_size_deg >= 0.0);
+            assert!(s.winner_on < top as usize && s.winner_off < top as usize);
+            assert!(s.iterations_on <= cfg.max_iterations && s.iterations_off <= cfg.max_iterations);
+        }
+    }
+}
+
+#[test]
+fn fast_equals_reference_on_every_test_video() {
+    for n in [32, 64] {
+        for (name, frames) in videos(n) {
+            for mask in [Some(MaskConfig::default()), None] {
+                let cfg = HopfieldConfig {
+                    mask,
+                    ..HopfieldConfig::for_size(n)
+                };
+                let fast = run(cfg, &frames);
+                let reference = run(cfg.with_implementation(Implementation::Reference), &frames);
+                for (t, (f, r)) in fast.iter().zip(&reference).enumerate() {
+                    let ctx = format!(
+                        "n={n} {name} mask={} frame {t}: fast {f:?} reference {r:?}",
+                        mask.is_some()
+                    );
+                    for (a, b) in [
+                        (f.z_on, r.z_on),
+                        (f.z_off, r.z_off),
+                        (f.z, r.z),
+                        (f.z_hat_on, r.z_hat_on),
+                    ] {
+                        assert!(rel(a, b) <= 1e-6, "{ctx}");
+                    }
+                    assert_eq!(
+                        (f.winner_on, f.winner_off, f.iterations_on, f.iterations_off),
+                        (r.winner_on, r.winner_off, r.iterations_on, r.iterations_off),
+                        "{ctx}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn fast_equals_reference_with_other_parameters() {
+    let n = 32;
+    let frames = &videos(n)[1].1;
+    let variants = [
+        HopfieldConfig {
+            beta: 20.0,
+            tolerance: 1e-4,
+            max_iterations: 7,
+            ..HopfieldConfig::for_size(n)
+        },
+        HopfieldConfig {
+            delay: 2,
+            frame_border: FrameBorder::Zero,
+            ..HopfieldConfig::for_size(n)
+        },
+        HopfieldConfig {
+            template: TemplateConfig {
+                kind: TemplateKind::UniformDisk,
+                offset_px: 0.0,
+                ..Default::default()
+            },
+            ..HopfieldConfig::for_size(n)
+        },
+    ];
+    for cfg in variants {
+        let fast = run(cfg, frames);
+        let reference = run(cfg.with_implementation(Implementation::Reference), frames);
+        for (f, r) in fast.iter().zip(&reference) {
+            assert!(rel(f.z, r.z) <= 1e-6 && rel(f.z_on, r.z_on) <= 1e-6 && rel(f.z_off, r.z_off) <= 1e-6);
+            assert_eq!(f.iterations_on, r.iterations_on, "{cfg:?}");
+        }
+    }
+}
+
+#[test]
+fn blank_constant_and_nan_frames_give_the_floor_not_nan() {
+    let n = 32;
+    for implementation in [Implementation::Fast, Implementation::Reference] {
+        let cfg = HopfieldConfig::for_size(n).with_implementation(implementation);
+        let mut det = Hopfield::new(cfg).unwrap();
+        let nan = Frame::from_f32(n, vec![f32::NAN; n * n]).unwrap();
+        let half_nan =
+            Frame::from_f32(n, (0..n * n).map(|k| if k % 2 == 0 { f32::NAN } else { 0.5 }).collect()).unwrap();
+        for f in [
+            Frame::uniform(n, 0.0),
+            Frame::uniform(n, 1.0),
+            Frame::uniform(n, 0.37),
+            nan.clone(),
+        ] {
+            let s = det.step_hopfield(&f).unwrap();
+            assert_eq!(
+                (s.z_on, s.z_off, s.z, s.angular_size_deg),
+                (1.0, 1.0, 1.0, 0.0),
+                "{implementation}"
+            );
+            assert_eq!((s.winner_on, s.iterations_on), (0, 0));
+        }
+        // Edges after blank frames, and blanks after edges: finite, in range.
+        for f in [half_nan, noise(n, 3), Frame::uniform(n, 0.0), noise(n, 4), nan] {
+            let s = det.step_hopfield(&f).unwrap();
+            assert!(s.z.is_finite() && s.z >= 1.0 && s.angular_size_deg.is_finite(), "{s:?}");
+        }
+    }
+}
+
+#[test]
+fn static_scene_stays_at_the_floor() {
+    let n = 32;
+    let scenes = [noise(n, 9), disk(n, 7.0, 1.0, 2.0, 1.0, 0.2), videos(n)[4].1[0].clone()];
+    for scene in scenes {
+        let frames = vec![scene; 15];
+        for s in run(HopfieldConfig::for_size(n), &frames) {
+            assert_eq!((s.z_on, s.z_off, s.z), (1.0, 1.0, 1.0));
+        }
+    }
+}
+
+#[test]
+fn inverting_the_frame_swaps_on_and_off() {
+    let n = 32;
+    let frames = &videos(n)[0].1;
+    let inverted: Vec<Frame> = frames
+        .iter()
+        .map(|f| Frame::from_f32(n, f.data().iter().map(|v| 1.0 - v).collect()).unwrap())
+        .collect();
+    let a = run(HopfieldConfig::for_size(n), frames);
+    let b = run(HopfieldConfig::for_size(n), &inverted);
+    for (x, y) in a.iter().zip(&b) {
+        assert!(
+            rel(x.z_on, y.z_off) < 1e-9 && rel(x.z_off, y.z_on) < 1e-9,
+            "{x:?} {y:?}"
+        );
+    }
+}
+
+#[test]
+fn approaching_disk_raises_the_activity() {
+    let n = 64;
+    let frames = &videos(n)[0].1;
+    let s = run(HopfieldConfig::for_size(n), frames);
+    assert_eq!(s[0].z, 1.0);
+    let last = s.last().unwrap();
+    assert!(last.z > 5.0, "{:?}", s.iter().map(|s| s.z).collect::<Vec<_>>());
+}
+
+#[test]
+fn detector_trait_maps_signals_and_reset_forgets() {
+    let n = 32;
+    let frames = &videos(n)[0].1;
+    let mut det = Hopfield::new(HopfieldConfig::for_size(n)).unwrap();
+    assert_eq!(det.id(), "hopfield");
+    let first: Vec<Signals> = frames.iter().map(|f| det.step(f).unwrap()).collect();
+    det.reset();
+    let second: Vec<Signals> = frames.iter().map(|f| det.step(f).unwrap()).collect();
+    assert_eq!(first, second);
+    let mut det2 = Hopfield::new(HopfieldConfig::for_size(n)).unwrap();
+    for (f, sig) in frames.iter().zip(&first) {
+        let h = det2.step_hopfield(f).unwrap();
+        assert_eq!(sig.output, h.z);
+        assert_eq!(sig.angular_size_deg, Some(h.angular_size_deg));
+        assert_eq!(sig.aux, vec![("on", h.z_on), ("off", h.z_off)]);
+    }
+    let err = det.step(&Frame::uniform(16, 0.0)).unwrap_err();
+    assert!(matches!(err, DetectorError::FrameSize { expected: 32, got: 16 }));
+}
+
+#[test]
+fn angular_size_readout() {
+    let cfg = HopfieldConfig::for_size(256);
+    assert_eq!(angular_size_deg(1.0, &cfg), 0.0);
+    let tan30 = 30f64.to_radians().tan();
+    // √z = 2 → template 1 (s = 0.1).
+    let want = 2.0 * (0.1 * tan30).atan().to_degrees();
+    assert!((angular_size_deg(4.0, &cfg) - want).abs() < 1e-12);
+    // √z = N + 1 → template N, s = 0.1 + (N − 1)·3/(2n) ≈ 1: about the full field of view.
+    let top = cfg.memory_columns() as f64;
+    let s_n = 0.1 + 153.0 * 3.0 / 512.0;
+    assert!((angular_size_deg(top * top, &cfg) - 2.0 * (s_n * tan30).atan().to_degrees()).abs() < 1e-9);
+    // Monotone and continuous across the i = 1 knee.
+    let mut prev = -1.0;
+    for k in 0..2000 {
+        let z = 1.0 + k as f64 * 12.0;
+        let th = angular_size_deg(z, &cfg);
+        assert!(th >= prev);
+        prev = th;
+    }
+    assert!((angular_size_deg(4.0 - 1e-9, &cfg) - angular_size_deg(4.0, &cfg)).abs() < 1e-6);
+}
+
+#[test]
+fn softmax_is_stable() {
+    let mut v = vec![1000.0, 999.0, -1e308];
+    softmax_in_place(&mut v);
+    assert!((v.iter().sum::<f64>() - 1.0).abs() < 1e-15 && v[0] > v[1] && v[2] == 0.0);
+    let mut w = vec![f64::NAN, 1.0];
+    softmax_in_place(&mut w);
+    assert_eq!(w, vec![1.0, 0.0]);
+}
