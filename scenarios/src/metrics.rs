@@ -1,0 +1,454 @@
+//! Per-episode scoring and per-detector aggregation (design §6).
+//!
+//! # Definitions
+//! For one detector in one episode, with ground truth from the runner (an object is a **threat**
+//! if it would touch the robot's body with no escape; `t_c` is its contact time) and the
+//! detector's trigger-signal trace, the **alarm** is the first frame whose signal is
+//! `>= threshold` (the escape controller's rule; NaN never alarms), at time `t_a`:
+//! - threat: [`Outcome::Hit`] if `t_a ≤ t_c − lead_min` (equality counts; a tolerance of
+//!   [`TIME_EPS_S`] absorbs frame-time rounding), else [`Outcome::Miss`] (late or no alarm);
+//! - no threat: [`Outcome::FalseAlarm`] if there is any alarm, else [`Outcome::CorrectRejection`];
+//! - closed loop: `collision` (the robot was touched) or evaded;
+//! - at the alarm: the true TTC and true angular size of the threat, as the runner recorded them.
+//!
+//! The ROC **score** of an episode ([`DetectorEpisode::max_signal`]) is the maximum signal over the
+//! window in which an alarm counts: frames with `t ≤ t_c − lead_min` for threats, all frames for
+//! non-threats; see [`crate::stats`] for why this gives the exact threshold sweep.
+//!
+//! # Rates
+//! `hit_rate = hits / (hits + misses)`, `false_alarm_rate = false_alarms / (false_alarms +
+//! correct_rejections)`, `collision_rate = collisions / episodes`, each with a 95 % Wilson interval.
+//! A rate whose denominator is zero (e.g. the hit rate of a suite without threats) is `None`,
+//! written `null` in JSON and empty in CSV — not 0, which would read as "every threat missed";
+//! the same holds for its interval, the mean lead time (no hits) and the AUC (no threats or no
+//! non-threats). No NaN or infinity ever reaches a report.
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::PathBuf;
+use std::str::FromStr;
+
+use serde::{Deserialize, Serialize};
+
+use crate::stats::{self, Interval, RocPoint};
+
+/// Tolerance on time comparisons (seconds), so that `t_a = t_c − lead_min` computed from frame
+/// counts still counts as a hit despite floating-point rounding.
+pub const TIME_EPS_S: f64 = 1e-9;
+
+/// Everything that can go wrong while scoring, reporting or comparing reports.
+#[derive(Debug, thiserror::Error)]
+pub enum ScoringError {
+    /// A scoring parameter is out of range.
+    #[error("invalid scoring parameter `{key}` = {value}: {reason}")]
+    InvalidConfig {
+        /// Key as written in config files.
+        key: &'static str,
+        /// The offending value, formatted.
+        value: String,
+        /// What is wrong and how to fix it.
+        reason: String,
+    },
+    /// Inconsistent ground truth handed over by the runner.
+    #[error("invalid ground truth for detector `{detector}`: {reason}")]
+    GroundTruth {
+        /// Detector id of the episode being scored.
+        detector: String,
+        /// What is inconsistent.
+        reason: String,
+    },
+    /// A file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file involved.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// A report file is not valid report JSON.
+    #[error("{path}: not a valid loomlab report: {reason}")]
+    Json {
+        /// The file involved.
+        path: PathBuf,
+        /// What serde_json said.
+        reason: String,
+    },
+    /// An episodes CSV file is malformed.
+    #[error("{path}:{line}: {reason}")]
+    Csv {
+        /// The file involved.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+/// The scoring outcome of one detector in one episode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Outcome {
+    /// Threat, alarm at least `lead_min` before contact.
+    Hit,
+    /// Threat, alarm too late or none.
+    Miss,
+    /// No threat, but an alarm.
+    FalseAlarm,
+    /// No threat, no alarm.
+    CorrectRejection,
+}
+
+impl Outcome {
+    /// The snake_case name used in CSV and JSON.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Hit => "hit",
+            Self::Miss => "miss",
+            Self::FalseAlarm => "false_alarm",
+            Self::CorrectRejection => "correct_rejection",
+        }
+    }
+}
+
+impl fmt::Display for Outcome {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl FromStr for Outcome {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "hit" => Ok(Self::Hit),
+            "miss" => Ok(Self::Miss),
+            "false_alarm" => Ok(Self::FalseAlarm),
+            "correct_rejection" => Ok(Self::CorrectRejection),
+            _ => Err(format!(
+                "unknown outcome `{s}` (expected hit, miss, false_alarm or correct_rejection)"
+            )),
+        }
+    }
+}
+
+/// Scoring parameters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ScoringConfig {
+    /// Minimal warning time in seconds: a threat's alarm must come at least this long before
+    /// contact to count as a hit. Default 0.1 s (a dozen frames at 120 Hz); set it from the
+    /// robot's dynamics (time it needs to clear its own half-width at dodge speed).
+    pub lead_min_s: f64,
+    /// Keep the full signal trace in each [`DetectorEpisode`] (memory grows with episode length).
+    pub keep_traces: bool,
+}
+
+impl Default for ScoringConfig {
+    fn default() -> Self {
+        Self {
+            lead_min_s: 0.1,
+            keep_traces: false,
+        }
+    }
+}
+
+impl ScoringConfig {
+    /// Check every value.
+    pub fn validate(&self) -> Result<(), ScoringError> {
+        if !(self.lead_min_s.is_finite() && self.lead_min_s >= 0.0) {
+            return Err(ScoringError::InvalidConfig {
+                key: "scoring.lead_min_s",
+                value: self.lead_min_s.to_string(),
+                reason: "must be a finite number of seconds >= 0".into(),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Ground truth of one episode run for one detector.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GroundTruth {
+    /// Whether an object would touch the robot's body with no escape.
+    pub threat: bool,
+    /// Contact time `t_c` in seconds (required for threats, `None` otherwise).
+    pub t_contact_s: Option<f64>,
+    /// Whether the robot was actually touched in this (closed-loop) run.
+    pub collision: bool,
+}
+
+/// One frame of a detector's trace, as recorded by the runner.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TraceSample {
+    /// Episode time in seconds.
+    pub t_s: f64,
+    /// The trigger signal (θ̂ in degrees for Hopfield, the output for baselines); NaN = no value.
+    pub signal: f64,
+    /// True time-to-contact of the threat (or nearest) object at this frame, if known.
+    pub ttc_s: Option<f64>,
+    /// True angular size of that object in degrees at this frame, if known.
+    pub angular_size_deg: Option<f64>,
+}
+
+/// The score of one detector in one episode.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DetectorEpisode {
+    /// Detector id (`hopfield`, `soc`, …).
+    pub detector: String,
+    /// Ground truth: threat or not.
+    pub threat: bool,
+    /// Contact time `t_c` of the threat.
+    pub t_contact_s: Option<f64>,
+    /// First alarm time `t_a`.
+    pub t_alarm_s: Option<f64>,
+    /// Hit / miss / false alarm / correct rejection.
+    pub outcome: Outcome,
+    /// Whether the robot was touched (closed loop).
+    pub collision: bool,
+    /// True TTC at the alarm.
+    pub ttc_at_alarm_s: Option<f64>,
+    /// True angular size at the alarm, degrees.
+    pub angular_size_at_alarm_deg: Option<f64>,
+    /// ROC score: maximum finite signal in the scoring window (`None`: no finite value there).
+    pub max_signal: Option<f64>,
+    /// The full trace, if [`ScoringConfig::keep_traces`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trace: Option<Vec<TraceSample>>,
+}
+
+impl DetectorEpisode {
+    /// Warning time `t_c − t_a` of a hit (`None` for other outcomes).
+    pub fn lead_s(&self) -> Option<f64> {
+        match (self.outcome, self.t_contact_s, self.t_alarm_s) {
+            (Outcome::Hit, Some(tc), Some(ta)) => Some(tc - ta),
+            _ => None,
+        }
+    }
+
+    /// The score used for ROC curves (−∞ when there is none: never alarms).
+    pub fn roc_score(&self) -> f64 {
+        self.max_signal.unwrap_or(f64::NEG_INFINITY)
+    }
+}
+
+/// One episode: where it came from and the score of every detector run on it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EpisodeOutcome {
+    /// Scenario name.
+    pub scenario: String,
+    /// Episode index within the scenario.
+    pub episode: usize,
+    /// The episode's seed.
+    pub seed: u64,
+    /// Swept / sampled parameter values (key → value as written).
+    pub params: BTreeMap<String, String>,
+    /// One entry per detector.
+    pub detectors: Vec<DetectorEpisode>,
+}
+
+fn check_time(detector: &str, what: &str, t: f64) -> Result<(), ScoringError> {
+    if t.is_finite() {
+        Ok(())
+    } else {
+        Err(ScoringError::GroundTruth {
+            detector: detector.into(),
+            reason: format!("{what} is {t}, not a finite time"),
+        })
+    }
+}
+
+/// Classify one episode from the ground truth and the first alarm time (see the module docs).
+///
+/// Errors if a threat has no (finite) contact time or a non-threat has one.
+pub fn classify(
+    threat: bool,
+    t_contact_s: Option<f64>,
+    t_alarm_s: Option<f64>,
+    lead_min_s: f64,
+) -> Result<Outcome, ScoringError> {
+    if let Some(ta) = t_alarm_s {
+        check_time("<unnamed>", "t_alarm_s", ta)?;
+    }
+    match (threat, t_contact_s) {
+        (true, Some(tc)) => {
+            check_time("<unnamed>", "t_contact_s", tc)?;
+            Ok(match t_alarm_s {
+                Some(ta) if ta <= tc - lead_min_s + TIME_EPS_S => Outcome::Hit,
+                _ => Outcome::Miss,
+            })
+        }
+        (true, None) => Err(ScoringError::GroundTruth {
+            detector: "<unnamed>".into(),
+            reason: "a threat needs a contact time t_contact_s".into(),
+        }),
+        (false, Some(tc)) => Err(ScoringError::GroundTruth {
+            detector: "<unnamed>".into(),
+            reason: format!("a non-threat has contact time t_contact_s = {tc}; mark it as a threat or drop the time"),
+        }),
+        (false, None) => Ok(if t_alarm_s.is_some() {
+            Outcome::FalseAlarm
+        } else {
+            Outcome::CorrectRejection
+        }),
+    }
+}
+
+/// Score one detector's run of one episode from its trace (samples need not be sorted).
+///
+/// `threshold` is the alarm threshold on [`TraceSample::signal`] (the escape controller's).
+pub fn score_detector_episode(
+    detector: &str,
+    threshold: f64,
+    samples: &[TraceSample],
+    truth: &GroundTruth,
+    config: &ScoringConfig,
+) -> Result<DetectorEpisode, ScoringError> {
+    config.validate()?;
+    let name_err = |e: ScoringError| match e {
+        ScoringError::GroundTruth { reason, .. } => ScoringError::GroundTruth {
+            detector: detector.into(),
+            reason,
+        },
+        other => other,
+    };
+    if !threshold.is_finite() {
+        return Err(ScoringError::InvalidConfig {
+            key: "threshold",
+            value: threshold.to_string(),
+            reason: format!("the alarm threshold of detector `{detector}` must be finite"),
+        });
+    }
+    for s in samples {
+        check_time(detector, "a trace sample's t_s", s.t_s)?;
+    }
+    let alarm = samples
+        .iter()
+        .filter(|s| s.signal >= threshold)
+        .min_by(|a, b| a.t_s.total_cmp(&b.t_s));
+    let t_alarm_s = alarm.map(|s| s.t_s);
+    let outcome = classify(truth.threat, truth.t_contact_s, t_alarm_s, config.lead_min_s).map_err(name_err)?;
+    let window_end = match (truth.threat, truth.t_contact_s) {
+        (true, Some(tc)) => tc - config.lead_min_s + TIME_EPS_S,
+        _ => f64::INFINITY,
+    };
+    let max_signal = samples
+        .iter()
+        .filter(|s| s.t_s <= window_end && s.signal.is_finite())
+        .map(|s| s.signal)
+        .max_by(f64::total_cmp);
+    Ok(DetectorEpisode {
+        detector: detector.into(),
+        threat: truth.threat,
+        t_contact_s: truth.t_contact_s,
+        t_alarm_s,
+        outcome,
+        collision: truth.collision,
+        ttc_at_alarm_s: alarm.and_then(|s| s.ttc_s).filter(|v| v.is_finite()),
+        angular_size_at_alarm_deg: alarm.and_then(|s| s.angular_size_deg).filter(|v| v.is_finite()),
+        max_signal,
+        trace: config.keep_traces.then(|| samples.to_vec()),
+    })
+}
+
+/// Aggregated scores of one detector over a set of episodes (see the module docs for the rates).
+///
+/// The first nine fields are the report contract (design §7) and always present; `None` is `null`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DetectorSummary {
+    /// Number of episodes.
+    pub episodes: u64,
+    /// Threat episodes that were hits.
+    pub hits: u64,
+    /// Threat episodes that were misses.
+    pub misses: u64,
+    /// Non-threat episodes with an alarm.
+    pub false_alarms: u64,
+    /// Non-threat episodes without an alarm.
+    pub correct_rejections: u64,
+    /// hits / (hits + misses); `None` without threats.
+    pub hit_rate: Option<f64>,
+    /// false_alarms / (false_alarms + correct_rejections); `None` without non-threats.
+    pub false_alarm_rate: Option<f64>,
+    /// Episodes in which the robot was touched.
+    pub collisions: u64,
+    /// collisions / episodes.
+    pub collision_rate: Option<f64>,
+    /// 95 % Wilson interval of `hit_rate`.
+    #[serde(default)]
+    pub hit_rate_ci: Option<Interval>,
+    /// 95 % Wilson interval of `false_alarm_rate`.
+    #[serde(default)]
+    pub false_alarm_rate_ci: Option<Interval>,
+    /// 95 % Wilson interval of `collision_rate`.
+    #[serde(default)]
+    pub collision_rate_ci: Option<Interval>,
+    /// Mean warning time `t_c − t_a` over hits, seconds.
+    #[serde(default)]
+    pub mean_lead_s: Option<f64>,
+    /// Mean true angular size at the alarm over hits, degrees.
+    #[serde(default)]
+    pub mean_angular_size_at_alarm_deg: Option<f64>,
+    /// Area under the ROC curve; `None` without threats or without non-threats.
+    #[serde(default)]
+    pub auc: Option<f64>,
+    /// The ROC curve (see [`crate::stats`]).
+    #[serde(default)]
+    pub roc: Vec<RocPoint>,
+}
+
+fn mean(values: impl Iterator<Item = f64>) -> Option<f64> {
+    let (sum, n) = values
+        .filter(|v| v.is_finite())
+        .fold((0.0, 0u64), |(s, n), v| (s + v, n + 1));
+    (n > 0).then(|| sum / n as f64)
+}
+
+impl DetectorSummary {
+    /// Aggregate episodes (normally all of one detector).
+    pub fn from_episodes<'a>(episodes: impl IntoIterator<Item = &'a DetectorEpisode>) -> Self {
+        let eps: Vec<&DetectorEpisode> = episodes.into_iter().collect();
+        let count = |o: Outcome| eps.iter().filter(|e| e.outcome == o).count() as u64;
+        let (hits, misses) = (count(Outcome::Hit), count(Outcome::Miss));
+        let (false_alarms, correct_rejections) = (count(Outcome::FalseAlarm), count(Outcome::CorrectRejection));
+        let episodes = eps.len() as u64;
+        let collisions = eps.iter().filter(|e| e.collision).count() as u64;
+        let positives: Vec<f64> = eps.iter().filter(|e| e.threat).map(|e| e.roc_score()).collect();
+        let negatives: Vec<f64> = eps.iter().filter(|e| !e.threat).map(|e| e.roc_score()).collect();
+        let roc = stats::roc_curve(&positives, &negatives);
+        let auc = (!roc.is_empty()).then(|| stats::auc_trapezoid(&roc));
+        let hits_iter = || eps.iter().filter(|e| e.outcome == Outcome::Hit);
+        Self {
+            episodes,
+            hits,
+            misses,
+            false_alarms,
+            correct_rejections,
+            hit_rate: stats::rate(hits, hits + misses),
+            false_alarm_rate: stats::rate(false_alarms, false_alarms + correct_rejections),
+            collisions,
+            collision_rate: stats::rate(collisions, episodes),
+            hit_rate_ci: stats::wilson_95(hits, hits + misses),
+            false_alarm_rate_ci: stats::wilson_95(false_alarms, false_alarms + correct_rejections),
+            collision_rate_ci: stats::wilson_95(collisions, episodes),
+            mean_lead_s: mean(hits_iter().filter_map(|e| e.lead_s())),
+            mean_angular_size_at_alarm_deg: mean(hits_iter().filter_map(|e| e.angular_size_at_alarm_deg)),
+            auc,
+            roc,
+        }
+    }
+}
+
+/// Per-detector summaries over all episodes, keyed by detector id.
+pub fn summarize_by_detector(episodes: &[EpisodeOutcome]) -> BTreeMap<String, DetectorSummary> {
+    let mut by_detector: BTreeMap<&str, Vec<&DetectorEpisode>> = BTreeMap::new();
+    for e in episodes {
+        for d in &e.detectors {
+            by_detector.entry(&d.detector).or_default().push(d);
+        }
+    }
+    by_detector
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), DetectorSummary::from_episodes(v)))
+        .collect()
+}
