@@ -1,0 +1,8 @@
+//! Offscreen wgpu rendering of the robot's view (headless; Mesa lavapipe or any Vulkan/Metal/DX12 GPU).
+
+mod gpu;
+mod mesh;
+mod renderer;
+
+pub use gpu::{ADAPTER_ENV, GpuContext};
+pub use renderer::{FrameDesc, RenderInstance, RenderTimings, Renderer, frame_to_u8, padded_bytes_per_row};

@@ -1,0 +1,591 @@
+//! Offscreen renderer: one depth-tested render pass into an n × n `R32Float` target, one copy into a
+//! row-padded readback buffer, one map. All GPU resources are created once and reused every frame; only
+//! the instance buffer grows when a world has more parts than any before it.
+
+use std::ops::Range;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU8, Ordering};
+
+use bytemuck::{Pod, Zeroable};
+use wgpu::util::DeviceExt;
+
+use super::gpu::GpuContext;
+use super::mesh;
+use crate::SimError;
+use crate::glam::{DQuat, DVec3, Mat4, Quat, Vec3, Vec4};
+use crate::shape::PrimKind;
+use crate::texture::ResolvedTexture;
+
+const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// One primitive to draw, positioned relative to the camera.
+#[derive(Clone, Copy, Debug)]
+pub struct RenderInstance {
+    /// Primitive kind.
+    pub prim: PrimKind,
+    /// Centre relative to the camera position, world axes (m).
+    pub position: Vec3,
+    /// Orientation (world).
+    pub rotation: Quat,
+    /// Full extents (m).
+    pub size: Vec3,
+    /// Texture.
+    pub texture: ResolvedTexture,
+}
+
+/// Everything that changes from frame to frame.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameDesc<'a> {
+    /// Camera position (world).
+    pub camera_position: DVec3,
+    /// Camera orientation: x = optical axis, z = up.
+    pub camera_rotation: DQuat,
+    /// Full field of view (rad).
+    pub fov_rad: f64,
+    /// Near clipping distance (m).
+    pub near_m: f32,
+    /// Sky luminance.
+    pub sky: f32,
+    /// Ground texture, or `None` for no ground.
+    pub ground: Option<&'a ResolvedTexture>,
+    /// Simulation time (drifting gratings).
+    pub t_s: f64,
+    /// What to draw.
+    pub instances: &'a [RenderInstance],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct Globals {
+    view_proj: [[f32; 4]; 4],
+    inv_view_proj: [[f32; 4]; 4],
+    camera: [f32; 4],
+    ground_a: [f32; 4],
+    ground_b: [f32; 4],
+    ground_k: [u32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct InstanceRaw {
+    model: [[f32; 4]; 4],
+    size: [f32; 4],
+    tex_a: [f32; 4],
+    tex_b: [f32; 4],
+    kinds: [u32; 4],
+}
+
+fn tex_params(t: &ResolvedTexture, t_s: f64) -> ([f32; 4], [f32; 4], u32, u32) {
+    (
+        [t.dark, t.light, t.scale_m, t.orientation_rad],
+        [t.phase_at(t_s), if t.binary { 1.0 } else { 0.0 }, 0.0, 0.0],
+        t.kind as u32,
+        t.seed,
+    )
+}
+
+/// Bytes per row of the readback buffer: `n · 4` rounded up to wgpu's 256-byte copy alignment.
+pub fn padded_bytes_per_row(n: u32) -> u32 {
+    let unpadded = n * 4;
+    let align = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    unpadded.div_ceil(align) * align
+}
+
+/// An offscreen renderer for n × n single-channel frames.
+///
+/// Reusable across worlds with the same `n` ([`crate::Sim::with_renderer`], [`crate::Sim::into_renderer`]);
+/// the GPU device can be shared between renderers of different sizes ([`Renderer::with_context`]).
+pub struct Renderer {
+    ctx: Arc<GpuContext>,
+    n: u32,
+    padded_bpr: u32,
+    color: wgpu::Texture,
+    color_view: wgpu::TextureView,
+    depth_view: wgpu::TextureView,
+    readback: wgpu::Buffer,
+    globals: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    mesh: wgpu::Buffer,
+    cube: Range<u32>,
+    cylinder: Range<u32>,
+    instances: wgpu::Buffer,
+    capacity: usize,
+    background: wgpu::RenderPipeline,
+    mesh_pipeline: wgpu::RenderPipeline,
+    sphere_pipeline: wgpu::RenderPipeline,
+    scratch: Vec<InstanceRaw>,
+    map_state: Arc<AtomicU8>,
+    timings: RenderTimings,
+}
+
+/// Cumulative wall-clock time spent in the phases of [`Renderer::render`] (for profiling).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RenderTimings {
+    /// Frames rendered.
+    pub frames: u64,
+    /// Building instance data, uploading it and encoding the pass and copy (s).
+    pub encode_s: f64,
+    /// `queue.submit` (s).
+    pub submit_s: f64,
+    /// Waiting for the GPU to finish and the buffer to map (s).
+    pub wait_s: f64,
+    /// Copying the mapped rows out (s).
+    pub readback_s: f64,
+}
+
+impl std::fmt::Debug for Renderer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Renderer")
+            .field("n", &self.n)
+            .field("adapter", &self.ctx.adapter_info.name)
+            .finish()
+    }
+}
+
+impl Renderer {
+    /// Creates a GPU context and a renderer for n × n frames.
+    pub fn new(n: u32) -> Result<Renderer, SimError> {
+        Renderer::with_context(GpuContext::new()?, n)
+    }
+
+    /// Creates a renderer for n × n frames on an existing GPU context.
+    pub fn with_context(ctx: Arc<GpuContext>, n: u32) -> Result<Renderer, SimError> {
+        if !(1..=crate::camera::MAX_N).contains(&n) {
+            return Err(SimError::invalid(
+                "world.camera.n",
+                n,
+                format!("must be in 1..={}", crate::camera::MAX_N),
+            ));
+        }
+        let device = &ctx.device;
+        let size = wgpu::Extent3d {
+            width: n,
+            height: n,
+            depth_or_array_layers: 1,
+        };
+        let color = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("luminance"),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: COLOR_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let depth = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("depth"),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: DEPTH_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        });
+        let padded_bpr = padded_bytes_per_row(n);
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: u64::from(padded_bpr) * u64::from(n),
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let globals = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("globals"),
+            size: std::mem::size_of::<Globals>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("globals"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            }],
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("globals"),
+            layout: &bgl,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: globals.as_entire_binding(),
+            }],
+        });
+        let mut verts = mesh::cube();
+        let cube = 0..verts.len() as u32;
+        verts.extend(mesh::cylinder());
+        let cylinder = cube.end..verts.len() as u32;
+        let mesh_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("meshes"),
+            contents: bytemuck::cast_slice(&verts),
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+        let capacity = 64;
+        let instances = Self::instance_buffer(device, capacity);
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("loomlab-sim shader"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("shader.wgsl").into()),
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("loomlab-sim"),
+            bind_group_layouts: &[Some(&bgl)],
+            immediate_size: 0,
+        });
+        let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
+        let instance_attrs = wgpu::vertex_attr_array![
+            2 => Float32x4, 3 => Float32x4, 4 => Float32x4, 5 => Float32x4,
+            6 => Float32x4, 7 => Float32x4, 8 => Float32x4, 9 => Uint32x4
+        ];
+        let object_buffers = [
+            Some(wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<mesh::Vertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &vertex_attrs,
+            }),
+            Some(wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<InstanceRaw>() as u64,
+                step_mode: wgpu::VertexStepMode::Instance,
+                attributes: &instance_attrs,
+            }),
+        ];
+        let depth_state = |compare: wgpu::CompareFunction| wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(compare),
+            stencil: wgpu::StencilState::default(),
+            bias: wgpu::DepthBiasState::default(),
+        };
+        let target = [Some(wgpu::ColorTargetState {
+            format: COLOR_FORMAT,
+            blend: None,
+            write_mask: wgpu::ColorWrites::ALL,
+        })];
+        let pipeline = |label: &str,
+                        vs: &str,
+                        fs: &str,
+                        buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
+                        cull: Option<wgpu::Face>,
+                        compare: wgpu::CompareFunction| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &shader,
+                    entry_point: Some(vs),
+                    compilation_options: Default::default(),
+                    buffers,
+                },
+                primitive: wgpu::PrimitiveState {
+                    topology: wgpu::PrimitiveTopology::TriangleList,
+                    front_face: wgpu::FrontFace::Ccw,
+                    cull_mode: cull,
+                    ..Default::default()
+                },
+                depth_stencil: Some(depth_state(compare)),
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &shader,
+                    entry_point: Some(fs),
+                    compilation_options: Default::default(),
+                    targets: &target,
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let background = pipeline(
+            "background",
+            "vs_background",
+            "fs_background",
+            &[],
+            None,
+            wgpu::CompareFunction::Always,
+        );
+        let mesh_pipeline = pipeline(
+            "mesh",
+            "vs_object",
+            "fs_mesh",
+            &object_buffers,
+            Some(wgpu::Face::Back),
+            wgpu::CompareFunction::Greater,
+        );
+        // sphere impostors draw the back faces of their bounding cube, which cover the sphere from any
+        // viewpoint (also from inside the cube)
+        let sphere_pipeline = pipeline(
+            "sphere",
+            "vs_object",
+            "fs_sphere",
+            &object_buffers,
+            Some(wgpu::Face::Front),
+            wgpu::CompareFunction::Greater,
+        );
+        Ok(Renderer {
+            n,
+            padded_bpr,
+            color_view: color.create_view(&wgpu::TextureViewDescriptor::default()),
+            color,
+            depth_view: depth.create_view(&wgpu::TextureViewDescriptor::default()),
+            readback,
+            globals,
+            bind_group,
+            mesh: mesh_buf,
+            cube,
+            cylinder,
+            instances,
+            capacity,
+            background,
+            mesh_pipeline,
+            sphere_pipeline,
+            scratch: Vec::with_capacity(capacity),
+            map_state: Arc::new(AtomicU8::new(0)),
+            timings: RenderTimings::default(),
+            ctx,
+        })
+    }
+
+    fn instance_buffer(device: &wgpu::Device, capacity: usize) -> wgpu::Buffer {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("instances"),
+            size: (capacity * std::mem::size_of::<InstanceRaw>()) as u64,
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// Frame size n.
+    pub fn n(&self) -> u32 {
+        self.n
+    }
+
+    /// The GPU context (to create more renderers on the same device).
+    pub fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    /// Time spent so far in each phase of rendering.
+    pub fn timings(&self) -> RenderTimings {
+        self.timings
+    }
+
+    /// Renders one frame and writes it to `out` (resized to n·n): luminance in [0, 1], row-major, row 0
+    /// at the top of the image.
+    pub fn render(&mut self, frame: &FrameDesc<'_>, out: &mut Vec<f32>) -> Result<(), SimError> {
+        let n = self.n as usize;
+        let t_start = std::time::Instant::now();
+        // camera matrices (camera at the origin of the render frame)
+        let fwd = (frame.camera_rotation * DVec3::X).as_vec3();
+        let up = (frame.camera_rotation * DVec3::Z).as_vec3();
+        let view = crate::glam::camera::rh::view::look_to_mat4(Vec3::ZERO, fwd, up);
+        let proj = crate::glam::camera::rh::proj::directx::perspective_infinite_reverse(
+            frame.fov_rad as f32,
+            1.0,
+            frame.near_m,
+        );
+        let view_proj = proj * view;
+        let cam = frame.camera_position;
+        let (ground_a, ground_b, gk, gs, enabled) = match frame.ground {
+            Some(t) => {
+                let (a, b, k, s) = tex_params(t, frame.t_s);
+                (a, b, k, s, 1.0)
+            }
+            None => ([0.0; 4], [0.0; 4], 0, 0, 0.0),
+        };
+        let globals = Globals {
+            view_proj: view_proj.to_cols_array_2d(),
+            inv_view_proj: view_proj.inverse().to_cols_array_2d(),
+            camera: [cam.x as f32, cam.y as f32, cam.z as f32, frame.sky],
+            ground_a,
+            ground_b: [ground_b[0], ground_b[1], enabled, self.n as f32],
+            ground_k: [gk, gs, 0, 0],
+        };
+        // instances sorted by primitive: boxes, cylinders, spheres
+        self.scratch.clear();
+        let mut counts = [0u32; 3];
+        for kind in [PrimKind::Box, PrimKind::Cylinder, PrimKind::Sphere] {
+            for inst in frame.instances.iter().filter(|i| i.prim == kind) {
+                let model = Mat4::from_rotation_translation(inst.rotation, inst.position);
+                let (tex_a, tex_b, tk, seed) = tex_params(&inst.texture, frame.t_s);
+                self.scratch.push(InstanceRaw {
+                    model: model.to_cols_array_2d(),
+                    size: Vec4::from((inst.size, 0.0)).to_array(),
+                    tex_a,
+                    tex_b,
+                    kinds: [inst.prim as u32, tk, seed, 0],
+                });
+                counts[match kind {
+                    PrimKind::Box => 0,
+                    PrimKind::Cylinder => 1,
+                    PrimKind::Sphere => 2,
+                }] += 1;
+            }
+        }
+        let device = &self.ctx.device;
+        let queue = &self.ctx.queue;
+        if self.scratch.len() > self.capacity {
+            self.capacity = self.scratch.len().next_power_of_two();
+            self.instances = Self::instance_buffer(device, self.capacity);
+        }
+        queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));
+        if !self.scratch.is_empty() {
+            queue.write_buffer(&self.instances, 0, bytemuck::cast_slice(&self.scratch));
+        }
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("frame"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &self.color_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color {
+                            r: f64::from(frame.sky),
+                            g: 0.0,
+                            b: 0.0,
+                            a: 1.0,
+                        }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &self.depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(0.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            pass.set_pipeline(&self.background);
+            pass.draw(0..3, 0..1);
+            if !self.scratch.is_empty() {
+                pass.set_vertex_buffer(0, self.mesh.slice(..));
+                pass.set_vertex_buffer(1, self.instances.slice(..));
+                let (nb, nc, ns) = (counts[0], counts[1], counts[2]);
+                pass.set_pipeline(&self.mesh_pipeline);
+                if nb > 0 {
+                    pass.draw(self.cube.clone(), 0..nb);
+                }
+                if nc > 0 {
+                    pass.draw(self.cylinder.clone(), nb..nb + nc);
+                }
+                if ns > 0 {
+                    pass.set_pipeline(&self.sphere_pipeline);
+                    pass.draw(self.cube.clone(), nb + nc..nb + nc + ns);
+                }
+            }
+        }
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture: &self.color,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &self.readback,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(self.padded_bpr),
+                    rows_per_image: Some(self.n),
+                },
+            },
+            wgpu::Extent3d {
+                width: self.n,
+                height: self.n,
+                depth_or_array_layers: 1,
+            },
+        );
+        let cmd = encoder.finish();
+        let t_encoded = std::time::Instant::now();
+        let index = queue.submit(Some(cmd));
+        let t_submitted = std::time::Instant::now();
+        self.map_state.store(0, Ordering::Release);
+        let state = Arc::clone(&self.map_state);
+        self.readback.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+            state.store(if r.is_ok() { 1 } else { 2 }, Ordering::Release);
+        });
+        device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(index),
+                timeout: None,
+            })
+            .map_err(|e| SimError::Gpu {
+                during: "waiting for the frame",
+                reason: e.to_string(),
+            })?;
+        if self.map_state.load(Ordering::Acquire) != 1 {
+            // the callback runs during poll; if the submission finished before the map was queued, poll once more
+            device
+                .poll(wgpu::PollType::wait_indefinitely())
+                .map_err(|e| SimError::Gpu {
+                    during: "mapping the readback buffer",
+                    reason: e.to_string(),
+                })?;
+        }
+        if self.map_state.load(Ordering::Acquire) != 1 {
+            return Err(SimError::Gpu {
+                during: "mapping the readback buffer",
+                reason: "map_async failed".into(),
+            });
+        }
+        let t_waited = std::time::Instant::now();
+        out.clear();
+        out.reserve(n * n);
+        {
+            let view = self.readback.get_mapped_range(..).map_err(|e| SimError::Gpu {
+                during: "reading back the frame",
+                reason: e.to_string(),
+            })?;
+            let bpr = self.padded_bpr as usize;
+            for row in 0..n {
+                let bytes = &view[row * bpr..row * bpr + n * 4];
+                out.extend(
+                    bytes
+                        .chunks_exact(4)
+                        .map(|b| f32::from_ne_bytes([b[0], b[1], b[2], b[3]])),
+                );
+            }
+        }
+        self.readback.unmap();
+        let t_end = std::time::Instant::now();
+        let tm = &mut self.timings;
+        tm.frames += 1;
+        tm.encode_s += (t_encoded - t_start).as_secs_f64();
+        tm.submit_s += (t_submitted - t_encoded).as_secs_f64();
+        tm.wait_s += (t_waited - t_submitted).as_secs_f64();
+        tm.readback_s += (t_end - t_waited).as_secs_f64();
+        Ok(())
+    }
+}
+
+/// Converts a frame in [0, 1] to 8-bit grey levels (round to nearest, clamped).
+pub fn frame_to_u8(frame: &[f32]) -> Vec<u8> {
+    frame
+        .iter()
+        .map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn rows_are_padded_to_256_bytes() {
+        for n in [1u32, 63, 64, 65, 100, 128, 256, 257] {
+            let p = super::padded_bytes_per_row(n);
+            assert_eq!(p % 256, 0);
+            assert!(p >= n * 4 && p < n * 4 + 256);
+        }
+    }
+}

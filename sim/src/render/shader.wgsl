@@ -1,0 +1,248 @@
+// loomlab-sim renderer: single-channel luminance, no lighting.
+//
+// Coordinates: camera-relative world frame (world axes, z up, camera at the origin) so that f32 stays
+// precise far from the world origin. Depth: reversed-Z with an infinite far plane (clear 0, GREATER).
+// Textures are procedural and box-filtered over the pixel footprint (see texture.rs).
+
+const TEX_UNIFORM: u32 = 0u;
+const TEX_CHECKER: u32 = 1u;
+const TEX_SQUARE: u32 = 2u;
+const TEX_SINE: u32 = 3u;
+const TEX_NOISE: u32 = 4u;
+const PI: f32 = 3.14159265358979;
+
+struct Globals {
+    view_proj: mat4x4<f32>,
+    inv_view_proj: mat4x4<f32>,
+    // xyz: camera world position (for world-anchored ground texture), w: sky luminance
+    camera: vec4<f32>,
+    // ground texture: a = (dark, light, scale, orientation), b = (phase, binary, enabled, n)
+    ground_a: vec4<f32>,
+    ground_b: vec4<f32>,
+    // x: texture kind, y: seed
+    ground_k: vec4<u32>,
+};
+
+@group(0) @binding(0) var<uniform> g: Globals;
+
+// ---------------------------------------------------------------- textures
+
+fn pcg(v: u32) -> u32 {
+    let state = v * 747796405u + 2891336453u;
+    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+fn hash3(x: u32, y: u32, seed: u32) -> f32 {
+    let h = pcg(x ^ pcg(y ^ pcg(seed)));
+    return f32(h >> 8u) / 16777216.0;
+}
+
+// Integral of the ±1 square wave of period 1 (+1 on [0, 0.5)).
+fn square_integral(x: f32) -> f32 {
+    return 0.5 - abs(fract(x) - 0.5);
+}
+
+// Square wave box-filtered over a window of width w (in cycles) centred on x.
+fn square_filtered(x: f32, w: f32) -> f32 {
+    if (w < 1e-3) {
+        return select(-1.0, 1.0, fract(x) < 0.5);
+    }
+    return (square_integral(x + 0.5 * w) - square_integral(x - 0.5 * w)) / w;
+}
+
+// Luminance of texture (kind, a, b) at surface coords uv with screen derivatives duv_dx, duv_dy.
+fn texture_value(kind: u32, seed: u32, a: vec4<f32>, b: vec4<f32>, uv: vec2<f32>, duv_dx: vec2<f32>, duv_dy: vec2<f32>) -> f32 {
+    let dark = a.x;
+    let light = a.y;
+    let scale = a.z;
+    let mean = 0.5 * (dark + light);
+    let amp = 0.5 * (light - dark);
+    switch kind {
+        case TEX_CHECKER: {
+            let p = uv / (2.0 * scale);
+            let w = (abs(duv_dx) + abs(duv_dy)) / (2.0 * scale);
+            let s = square_filtered(p.x, w.x) * square_filtered(p.y, w.y);
+            return mean - amp * s;
+        }
+        case TEX_SQUARE, TEX_SINE: {
+            let dir = vec2<f32>(sin(a.w), cos(a.w));
+            let x = dot(uv, dir) / scale - b.x;
+            let w = (abs(dot(duv_dx, dir)) + abs(dot(duv_dy, dir))) / scale;
+            if (kind == TEX_SQUARE) {
+                return mean + amp * square_filtered(x, w);
+            }
+            var atten = 1.0;
+            if (w >= 1.0) {
+                atten = 0.0;
+            } else if (w > 1e-3) {
+                atten = sin(PI * w) / (PI * w);
+            }
+            return mean + amp * atten * sin(2.0 * PI * x);
+        }
+        case TEX_NOISE: {
+            let cell = floor(uv / scale);
+            let h = hash3(bitcast<u32>(i32(cell.x)), bitcast<u32>(i32(cell.y)), seed);
+            var v = dark + (light - dark) * h;
+            if (b.y > 0.5) {
+                v = select(dark, light, h >= 0.5);
+            }
+            let w = max(abs(duv_dx.x) + abs(duv_dy.x), abs(duv_dx.y) + abs(duv_dy.y)) / scale;
+            return mix(mean, v, min(1.0, 1.0 / max(w, 1e-6)));
+        }
+        default: {
+            return dark;
+        }
+    }
+}
+
+// ---------------------------------------------------------------- background: ground plane and sky
+
+struct BgOut {
+    @builtin(position) pos: vec4<f32>,
+    @location(0) ndc: vec2<f32>,
+};
+
+@vertex
+fn vs_background(@builtin(vertex_index) i: u32) -> BgOut {
+    // one triangle covering the screen
+    let xy = vec2<f32>(f32((i << 1u) & 2u) * 2.0 - 1.0, f32(i & 2u) * 2.0 - 1.0);
+    var o: BgOut;
+    o.pos = vec4<f32>(xy, 0.0, 1.0);
+    o.ndc = xy;
+    return o;
+}
+
+struct FragOut {
+    @location(0) lum: f32,
+    @builtin(frag_depth) depth: f32,
+};
+
+@fragment
+fn fs_background(in: BgOut) -> FragOut {
+    let p = g.inv_view_proj * vec4<f32>(in.ndc, 1.0, 1.0);
+    let dir = normalize(p.xyz / p.w);
+    let cam_z = g.camera.z;
+    let hits = dir.z < -1e-6 && cam_z > 0.0 && g.ground_b.z > 0.5;
+    let t = select(1e7, min(cam_z / max(-dir.z, 1e-9), 1e7), hits);
+    let hit = dir * t;
+    let uv = hit.xy + g.camera.xy;
+    let duv_dx = dpdx(uv);
+    let duv_dy = dpdy(uv);
+    let ground = texture_value(g.ground_k.x, g.ground_k.y, g.ground_a, g.ground_b, uv, duv_dx, duv_dy);
+    var o: FragOut;
+    if (hits) {
+        o.lum = clamp(ground, 0.0, 1.0);
+        let clip = g.view_proj * vec4<f32>(hit, 1.0);
+        o.depth = clamp(clip.z / clip.w, 0.0, 1.0);
+    } else {
+        o.lum = g.camera.w;
+        o.depth = 0.0;
+    }
+    return o;
+}
+
+// ---------------------------------------------------------------- objects
+
+struct Inst {
+    @location(2) m0: vec4<f32>,
+    @location(3) m1: vec4<f32>,
+    @location(4) m2: vec4<f32>,
+    @location(5) m3: vec4<f32>,
+    @location(6) size: vec4<f32>,
+    @location(7) tex_a: vec4<f32>,
+    @location(8) tex_b: vec4<f32>,
+    @location(9) kinds: vec4<u32>,
+};
+
+struct ObjOut {
+    @builtin(position) pos: vec4<f32>,
+    @location(0) local: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) world: vec3<f32>,
+    @location(3) @interpolate(flat) tex_a: vec4<f32>,
+    @location(4) @interpolate(flat) tex_b: vec4<f32>,
+    @location(5) @interpolate(flat) kinds: vec4<u32>,
+    @location(6) @interpolate(flat) size: vec4<f32>,
+    @location(7) @interpolate(flat) center: vec3<f32>,
+    @location(8) @interpolate(flat) r0: vec3<f32>,
+    @location(9) @interpolate(flat) r1: vec3<f32>,
+    @location(10) @interpolate(flat) r2: vec3<f32>,
+};
+
+@vertex
+fn vs_object(@location(0) pos: vec3<f32>, @location(1) normal: vec3<f32>, inst: Inst) -> ObjOut {
+    let local = pos * inst.size.xyz;
+    let model = mat4x4<f32>(inst.m0, inst.m1, inst.m2, inst.m3);
+    let world = (model * vec4<f32>(local, 1.0)).xyz;
+    var o: ObjOut;
+    o.pos = g.view_proj * vec4<f32>(world, 1.0);
+    o.local = local;
+    o.normal = normal;
+    o.world = world;
+    o.tex_a = inst.tex_a;
+    o.tex_b = inst.tex_b;
+    o.kinds = inst.kinds;
+    o.size = inst.size;
+    o.center = inst.m3.xyz;
+    o.r0 = inst.m0.xyz;
+    o.r1 = inst.m1.xyz;
+    o.r2 = inst.m2.xyz;
+    return o;
+}
+
+// Boxes (kinds.x == 0) and cylinders (kinds.x == 2).
+@fragment
+fn fs_mesh(in: ObjOut) -> @location(0) f32 {
+    let n = abs(in.normal);
+    let is_cyl = in.kinds.x == 2u;
+    let r = 0.5 * in.size.x;
+    // cylinder side: u = r * azimuth; a second azimuth with its seam on the other side fixes derivatives
+    let az = atan2(in.local.y, in.local.x);
+    let az2 = atan2(-in.local.y, -in.local.x);
+    let side_uv = vec2<f32>(r * az, in.local.z);
+    let box_uv = select(select(in.local.xz, in.local.yz, n.x > 0.5), in.local.xy, n.z > 0.5);
+    let cyl_side = is_cyl && n.z < 0.5;
+    let uv = select(box_uv, side_uv, cyl_side);
+    var duv_dx = dpdx(uv);
+    var duv_dy = dpdy(uv);
+    let du2_dx = r * dpdx(az2);
+    let du2_dy = r * dpdy(az2);
+    if (cyl_side) {
+        if (abs(du2_dx) < abs(duv_dx.x)) { duv_dx.x = du2_dx; }
+        if (abs(du2_dy) < abs(duv_dy.x)) { duv_dy.x = du2_dy; }
+    }
+    let v = texture_value(in.kinds.y, in.kinds.z, in.tex_a, in.tex_b, uv, duv_dx, duv_dy);
+    return clamp(v, 0.0, 1.0);
+}
+
+// Spheres: ray-cast impostor inside the (back faces of the) bounding cube: exact silhouette and depth.
+@fragment
+fn fs_sphere(in: ObjOut) -> FragOut {
+    let dir = normalize(in.world);
+    let c = in.center;
+    let r = 0.5 * in.size.x;
+    let b = dot(dir, c);
+    let perp = c - b * dir;
+    let disc = r * r - dot(perp, perp);
+    let s = sqrt(max(disc, 0.0));
+    var t = b - s;
+    if (t < 0.0) {
+        t = b + s; // camera inside the sphere: see its inside
+    }
+    let hit = dir * t;
+    let rel = hit - c;
+    let local = vec3<f32>(dot(rel, in.r0), dot(rel, in.r1), dot(rel, in.r2));
+    let uv = local.yz;
+    let duv_dx = dpdx(uv);
+    let duv_dy = dpdy(uv);
+    let v = texture_value(in.kinds.y, in.kinds.z, in.tex_a, in.tex_b, uv, duv_dx, duv_dy);
+    if (disc < 0.0 || t <= 0.0) {
+        discard;
+    }
+    let clip = g.view_proj * vec4<f32>(hit, 1.0);
+    var o: FragOut;
+    o.lum = clamp(v, 0.0, 1.0);
+    o.depth = clamp(clip.z / clip.w, 0.0, 1.0);
+    return o;
+}

@@ -1,0 +1,162 @@
+//! The robot: a body driven by velocity commands (a unicycle, optionally holonomic).
+//!
+//! The robot is a kinematic body: its pose is integrated exactly (circular arcs for constant forward
+//! speed and yaw rate over a step), so the commanded velocities are achieved exactly and trajectories are
+//! reproducible. It is invisible to its own camera. Its collider is a rapier *sensor* that reports every
+//! object it touches (projectiles, vehicles, scenery); nothing pushes it.
+
+use serde::{Deserialize, Serialize};
+
+use crate::SimError;
+use crate::glam::DVec3;
+use crate::shape::{Prim, PrimKind, ShapeDesc};
+use crate::trajectory::{Motion, Pose64, Segment};
+
+/// A velocity command, in the robot's body frame (x forward, y left).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Command {
+    /// Forward speed (m/s; negative = backwards).
+    pub forward_mps: f32,
+    /// Yaw rate (rad/s; positive = turn left / counter-clockwise seen from above).
+    pub yaw_rate_rps: f32,
+    /// Lateral speed (m/s; positive = to the left), for holonomic bases.
+    pub lateral_mps: f32,
+}
+
+impl Command {
+    /// A command with only a forward speed.
+    pub fn forward(forward_mps: f32) -> Self {
+        Command {
+            forward_mps,
+            ..Default::default()
+        }
+    }
+
+    /// Checks that every component is finite.
+    pub fn validate(&self) -> Result<(), SimError> {
+        for (k, v) in [
+            ("forward_mps", self.forward_mps),
+            ("yaw_rate_rps", self.yaw_rate_rps),
+            ("lateral_mps", self.lateral_mps),
+        ] {
+            if !v.is_finite() {
+                return Err(SimError::invalid(format!("command.{k}"), v, "must be finite"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The motion segment of a robot at `pose` (body-origin pose) from time `t` on under this command.
+    pub fn motion_from(&self, pose: Pose64, t: f64) -> Segment {
+        let (v, l, w) = (
+            f64::from(self.forward_mps),
+            f64::from(self.lateral_mps),
+            f64::from(self.yaw_rate_rps),
+        );
+        let motion = if w.abs() < 1e-9 {
+            if v == 0.0 && l == 0.0 {
+                Motion::Hold
+            } else {
+                Motion::Linear {
+                    velocity: pose.rotation * DVec3::new(v, l, 0.0),
+                }
+            }
+        } else {
+            // instantaneous centre of rotation in the body frame: (-l/w, v/w)
+            Motion::Arc {
+                center: pose.transform_point(DVec3::new(-l / w, v / w, 0.0)),
+                yaw_rate: w,
+            }
+        };
+        Segment {
+            t0: t,
+            t1: f64::INFINITY,
+            pose0: pose,
+            motion,
+        }
+    }
+}
+
+/// The robot's body and start pose (TOML table `[world.robot]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RobotDesc {
+    /// Body shape (`box` or `cylinder`). Default: a 0.5 × 0.4 × 0.3 m box.
+    pub body: ShapeDesc,
+    /// Start position `[x, y]` on the ground (m). Default: the origin.
+    pub start: [f32; 2],
+    /// Start heading (degrees from +x, counter-clockwise). Default 0: driving along +x.
+    pub yaw_deg: f32,
+    /// Gap between the ground and the bottom of the body (m). Default 0.05.
+    pub ground_clearance_m: f32,
+}
+
+impl Default for RobotDesc {
+    fn default() -> Self {
+        RobotDesc {
+            body: ShapeDesc::Box { size: [0.5, 0.4, 0.3] },
+            start: [0.0, 0.0],
+            yaw_deg: 0.0,
+            ground_clearance_m: 0.05,
+        }
+    }
+}
+
+impl RobotDesc {
+    /// Validates the description and returns the body primitive.
+    pub fn body_prim(&self) -> Result<Prim, SimError> {
+        let prim = self.body.to_prim("world.robot.body")?;
+        if prim.kind == PrimKind::Sphere {
+            return Err(SimError::invalid(
+                "world.robot.body.kind",
+                "sphere",
+                "the robot body must be a box or a cylinder",
+            ));
+        }
+        if !(self.ground_clearance_m.is_finite() && self.ground_clearance_m >= 0.0) {
+            return Err(SimError::invalid(
+                "world.robot.ground_clearance_m",
+                self.ground_clearance_m,
+                "must be >= 0",
+            ));
+        }
+        if self.start.iter().any(|v| !v.is_finite()) || !self.yaw_deg.is_finite() {
+            return Err(SimError::invalid(
+                "world.robot.start",
+                format!("{:?}", self.start),
+                "must be finite",
+            ));
+        }
+        Ok(prim)
+    }
+
+    /// Pose of the body centre at the start.
+    pub fn start_pose(&self, prim: &Prim) -> Pose64 {
+        Pose64::from_xyz_yaw(
+            DVec3::new(
+                self.start[0].into(),
+                self.start[1].into(),
+                f64::from(self.ground_clearance_m + prim.height() / 2.0),
+            ),
+            f64::from(self.yaw_deg).to_radians(),
+        )
+    }
+}
+
+/// The robot's state after a step.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct RobotState {
+    /// Simulation time (s).
+    pub t_s: f64,
+    /// Body centre x (m).
+    pub x_m: f64,
+    /// Body centre y (m).
+    pub y_m: f64,
+    /// Heading (rad, counter-clockwise from +x).
+    pub yaw_rad: f64,
+    /// The command applied during the last step.
+    pub command: Command,
+    /// World velocity of the body centre (m/s).
+    pub velocity_mps: [f64; 3],
+}

@@ -1,0 +1,135 @@
+//! Exact per-frame ground truth: distance, angular size and its rate, time to contact, collision course.
+
+use serde::Serialize;
+
+use crate::glam::DVec3;
+use crate::object::ObjectKind;
+use crate::shape::AngularPrimitive;
+use crate::trajectory::Pose64;
+
+/// Ground truth for one object at one frame.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ObjectTruth {
+    /// Index of the object (scenery first, then vehicles, then projectiles, each in file order).
+    pub id: usize,
+    /// The object's name.
+    pub name: String,
+    /// The object's kind.
+    pub kind: ObjectKind,
+    /// Distance from the camera to the nearest point of the object's surface (m; 0 inside it).
+    pub distance_m: f32,
+    /// Distance from the camera to the object's reference point (sphere centre, vehicle reference point).
+    pub center_distance_m: f32,
+    /// True angular size: the largest angle between two points of the object seen from the camera
+    /// (a sphere: `2·asin(r/d)`), in degrees; 180 when the camera is inside it.
+    pub angular_size_deg: f32,
+    /// Time derivative of `angular_size_deg` (degrees/s; positive = looming), from the exact motions.
+    pub angular_rate_deg_s: f32,
+    /// Optical time to contact θ / θ̇ (s), when the object is looming (θ̇ > 0).
+    pub tau_s: Option<f32>,
+    /// Time until the object touches the robot's body (s) if the robot keeps its current command and the
+    /// object its planned path; `None` if not within the prediction horizon. Exact (parry time of
+    /// impact on the analytic motions), 0 while touching.
+    pub ttc_s: Option<f32>,
+    /// Whether `ttc_s` is `Some`: the object is on a collision course with the robot's body.
+    pub on_collision_course: bool,
+    /// Horizontal image position of the object's reference point: −1 at the left image border, +1 at the
+    /// right, clamped to [−1, 1] (objects outside the view or behind the camera report the side they
+    /// are on). An escape controller turns away from its sign.
+    pub bearing: f32,
+    /// Azimuth of the reference point from the optical axis (degrees, positive = right, ±180 behind).
+    pub bearing_deg: f32,
+    /// Elevation of the reference point (degrees, positive = up).
+    pub elevation_deg: f32,
+    /// Whether the reference point projects inside the image.
+    pub in_view: bool,
+    /// Whether the object touches the robot's body now (from rapier's narrow phase).
+    pub in_contact: bool,
+}
+
+/// A contact between the robot's body and an object, reported by rapier's collision events.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Contact {
+    /// Time of the physics (sub)step at whose end rapier found the bodies touching (s).
+    pub t_s: f64,
+    /// Frame index (1-based step count) during which it happened.
+    pub frame: u64,
+    /// The object's id (see [`ObjectTruth::id`]).
+    pub object_id: usize,
+    /// The object's name.
+    pub name: String,
+    /// The object's kind.
+    pub kind: ObjectKind,
+    /// Exact time of first touch within that (sub)step, from a time-of-impact query on the analytic
+    /// motions (`None` when the bodies already overlapped at its start).
+    pub exact_t_s: Option<f64>,
+}
+
+/// The angular diameter (rad) of a set of primitives (in the body frame at `pose`) seen from `eye`.
+pub(crate) fn angular_size(prims: &[AngularPrimitive], pose: &Pose64, eye: DVec3) -> f64 {
+    let pi = std::f64::consts::PI;
+    let mut dirs: Vec<(DVec3, f64)> = Vec::with_capacity(prims.len());
+    for p in prims {
+        match p {
+            AngularPrimitive::Point(q) => {
+                let d = pose.transform_point(*q) - eye;
+                let len = d.length();
+                if len < 1e-12 {
+                    return pi;
+                }
+                dirs.push((d / len, 0.0));
+            }
+            AngularPrimitive::Sphere(c, r) => {
+                let d = pose.transform_point(*c) - eye;
+                let len = d.length();
+                if len <= *r {
+                    return pi;
+                }
+                dirs.push((d / len, (r / len).asin()));
+            }
+        }
+    }
+    let mut best = 0.0f64;
+    let mut min_dot_points = 1.0f64;
+    for (i, (u, a)) in dirs.iter().enumerate() {
+        best = best.max(2.0 * a);
+        for (v, b) in &dirs[i + 1..] {
+            let dot = u.dot(*v).clamp(-1.0, 1.0);
+            if *a == 0.0 && *b == 0.0 {
+                min_dot_points = min_dot_points.min(dot);
+            } else {
+                best = best.max(dot.acos() + a + b);
+            }
+        }
+    }
+    best.max(min_dot_points.acos()).min(pi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sphere_angular_size_is_two_asin() {
+        let prims = [AngularPrimitive::Sphere(DVec3::ZERO, 0.5)];
+        let pose = Pose64::from_xyz_yaw(DVec3::new(10.0, 0.0, 0.0), 0.0);
+        let a = angular_size(&prims, &pose, DVec3::ZERO);
+        assert!((a - 2.0 * (0.05f64).asin()).abs() < 1e-12);
+        assert_eq!(
+            angular_size(&prims, &pose, DVec3::new(9.8, 0.0, 0.0)),
+            std::f64::consts::PI
+        );
+    }
+
+    #[test]
+    fn box_angular_size_from_corners() {
+        // a 2 m wide, flat board at 10 m: width subtends 2·atan(1/10) (its depth is negligible)
+        let mut prims = Vec::new();
+        for (y, z) in [(-1.0, -1e-3), (1.0, -1e-3), (-1.0, 1e-3), (1.0, 1e-3)] {
+            prims.push(AngularPrimitive::Point(DVec3::new(0.0, y, z)));
+        }
+        let pose = Pose64::from_xyz_yaw(DVec3::new(10.0, 0.0, 0.0), 0.0);
+        let a = angular_size(&prims, &pose, DVec3::ZERO);
+        assert!((a - 2.0 * (0.1f64).atan()).abs() < 1e-6, "{a}");
+    }
+}

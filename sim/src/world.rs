@@ -1,0 +1,270 @@
+//! The world description: a plain, serde-deserialisable struct (scenario files embed it as `[world]`).
+//!
+//! Coordinates: right-handed, metres, z up, ground plane z = 0. The robot starts at `robot.start` (default
+//! the origin) heading along `robot.yaw_deg` (default 0: driving along +x, so +y is to its left). Angles
+//! are in degrees in descriptions, counter-clockwise about +z. Scenery and vehicles are placed in world
+//! coordinates; projectiles are aimed in the robot's start frame.
+
+use serde::{Deserialize, Serialize};
+
+use crate::SimError;
+use crate::camera::{Camera, CameraDesc};
+use crate::object::ObjectSpec;
+use crate::projectile::{AimFrame, ProjectileDesc};
+use crate::robot::RobotDesc;
+use crate::scenery::{OverpassDesc, PoleDesc, SceneryDesc, WallDesc};
+use crate::shape::Prim;
+use crate::texture::{GratingDesc, ResolvedTexture, Texture};
+use crate::trajectory::Pose64;
+use crate::vehicle::VehicleDesc;
+
+fn d_camera_hz() -> f32 {
+    120.0
+}
+fn d_substeps() -> u32 {
+    1
+}
+fn d_gravity() -> f32 {
+    9.81
+}
+fn d_horizon() -> f32 {
+    10.0
+}
+fn d_sky() -> f32 {
+    0.8
+}
+
+/// The ground plane z = 0 (TOML table `[world.ground]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GroundDesc {
+    /// Draw the ground (and stop projectiles on it). Default true.
+    pub enabled: bool,
+    /// Ground texture in world `(u, v) = (x, y)` (default: 1 m checker, luminance 0.3 / 0.5).
+    pub texture: Texture,
+}
+
+impl Default for GroundDesc {
+    fn default() -> Self {
+        GroundDesc {
+            enabled: true,
+            texture: Texture::Checker {
+                size_m: 1.0,
+                dark: 0.3,
+                light: 0.5,
+            },
+        }
+    }
+}
+
+/// A whole simulated world (TOML table `[world]`).
+///
+/// `WorldDesc::default()` is a small demo scene (a ball thrown head-on at the robot, a grating wall, a
+/// pole and a passing car). When deserialising, absent keys take their *individual* defaults and absent
+/// object lists are empty, so a file lists exactly the objects it wants ([`WorldDesc::empty`] is the
+/// same thing in code).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WorldDesc {
+    /// Camera frame rate (Hz); one [`crate::Sim::step`] advances 1/camera_hz seconds. Default 120.
+    #[serde(default = "d_camera_hz")]
+    pub camera_hz: f32,
+    /// Physics (contact detection) steps per camera frame. Default 1.
+    #[serde(default = "d_substeps")]
+    pub physics_substeps: u32,
+    /// Gravity for ballistic projectiles (m/s²). Default 9.81.
+    #[serde(default = "d_gravity")]
+    pub gravity_mps2: f32,
+    /// How far ahead collision courses are predicted (s). Default 10.
+    #[serde(default = "d_horizon")]
+    pub prediction_horizon_s: f32,
+    /// Sky luminance (everything above the horizon that no object covers). Default 0.8.
+    #[serde(default = "d_sky")]
+    pub sky_luminance: f32,
+    /// The ground plane.
+    #[serde(default)]
+    pub ground: GroundDesc,
+    /// The robot.
+    #[serde(default)]
+    pub robot: RobotDesc,
+    /// The robot's camera.
+    #[serde(default)]
+    pub camera: CameraDesc,
+    /// Static scenery.
+    #[serde(default)]
+    pub scenery: Vec<SceneryDesc>,
+    /// Projectiles.
+    #[serde(default)]
+    pub projectiles: Vec<ProjectileDesc>,
+    /// Vehicles.
+    #[serde(default)]
+    pub vehicles: Vec<VehicleDesc>,
+}
+
+impl Default for WorldDesc {
+    fn default() -> Self {
+        WorldDesc {
+            scenery: vec![
+                SceneryDesc::Wall(WallDesc {
+                    texture: Texture::SquareGrating(GratingDesc {
+                        period_m: Some(0.5),
+                        orientation_deg: 90.0,
+                        dark: 0.2,
+                        light: 0.8,
+                        ..Default::default()
+                    }),
+                    ..Default::default()
+                }),
+                SceneryDesc::Pole(PoleDesc::default()),
+                SceneryDesc::Overpass(OverpassDesc {
+                    position: [40.0, 0.0],
+                    ..Default::default()
+                }),
+            ],
+            projectiles: vec![ProjectileDesc {
+                launch_time_s: Some(0.5),
+                ..Default::default()
+            }],
+            vehicles: vec![VehicleDesc {
+                start: [25.0, -12.0],
+                heading_deg: Some(90.0),
+                ..Default::default()
+            }],
+            ..WorldDesc::empty()
+        }
+    }
+}
+
+/// A validated world: everything [`crate::Sim`] needs, in resolved form.
+#[derive(Clone, Debug)]
+pub(crate) struct BuiltWorld {
+    pub dt: f64,
+    pub substeps: u32,
+    pub horizon: f64,
+    pub sky: f32,
+    pub ground: Option<ResolvedTexture>,
+    pub camera: Camera,
+    pub robot_prim: Prim,
+    pub robot_start: Pose64,
+    pub objects: Vec<ObjectSpec>,
+}
+
+/// Mixes the simulation seed with a stream id into a 32-bit texture seed.
+pub(crate) fn sub_seed(seed: u64, stream: u64) -> u32 {
+    let mut z = seed ^ stream.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    (z ^ (z >> 31)) as u32
+}
+
+impl WorldDesc {
+    /// A world with ground, sky, robot and camera at their defaults and no objects.
+    pub fn empty() -> Self {
+        WorldDesc {
+            camera_hz: d_camera_hz(),
+            physics_substeps: d_substeps(),
+            gravity_mps2: d_gravity(),
+            prediction_horizon_s: d_horizon(),
+            sky_luminance: d_sky(),
+            ground: GroundDesc::default(),
+            robot: RobotDesc::default(),
+            camera: CameraDesc::default(),
+            scenery: Vec::new(),
+            projectiles: Vec::new(),
+            vehicles: Vec::new(),
+        }
+    }
+
+    /// Checks every value; the error names the offending key.
+    pub fn validate(&self) -> Result<(), SimError> {
+        self.build(0).map(|_| ())
+    }
+
+    /// Camera period (s).
+    pub fn dt(&self) -> f64 {
+        1.0 / f64::from(self.camera_hz)
+    }
+
+    pub(crate) fn build(&self, seed: u64) -> Result<BuiltWorld, SimError> {
+        if !(self.camera_hz.is_finite() && self.camera_hz > 0.0 && self.camera_hz <= 100_000.0) {
+            return Err(SimError::invalid(
+                "world.camera_hz",
+                self.camera_hz,
+                "must be in (0, 100000]",
+            ));
+        }
+        if !(1..=1000).contains(&self.physics_substeps) {
+            return Err(SimError::invalid(
+                "world.physics_substeps",
+                self.physics_substeps,
+                "must be in 1..=1000",
+            ));
+        }
+        if !(self.gravity_mps2.is_finite() && self.gravity_mps2 >= 0.0) {
+            return Err(SimError::invalid(
+                "world.gravity_mps2",
+                self.gravity_mps2,
+                "must be >= 0",
+            ));
+        }
+        if !(self.prediction_horizon_s.is_finite() && self.prediction_horizon_s >= 0.0) {
+            return Err(SimError::invalid(
+                "world.prediction_horizon_s",
+                self.prediction_horizon_s,
+                "must be >= 0",
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.sky_luminance) {
+            return Err(SimError::invalid(
+                "world.sky_luminance",
+                self.sky_luminance,
+                "luminance must be in [0, 1]",
+            ));
+        }
+        let ground = if self.ground.enabled {
+            Some(
+                self.ground
+                    .texture
+                    .resolve("world.ground.texture", None, sub_seed(seed, 1))?,
+            )
+        } else {
+            None
+        };
+        let camera = self.camera.build(seed)?;
+        let robot_prim = self.robot.body_prim()?;
+        let robot_start = self.robot.start_pose(&robot_prim);
+        let frame = AimFrame {
+            robot: robot_start,
+            camera: camera.pose(&robot_start, 0.0).position,
+            gravity: f64::from(self.gravity_mps2),
+            ground: self.ground.enabled,
+        };
+        let mut objects = Vec::new();
+        for (i, s) in self.scenery.iter().enumerate() {
+            objects.push(s.build(i, sub_seed(seed, 1000 + i as u64))?);
+        }
+        for (i, v) in self.vehicles.iter().enumerate() {
+            objects.push(v.build(i, sub_seed(seed, 100_000 + 100 * i as u64))?);
+        }
+        for (i, p) in self.projectiles.iter().enumerate() {
+            objects.push(p.build(i, &frame, sub_seed(seed, 200_000 + i as u64))?);
+        }
+        let mut names = std::collections::HashSet::new();
+        for o in &objects {
+            if !names.insert(o.name.as_str()) {
+                return Err(SimError::invalid("name", &o.name, "object names must be unique"));
+            }
+        }
+        Ok(BuiltWorld {
+            dt: self.dt(),
+            substeps: self.physics_substeps,
+            horizon: f64::from(self.prediction_horizon_s),
+            sky: self.sky_luminance,
+            ground,
+            camera,
+            robot_prim,
+            robot_start,
+            objects,
+        })
+    }
+}

@@ -1,0 +1,179 @@
+//! `loomlab render SCENE.toml --out DIR`: render the robot's egocentric view of a simulated world.
+//!
+//! Writes `DIR/frames/frame_00000.png…` (frame 0 is the view at t = 0, frame k the view after k camera
+//! periods), `DIR/view.gif` (every `--gif-stride`-th frame) and `DIR/truth.csv` (per-frame ground truth for
+//! every object, see `loomlab_sim::io::TRUTH_CSV_HEADER`).
+//!
+//! The scene file is TOML with the tables `[world]` (a `loomlab_sim::WorldDesc`), optional `[episode]`
+//! (`duration_s`, `seed`) and optional `[robot_command]` (a constant `forward_mps`, `yaw_rate_rps`,
+//! `lateral_mps`). Unknown keys are errors. Examples: `scenarios/scenes/*.toml`.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use clap::Args;
+use loomlab_sim::io::{GifWriter, TruthCsv, write_png};
+use loomlab_sim::{Command, Sim, WorldDesc};
+use serde::Deserialize;
+
+/// Arguments of `loomlab render`.
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    /// Scene file (TOML with `[world]`, optional `[episode]` and `[robot_command]`).
+    #[arg(value_name = "SCENE.toml")]
+    pub scene: PathBuf,
+    /// Output folder (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Number of steps to simulate (overrides `episode.duration_s`).
+    #[arg(long, conflicts_with = "seconds")]
+    pub frames: Option<u64>,
+    /// Simulated duration in seconds (overrides `episode.duration_s`).
+    #[arg(long)]
+    pub seconds: Option<f64>,
+    /// Seed (camera shake, noise textures); overrides `episode.seed`.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Frame size n (overrides `world.camera.n`).
+    #[arg(long)]
+    pub size: Option<u32>,
+    /// Do not write the animated GIF.
+    #[arg(long)]
+    pub no_gif: bool,
+    /// Do not write the PNG frames.
+    #[arg(long)]
+    pub no_frames: bool,
+    /// Physics and ground truth only: no rendering, no images (no GPU needed).
+    #[arg(long)]
+    pub no_render: bool,
+    /// Put every k-th frame into the GIF (default: about 40 frames per second of simulated time).
+    #[arg(long, value_name = "K")]
+    pub gif_stride: Option<u64>,
+    /// Stop at the first contact with the robot.
+    #[arg(long)]
+    pub stop_on_contact: bool,
+}
+
+/// `[episode]` of a scene file.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct EpisodeSection {
+    /// Simulated duration (s).
+    #[serde(default = "default_duration")]
+    duration_s: f64,
+    /// Seed.
+    #[serde(default)]
+    seed: u64,
+}
+
+fn default_duration() -> f64 {
+    3.0
+}
+
+impl Default for EpisodeSection {
+    fn default() -> Self {
+        EpisodeSection {
+            duration_s: default_duration(),
+            seed: 0,
+        }
+    }
+}
+
+/// A scene file: a world plus how to drive through it.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    world: WorldDesc,
+    #[serde(default)]
+    episode: EpisodeSection,
+    #[serde(default)]
+    robot_command: Command,
+}
+
+fn load_scene(path: &Path) -> anyhow::Result<SceneFile> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading scene file {}", path.display()))?;
+    let scene: SceneFile = toml::from_str(&text).with_context(|| format!("parsing scene file {}", path.display()))?;
+    scene
+        .world
+        .validate()
+        .with_context(|| format!("in scene file {}", path.display()))?;
+    Ok(scene)
+}
+
+/// Runs `loomlab render`; returns the exit code.
+pub fn run(args: RenderArgs) -> anyhow::Result<i32> {
+    let mut scene = load_scene(&args.scene)?;
+    if let Some(n) = args.size {
+        scene.world.camera.n = n;
+    }
+    let seed = args.seed.unwrap_or(scene.episode.seed);
+    let dt = scene.world.dt();
+    let steps = match (args.frames, args.seconds) {
+        (Some(f), _) => f,
+        (None, Some(s)) => (s / dt).round() as u64,
+        (None, None) => (scene.episode.duration_s / dt).round() as u64,
+    };
+    if !(scene.episode.duration_s.is_finite() && scene.episode.duration_s >= 0.0) {
+        bail!(
+            "{}: episode.duration_s = {} must be >= 0",
+            args.scene.display(),
+            scene.episode.duration_s
+        );
+    }
+    let mut sim = if args.no_render {
+        Sim::new_physics_only(&scene.world, seed)?
+    } else {
+        Sim::new(&scene.world, seed)?
+    };
+    let render = sim.renders();
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    let frames_dir = args.out.join("frames");
+    if render && !args.no_frames {
+        std::fs::create_dir_all(&frames_dir).with_context(|| format!("creating {}", frames_dir.display()))?;
+    }
+    let n = sim.n();
+    let stride = args
+        .gif_stride
+        .unwrap_or_else(|| ((1.0 / dt) / 40.0).round().max(1.0) as u64)
+        .max(1);
+    let delay_cs = ((stride as f64 * dt) * 100.0).round().clamp(2.0, 65535.0) as u16;
+    let mut gif = if render && !args.no_gif {
+        Some(GifWriter::create(&args.out.join("view.gif"), n, delay_cs)?)
+    } else {
+        None
+    };
+    let mut csv = TruthCsv::create(&args.out.join("truth.csv"))?;
+    if let Some(adapter) = sim.adapter() {
+        eprintln!("rendering {n}x{n} on {adapter}");
+    }
+    let bar = super::progress(steps + 1, "render");
+    let command = scene.robot_command;
+    let mut contacts = Vec::new();
+    for k in 0..=steps {
+        let out = if k == 0 { sim.observe()? } else { sim.step(&command)? };
+        if render {
+            if !args.no_frames {
+                write_png(&frames_dir.join(format!("frame_{k:05}.png")), &out.frame, n)?;
+            }
+            if let Some(g) = gif.as_mut().filter(|_| k % stride == 0) {
+                g.add(&out.frame)?;
+            }
+        }
+        let ids: Vec<usize> = out.contacts.iter().map(|c| c.object_id).collect();
+        csv.write_frame(k, &out.robot, &out.truth, &ids)?;
+        contacts.extend(out.contacts);
+        bar.inc(1);
+        if args.stop_on_contact && !contacts.is_empty() {
+            break;
+        }
+    }
+    bar.finish_and_clear();
+    csv.finish()?;
+    drop(gif);
+    for c in &contacts {
+        let exact = c.exact_t_s.map(|t| format!(" (exact {t:.4} s)")).unwrap_or_default();
+        println!("contact: {} ({}) at t = {:.4} s{exact}", c.name, c.kind, c.t_s);
+    }
+    println!("wrote {}", args.out.display());
+    Ok(0)
+}
