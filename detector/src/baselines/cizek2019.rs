@@ -26,7 +26,7 @@ use serde::Deserialize;
 
 use super::common::{FrameStep, PreviousFrame, Range, check, zeroed};
 use super::lowpass::LowPass;
-use super::stencil::{SymKernel, corr3};
+use super::stencil::{SymKernel, corr3_rows};
 use crate::{Detector, DetectorError, Frame, Signals};
 
 /// The 3×3 lateral-inhibition kernel `w_I` (baselines.md §4.2; sum 1.5, centre 0).
@@ -124,6 +124,8 @@ pub struct Cizek2019 {
     contrast: Vec<f64>,
     /// `P_{t−1}` (0 before the second frame).
     prev_contrast: Vec<f64>,
+    /// One row of the inhibition `I_t`.
+    row: Vec<f64>,
     cell_threshold: LowPass,
     gate_threshold: LowPass,
 }
@@ -137,6 +139,7 @@ impl Cizek2019 {
             prev: PreviousFrame::default(),
             contrast: Vec::new(),
             prev_contrast: Vec::new(),
+            row: Vec::new(),
             cell_threshold: LowPass::new(config.alpha_s),
             gate_threshold: LowPass::new(config.alpha_l),
         })
@@ -172,6 +175,7 @@ impl Detector for Cizek2019 {
             FrameStep::First(n) => {
                 zeroed(&mut self.contrast, n * n);
                 zeroed(&mut self.prev_contrast, n * n);
+                zeroed(&mut self.row, n);
                 return Ok(Self::signals(0.0, 0.0, 0.0, 0.0));
             }
             FrameStep::Next(n) => n,
@@ -185,15 +189,23 @@ impl Detector for Cizek2019 {
         // 2.–5. inhibition from P_{t−1}, summation, thresholding and pooling in one pass.
         let contrast = &self.contrast;
         let mut sum_s = 0.0;
-        corr3(n, INHIBITION_KERNEL, &self.prev_contrast, |idx, inhibition| {
-            let mut s = contrast[idx] - w_i * inhibition;
-            if absolute {
-                s = s.abs();
-            }
-            if s > cut {
-                sum_s += s.abs();
-            }
-        });
+        corr3_rows(
+            n,
+            INHIBITION_KERNEL,
+            &self.prev_contrast,
+            &mut self.row,
+            |start, inhibition| {
+                for (&p, &inh) in contrast[start..start + n].iter().zip(inhibition) {
+                    let mut s = p - w_i * inh;
+                    if absolute {
+                        s = s.abs();
+                    }
+                    if s > cut {
+                        sum_s += s.abs();
+                    }
+                }
+            },
+        );
         std::mem::swap(&mut self.contrast, &mut self.prev_contrast);
         let z_hat = sum_s / count;
         // 6. adaptive output gate (Eqs. EqCizekFaigl19b, EqCizekFaigl19c).

@@ -53,6 +53,15 @@ impl PreviousFrame {
         sum_abs
     }
 
+    /// As [`Self::contrast_into`] without the sum (for models that do not need it).
+    pub(crate) fn contrast_only(&mut self, frame: &Frame, scale: f64, out: &mut [f64]) {
+        for ((o, prev), &f) in out.iter_mut().zip(self.data.iter_mut()).zip(frame.data()) {
+            let f = f64::from(f);
+            *o = scale * (f - *prev);
+            *prev = f;
+        }
+    }
+
     /// Forgets the previous frame and the fixed size (keeps the allocation).
     pub(crate) fn reset(&mut self) {
         self.n = None;

@@ -30,7 +30,7 @@ use serde::Deserialize;
 
 use super::common::{FrameStep, PreviousFrame, Range, check, check3, zeroed};
 use super::lowpass::LowPass;
-use super::stencil::{SymKernel, corr3, corr3_classes};
+use super::stencil::{SymKernel, corr3_classes_rows, corr3_rows, max_abs};
 use crate::{Detector, DetectorError, Frame, Signals};
 
 /// Parameters of [`Fu2020`]. Defaults: baselines.md §5.4 (all from `lgmd2OpenSource.cs`,
@@ -350,6 +350,8 @@ struct Scratch {
     summation: Vec<f64>,
     /// `C_e`, the 3×3 mean of `S`.
     excitation: Vec<f64>,
+    /// One row of a correlation result.
+    row: Vec<f64>,
 }
 
 /// The constants one instance needs per frame.
@@ -429,8 +431,11 @@ impl Lgmd2 {
         {
             let (on, summation) = (&self.on, &mut s.summation);
             let [bc, bn, bd] = &s.blend;
-            corr3_classes(n, k.kernel_on, bc, bn, bd, |idx, inh| {
-                summation[idx] = s_cell(on[idx], inh, w_i_on)
+            corr3_classes_rows(n, k.kernel_on, bc, bn, bd, &mut s.row, |start, inh| {
+                let rows = summation[start..start + n].iter_mut().zip(&on[start..start + n]);
+                for ((s_on, &exc), &inh) in rows.zip(inh) {
+                    *s_on = s_cell(exc, inh, w_i_on);
+                }
             });
         }
         blend(&self.off, &self.off_prev, co.a_off, &mut s.blend);
@@ -438,14 +443,17 @@ impl Lgmd2 {
             let (off, summation) = (&self.off, &mut s.summation);
             let [bc, bn, bd] = &s.blend;
             let (w_on, w_off, w_onoff) = (cfg.w_on, cfg.w_off, cfg.w_onoff);
-            corr3_classes(n, k.kernel_off, bc, bn, bd, |idx, inh| {
-                let s_on = summation[idx];
-                let s_off = s_cell(off[idx], inh, w_i_off);
-                summation[idx] = w_on * s_on + w_off * s_off + w_onoff * s_on * s_off;
+            corr3_classes_rows(n, k.kernel_off, bc, bn, bd, &mut s.row, |start, inh| {
+                let rows = summation[start..start + n].iter_mut().zip(&off[start..start + n]);
+                for ((sum, &exc), &inh) in rows.zip(inh) {
+                    let s_on = *sum;
+                    let s_off = s_cell(exc, inh, w_i_off);
+                    *sum = w_on * s_on + w_off * s_off + w_onoff * s_on * s_off;
+                }
             });
         }
         // 5. grouping layer: C_e, ω, G, threshold; 6. membrane potential.
-        let mut max_abs = 0.0f64;
+        let mut max_ce = 0.0f64;
         {
             let excitation = &mut s.excitation;
             let ninth = 1.0 / 9.0;
@@ -454,12 +462,12 @@ impl Lgmd2 {
                 near: ninth,
                 diag: ninth,
             };
-            corr3(n, box3, &s.summation, |idx, ce| {
-                excitation[idx] = ce;
-                max_abs = max_abs.max(ce.abs());
+            corr3_rows(n, box3, &s.summation, &mut s.row, |start, ce| {
+                excitation[start..start + n].copy_from_slice(ce);
+                max_ce = max_abs(ce, max_ce);
             });
         }
-        let omega = cfg.delta_c + max_abs / cfg.c_w;
+        let omega = cfg.delta_c + max_ce / cfg.c_w;
         let mut mp = 0.0;
         for (&sv, &ce) in s.summation.iter().zip(&s.excitation) {
             let g = sv * ce / omega;
@@ -584,6 +592,7 @@ impl Detector for Fu2020 {
                 }
                 zeroed(&mut self.scratch.summation, len);
                 zeroed(&mut self.scratch.excitation, len);
+                zeroed(&mut self.scratch.row, n);
                 let zero = InstanceOutput::default();
                 return Ok(Self::signals(0.0, zero, zero));
             }

@@ -222,7 +222,7 @@ impl Detector for Keil2004 {
             }
             FrameStep::Next(n) => n,
         };
-        self.prev.contrast_into(frame, 1.0, &mut self.contrast);
+        self.prev.contrast_only(frame, 1.0, &mut self.contrast);
         let z_on = self.channel_step(n, 1.0, false);
         let z_off = self.channel_step(n, -1.0, true);
         let z = self.output.update(z_on * z_off + self.config.epsilon * (z_on + z_off));

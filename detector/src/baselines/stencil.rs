@@ -25,10 +25,9 @@ fn rows(a: &[f64], n: usize, i: usize) -> (&[f64], &[f64], &[f64]) {
     (&a[up * n..up * n + n], &a[i * n..i * n + n], &a[dn * n..dn * n + n])
 }
 
-/// Correlation at one pixel: `up/mid/dn` are rows of the class maps, `l, c, r` the
-/// clamped column indices. Each class reads its own map (`maps = [centre, near, diag]`).
+/// Correlation at one pixel: `c_row` is the centre-class row, `n_rows`/`d_rows` the
+/// (up, mid, down) rows of the near/diagonal class maps, `l, c, r` the clamped columns.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn corr_at(k: SymKernel, c_row: &[f64], n_rows: [&[f64]; 3], d_rows: [&[f64]; 3], l: usize, c: usize, r: usize) -> f64 {
     let [nu, nm, nd] = n_rows;
     let [du, _, dd] = d_rows;
@@ -44,67 +43,111 @@ fn corr_at(k: SymKernel, c_row: &[f64], n_rows: [&[f64]; 3], d_rows: [&[f64]; 3]
         + dd[r] * k.diag
 }
 
-/// Computes the correlation of a symmetric kernel where each position class reads its
-/// own map (`centre_map` for the centre, `near_map` for the 4 nearest neighbours,
-/// `diag_map` for the diagonals), and hands each result to `emit(index, value)` in
-/// row-major pixel order. With all three maps equal this is an ordinary correlation.
+/// Computes one output row of [`corr3_classes_rows`] into `out` (length n ≥ 2).
 #[inline(always)]
-pub(crate) fn corr3_classes(
+fn corr_row(k: SymKernel, c_row: &[f64], n_rows: [&[f64]; 3], d_rows: [&[f64]; 3], out: &mut [f64]) {
+    let n = out.len();
+    out[0] = corr_at(k, c_row, n_rows, d_rows, 0, 0, 1);
+    out[n - 1] = corr_at(k, c_row, n_rows, d_rows, n - 2, n - 1, n - 1);
+    // Interior columns 1..n-1 as nine shifted slices of equal length m, so that the
+    // loop has no bounds checks and vectorises; same terms, same order as `corr_at`.
+    let m = n - 2;
+    let [nu, nm, nd] = n_rows;
+    let [du, _, dd] = d_rows;
+    let (ul, uc, ur) = (&du[..m], &nu[1..m + 1], &du[2..m + 2]);
+    let (ml, mc, mr) = (&nm[..m], &c_row[1..m + 1], &nm[2..m + 2]);
+    let (dl, dc, dr) = (&dd[..m], &nd[1..m + 1], &dd[2..m + 2]);
+    let out = &mut out[1..m + 1];
+    for c in 0..m {
+        out[c] = ul[c] * k.diag
+            + uc[c] * k.near
+            + ur[c] * k.diag
+            + ml[c] * k.near
+            + mc[c] * k.centre
+            + mr[c] * k.near
+            + dl[c] * k.diag
+            + dc[c] * k.near
+            + dr[c] * k.diag;
+    }
+}
+
+/// Correlation of a symmetric kernel where each position class reads its own map
+/// (`centre_map` for the centre, `near_map` for the 4 nearest neighbours, `diag_map` for
+/// the diagonals); with all three maps equal this is an ordinary correlation. Each
+/// output row is computed into `row` (length n) and handed to `emit(start, row)`, where
+/// `start = i·n` is the index of the row's first pixel, in row order.
+pub(crate) fn corr3_classes_rows(
     n: usize,
     k: SymKernel,
     centre_map: &[f64],
     near_map: &[f64],
     diag_map: &[f64],
-    mut emit: impl FnMut(usize, f64),
+    row: &mut [f64],
+    mut emit: impl FnMut(usize, &[f64]),
 ) {
-    debug_assert!(centre_map.len() == n * n && near_map.len() == n * n && diag_map.len() == n * n);
+    assert!(centre_map.len() == n * n && near_map.len() == n * n && diag_map.len() == n * n && row.len() == n);
     for i in 0..n {
         let (_, c_row, _) = rows(centre_map, n, i);
         let (nu, nm, nd) = rows(near_map, n, i);
         let (du, dm, dd) = rows(diag_map, n, i);
-        let nr = [nu, nm, nd];
-        let dr = [du, dm, dd];
-        let base = i * n;
         if n == 1 {
-            emit(base, corr_at(k, c_row, nr, dr, 0, 0, 0));
-            continue;
+            row[0] = corr_at(k, c_row, [nu, nm, nd], [du, dm, dd], 0, 0, 0);
+        } else {
+            corr_row(k, c_row, [nu, nm, nd], [du, dm, dd], row);
         }
-        emit(base, corr_at(k, c_row, nr, dr, 0, 0, 1));
-        for c in 1..n - 1 {
-            emit(base + c, corr_at(k, c_row, nr, dr, c - 1, c, c + 1));
-        }
-        emit(base + n - 1, corr_at(k, c_row, nr, dr, n - 2, n - 1, n - 1));
+        emit(i * n, row);
     }
 }
 
-/// Ordinary correlation of one map with a symmetric kernel, see [`corr3_classes`].
-#[inline(always)]
-pub(crate) fn corr3(n: usize, k: SymKernel, a: &[f64], emit: impl FnMut(usize, f64)) {
-    corr3_classes(n, k, a, a, a, emit);
+/// Ordinary correlation of one map with a symmetric kernel, see [`corr3_classes_rows`].
+pub(crate) fn corr3_rows(n: usize, k: SymKernel, a: &[f64], row: &mut [f64], emit: impl FnMut(usize, &[f64])) {
+    corr3_classes_rows(n, k, a, a, a, row, emit);
+}
+
+/// `max(start, max_i |values_i|)` for non-NaN input. Max is exact in any order, so this
+/// uses four independent lanes (vectorisable) and still equals the sequential maximum.
+pub(crate) fn max_abs(values: &[f64], start: f64) -> f64 {
+    let mut lanes = [start; 4];
+    let chunks = values.chunks_exact(4);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for (lane, &v) in lanes.iter_mut().zip(c) {
+            let a = v.abs();
+            if a > *lane {
+                *lane = a;
+            }
+        }
+    }
+    for &v in rest {
+        let a = v.abs();
+        if a > lanes[0] {
+            lanes[0] = a;
+        }
+    }
+    lanes.into_iter().fold(start, |m, v| if v > m { v } else { m })
 }
 
 /// One explicit-Euler diffusion step with the 5-point Laplacian and clamp-to-edge
 /// (zero-flux) borders: `dst = src + κ·(up + down + left + right − 4·src)`.
 pub(crate) fn diffuse_step(n: usize, kappa: f64, src: &[f64], dst: &mut [f64]) {
     assert!(src.len() == n * n && dst.len() == n * n);
+    let cell = |u: f64, d: f64, l: f64, r: f64, c: f64| c + kappa * (u + d + l + r - 4.0 * c);
     if n == 1 {
-        dst[0] = src[0] + kappa * (src[0] + src[0] + src[0] + src[0] - 4.0 * src[0]);
+        dst[0] = cell(src[0], src[0], src[0], src[0], src[0]);
         return;
     }
+    let m = n - 2;
     for i in 0..n {
         let (up, mid, dn) = rows(src, n, i);
         let out = &mut dst[i * n..i * n + n];
-        let cell = |u: f64, d: f64, l: f64, r: f64, c: f64| c + kappa * (u + d + l + r - 4.0 * c);
         out[0] = cell(up[0], dn[0], mid[0], mid[1], mid[0]);
-        // Interior: written over zipped slices so that the compiler can vectorise it.
-        let inner = out[1..n - 1]
-            .iter_mut()
-            .zip(mid.windows(3))
-            .zip(up[1..n - 1].iter().zip(&dn[1..n - 1]));
-        for ((o, w), (&u, &d)) in inner {
-            *o = cell(u, d, w[0], w[2], w[1]);
-        }
         out[n - 1] = cell(up[n - 1], dn[n - 1], mid[n - 2], mid[n - 1], mid[n - 1]);
+        // Interior as shifted slices of equal length (no bounds checks, vectorises).
+        let (u, d, l, r, c) = (&up[1..m + 1], &dn[1..m + 1], &mid[..m], &mid[2..m + 2], &mid[1..m + 1]);
+        let out = &mut out[1..m + 1];
+        for j in 0..m {
+            out[j] = cell(u[j], d[j], l[j], r[j], c[j]);
+        }
     }
 }
 
@@ -162,15 +205,25 @@ mod tests {
             let b = pseudo_random(n * n, 2);
             let c = pseudo_random(n * n, 3);
             let mut got = vec![f64::NAN; n * n];
-            corr3_classes(n, k, &a, &b, &c, |idx, v| got[idx] = v);
+            let mut row = vec![0.0; n];
+            corr3_classes_rows(n, k, &a, &b, &c, &mut row, |st, r| got[st..st + n].copy_from_slice(r));
             assert_eq!(got, naive_classes(n, k, [&a, &b, &c]), "n = {n}");
             let k9 = SymKernel {
                 centre: 1.0 / 9.0,
                 near: 1.0 / 9.0,
                 diag: 1.0 / 9.0,
             };
-            corr3(n, k9, &a, |idx, v| got[idx] = v);
+            corr3_rows(n, k9, &a, &mut row, |st, r| got[st..st + n].copy_from_slice(r));
             assert_eq!(got, naive_classes(n, k9, [&a, &a, &a]), "n = {n}");
+        }
+    }
+
+    #[test]
+    fn max_abs_equals_sequential_maximum() {
+        for len in [0usize, 1, 3, 4, 5, 17, 64] {
+            let a = pseudo_random(len, 9);
+            let want = a.iter().fold(0.25f64, |m, v| m.max(v.abs()));
+            assert_eq!(max_abs(&a, 0.25), want, "len = {len}");
         }
     }
 

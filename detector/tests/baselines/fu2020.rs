@@ -91,6 +91,10 @@ fn fu2020_dark_approach_drives_only_the_off_instance() {
     assert!(first as f64 >= 0.7 * t as f64, "first spike {first}");
     assert!(r.off[3 * t / 4..].iter().any(|&v| v >= 1.0));
     assert!(max(&r.z) <= 0.1);
+    // Prototype at n = 128 (§5.6.2): first spike t = 68, then exactly these counts, max z 0.085.
+    assert_eq!(first, 68);
+    assert_eq!(spike_string(&r.off[68..]), "111112222211111110");
+    assert!((max(&r.z) - 0.085).abs() < 0.001, "max z {}", max(&r.z));
 }
 
 /// §5.6.3: light disk on black (S1') — mirror image.
@@ -126,6 +130,13 @@ fn fu2020_checker_approach_drives_both_instances() {
     );
     assert!(f_on as f64 >= 0.8 * t as f64 && f_off as f64 >= 0.8 * t as f64);
     assert!(max(&r.z) > 1.0);
+    // Prototype: max z 3.57 at t = 81.
+    assert!(
+        (max(&r.z) - 3.57).abs() < 0.01 && argmax(&r.z) == 81,
+        "{} at {}",
+        max(&r.z),
+        argmax(&r.z)
+    );
 }
 
 /// §5.6.5: receding checkerboard disk (S3) — spikes only at the start.
@@ -158,6 +169,24 @@ fn fu2020_translation_is_silenced_by_sfa() {
     let last = r.on.iter().zip(&r.off).rposition(|(a, b)| a + b > 0.0);
     println!("fu2020 S5: last spike t = {last:?}");
     assert!(r.on[30..].iter().chain(&r.off[30..]).all(|&v| v == 0.0));
+    // Prototype at n = 128: spikes at t = 1…19, then silence.
+    assert_eq!(last, Some(19));
+}
+
+/// §5.6.7 at n = 256: the relatively smaller disk never spikes; §5.6.2 at 256: the first
+/// OFF spike comes at most one frame earlier than at 128, and z_on stays 0.
+#[test]
+fn fu2020_at_256() {
+    let mut m = Fu2020::new(Fu2020Config::default()).unwrap();
+    let s = run(&mut m, &get(Id::S5, 256));
+    let spikes: f64 = aux(&s, "z_on").iter().chain(&aux(&s, "z_off")).sum();
+    println!("fu2020 S5 n=256: {spikes} spikes");
+    assert_eq!(spikes, 0.0);
+    let s = run(&mut m, &get(Id::S1, 256));
+    let first = first_spike(&aux(&s, "z_off")).expect("OFF spikes");
+    println!("fu2020 S1 n=256: first OFF spike t = {first}");
+    assert!((67..=68).contains(&first));
+    assert!(aux(&s, "z_on").iter().all(|&v| v == 0.0));
 }
 
 /// §5.4: the C# integer frame interval changes at most isolated frames (none of the tests).

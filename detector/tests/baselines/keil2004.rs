@@ -39,6 +39,9 @@ fn keil2004_approach_peaks_at_the_end() {
     );
     assert!(argmax(&z) >= t - 5, "argmax {}", argmax(&z));
     assert!(max(&z) >= 100.0 * early);
+    // Prototype values (§3.5.2): max 2.15e−2, early max 3e−7.
+    assert!((max(&z) / 2.15e-2 - 1.0).abs() < 0.01, "max {}", max(&z));
+    assert!((2e-7..4e-7).contains(&early), "early {early}");
     // Rising over the final phase.
     assert!(z[t - 5] > z[t - 15] && z[t - 15] > z[t - 25]);
 }
@@ -73,6 +76,8 @@ fn keil2004_single_polarity_uses_only_the_epsilon_term() {
         s2 / max(&z)
     );
     assert!(max(&z) * 50.0 <= s2);
+    // Prototype (§3.5.4): 2.1e−4.
+    assert!((max(&z) / 2.1e-4 - 1.0).abs() < 0.02, "max {}", max(&z));
 }
 
 /// §3.5.5: onset burst to a drifting grating (S6), then adaptation.
@@ -82,6 +87,8 @@ fn keil2004_adapts_to_background_motion() {
     println!("keil2004 S6: argmax {}, z(40)/max = {:.3}", argmax(&z), z[40] / max(&z));
     assert!(argmax(&z) <= 3);
     assert!(z[40] <= 0.35 * max(&z));
+    // Prototype ratio 0.23.
+    assert!((z[40] / max(&z) - 0.23).abs() < 0.01);
 }
 
 /// §3.5.6: approach over the drifting grating (S7) still rises strongly at the end.
@@ -92,6 +99,8 @@ fn keil2004_detects_approach_over_drifting_grating() {
     let ratio = max(&z[t - 5..]) / z[t / 2];
     println!("keil2004 S7: max(last 5)/z(T/2) = {ratio:.1}");
     assert!(ratio >= 10.0);
+    // Prototype ≈ 39.
+    assert!((ratio - 39.0).abs() < 1.5);
 }
 
 /// §3.3: the lateral (diffusion) part reduces the response to a translating disk.

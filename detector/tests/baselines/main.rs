@@ -9,6 +9,8 @@ mod common;
 mod fu2020;
 mod golden;
 mod keil2004;
+mod paper_stimuli;
+mod reference;
 mod soc;
 mod stimuli;
 
