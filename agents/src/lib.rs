@@ -4,7 +4,8 @@
 //! - [`EscapeController`]: a threshold-triggered escape manoeuvre (lateral dodge, stop or reverse)
 //!   with a fixed duration and a cooldown, configured by [`EscapeConfig`];
 //! - [`DiscreteAction`] and [`ContinuousAction`]: the action spaces offered to external RL agents,
-//!   mapped to [`VelocityCommand`]s through an [`ActionConfig`].
+//!   mapped to [`VelocityCommand`]s through an [`ActionConfig`];
+//! - [`LoomingSideEstimator`]: which side of the image the looming object is on (dodge direction).
 //!
 //! # Conventions
 //! Commands are in the robot's body frame (REP 103): x forward, y left, z up. So
@@ -16,8 +17,10 @@ pub mod action;
 pub mod command;
 pub mod error;
 pub mod escape;
+pub mod looming_side;
 
 pub use action::{ActionConfig, ContinuousAction, DiscreteAction};
 pub use command::VelocityCommand;
 pub use error::AgentError;
 pub use escape::{ControllerEvent, DodgeSide, EscapeConfig, EscapeController, Manoeuvre, TriggerSignal};
+pub use looming_side::LoomingSideEstimator;

@@ -296,3 +296,49 @@ fn config_serde_defaults_and_unknown_keys() {
     assert!(err.to_string().contains("threshhold"), "{err}");
     EscapeConfig::default().validate().unwrap();
 }
+
+mod looming_side {
+    use loomlab_agents::looming_side::{LoomingSideEstimator, temporal_contrast_centroid_x};
+    use loomlab_detector::Frame;
+
+    /// A dark disk of radius `r` centred at column `cx`, row n/2, on a grey background.
+    fn disk(n: usize, cx: f32, r: f32) -> Frame {
+        let data = (0..n * n)
+            .map(|k| {
+                let (i, j) = ((k / n) as f32 + 0.5, (k % n) as f32 + 0.5);
+                if (i - n as f32 / 2.0).hypot(j - cx) <= r {
+                    0.0
+                } else {
+                    0.5
+                }
+            })
+            .collect();
+        Frame::from_f32(n, data).unwrap()
+    }
+
+    #[test]
+    fn growing_disk_on_the_right_gives_positive_x() {
+        let n = 64;
+        let x = temporal_contrast_centroid_x(&disk(n, 48.0, 4.0), &disk(n, 48.0, 6.0), 1e-4).unwrap();
+        // Column 48 is at image x = 2·48/64 − 1 = 0.5.
+        assert!((x - 0.5).abs() < 0.05, "x = {x}");
+        let x = temporal_contrast_centroid_x(&disk(n, 16.0, 4.0), &disk(n, 16.0, 6.0), 1e-4).unwrap();
+        assert!((x + 0.5).abs() < 0.05, "x = {x}");
+    }
+
+    #[test]
+    fn no_change_or_size_mismatch_gives_none() {
+        let f = disk(32, 10.0, 3.0);
+        assert_eq!(temporal_contrast_centroid_x(&f, &f, 1e-4), None);
+        assert_eq!(temporal_contrast_centroid_x(&f, &disk(16, 8.0, 3.0), 1e-4), None);
+    }
+
+    #[test]
+    fn estimator_needs_two_frames_and_resets() {
+        let mut e = LoomingSideEstimator::default();
+        assert_eq!(e.update(&disk(32, 24.0, 3.0)), None);
+        assert!(e.update(&disk(32, 24.0, 5.0)).unwrap() > 0.3);
+        e.reset();
+        assert_eq!(e.update(&disk(32, 24.0, 7.0)), None);
+    }
+}
