@@ -19,9 +19,12 @@
 //! and a few (N+1)² products — all in f64.
 
 use super::config::HopfieldConfig;
-use super::processing::FrameProcessor;
+use super::processing::{FrameProcessor, LANES, normalisation};
 use super::templates::TemplateBank;
 use super::{Retrieval, softmax_in_place};
+
+/// Rows processed together when forming the row prefix sums of L·ξ (independent add chains).
+const ROW_BLOCK: usize = 4;
 
 /// Fast pattern retrieval, numerically equivalent to [`super::ReferenceHopfield`].
 #[derive(Debug, Clone)]
@@ -35,6 +38,10 @@ pub struct FastHopfield {
     bank: TemplateBank,
     /// Current query ξ(t), row-major.
     query: Vec<f64>,
+    /// L·ξ for one block of rows.
+    lap_block: Vec<f64>,
+    /// A row of zeros (the Laplacian's outside).
+    zero_row: Vec<f64>,
     /// Row prefix sums of L·ξ(t), n rows of n + 1.
     prefix: Vec<f64>,
     /// s(t) = Tᵀξ(t).
@@ -76,6 +83,8 @@ impl FastHopfield {
             processor: FrameProcessor::new(n, cfg.mask.as_ref(), cfg.frame_border),
             bank,
             query: vec![0.0; d],
+            lap_block: vec![0.0; ROW_BLOCK * n],
+            zero_row: vec![0.0; n],
             prefix: vec![0.0; n * (n + 1)],
             s: vec![0.0; count],
             ring_query: Vec::with_capacity(cfg.delay),
@@ -98,11 +107,14 @@ impl FastHopfield {
         &self.bank
     }
 
-    /// The query ξ(t) of the last processed frame (row-major). Valid until the next frame.
+    /// The query ξ(t) of the last processed frame (row-major; zero for a blank frame).
     pub fn last_query(&self) -> &[f64] {
         // After a frame the query buffer was swapped into the ring at the newest slot.
-        let newest = (self.head + self.ring_query.len() - 1) % self.ring_query.len().max(1);
-        self.ring_query.get(newest).map_or(&self.query[..], |v| &v[..])
+        let len = self.ring_query.len();
+        if len == 0 {
+            return &self.query;
+        }
+        &self.ring_query[(self.head + len - 1) % len]
     }
 
     /// Forgets all past frames.
@@ -116,68 +128,64 @@ impl FastHopfield {
     /// Processes one frame of n·n pixels (checked by the caller).
     pub fn retrieve(&mut self, frame: &[f32]) -> Retrieval {
         let n = self.n;
-        let evidence = self.processor.query(frame, &mut self.query).is_some();
-        let qq: f64 = if evidence {
-            self.query.iter().map(|v| v * v).sum()
-        } else {
-            0.0
+        let full = self.filled == self.delay;
+        let (sum, sumsq) = self.processor.processed(frame, &mut self.query);
+        let normalised = normalisation(&self.query, sum, sumsq);
+        // ξ(t), ‖ξ(t)‖², ξ(t − delay)ᵀξ(t) and the prefix sums of L·ξ(t), in one pass.
+        let (qq, dq_old) = match normalised {
+            Some((mean, inv)) => {
+                let delayed = if full {
+                    Some(&self.ring_query[self.head][..])
+                } else {
+                    None
+                };
+                let sums = finish_query(
+                    &mut self.query,
+                    n,
+                    mean,
+                    inv,
+                    delayed,
+                    &mut self.lap_block,
+                    &self.zero_row,
+                    &mut self.prefix,
+                );
+                self.bank.project(&self.prefix, &mut self.s);
+                sums
+            }
+            None => {
+                self.query.fill(0.0);
+                self.s.fill(0.0);
+                (0.0, 0.0)
+            }
         };
-        if evidence {
-            lap_prefix(&self.query, n, &mut self.prefix);
-            self.bank.project(&self.prefix, &mut self.s);
-        } else {
-            self.s.fill(0.0);
-        }
 
         // The delayed column ξ_d: ξ(t − delay), or ξ(t) itself while fewer frames were seen.
-        let full = self.filled == self.delay;
-        let (dq, dd) = if !full {
-            (qq, qq)
+        let (dq, dd) = if full {
+            (dq_old, self.ring_norm2[self.head])
         } else {
-            let old = &self.ring_query[self.head];
-            let dot = if evidence { dot(old, &self.query) } else { 0.0 };
-            (dot, self.ring_norm2[self.head])
+            (qq, qq)
         };
 
-        let retrieval = if evidence {
+        let retrieval = if normalised.is_some() {
             let s_d: &[f64] = if full { &self.ring_s[self.head] } else { &self.s };
-            let (it_on, it_off);
-            {
-                let w = &mut self.work;
-                it_on = iterate(
-                    &self.bank,
-                    self.beta,
-                    self.tolerance,
-                    self.max_iterations,
-                    1.0,
-                    dq,
-                    dd,
-                    qq,
-                    &self.s,
-                    s_d,
-                    w,
-                );
-                w.p_on.copy_from_slice(&w.p);
-                it_off = iterate(
-                    &self.bank,
-                    self.beta,
-                    self.tolerance,
-                    self.max_iterations,
-                    -1.0,
-                    dq,
-                    dd,
-                    qq,
-                    &self.s,
-                    s_d,
-                    w,
-                );
-            }
-            Retrieval::from_channels(self.work.p_on.clone(), self.work.p.clone(), it_on, it_off)
+            let channel = Channel {
+                bank: &self.bank,
+                s: &self.s,
+                s_d,
+                dq,
+                dd,
+                qq,
+            };
+            let params = (self.beta, self.tolerance, self.max_iterations);
+            let it_on = channel.iterate(1.0, params, &mut self.work);
+            self.work.p_on.copy_from_slice(&self.work.p);
+            let it_off = channel.iterate(-1.0, params, &mut self.work);
+            Retrieval::from_channels(&self.work.p_on, &self.work.p, it_on, it_off)
         } else {
             let m = self.bank.len() + 1;
             let mut p = vec![0.0; m];
             p[0] = 1.0;
-            Retrieval::from_channels(p.clone(), p, 0, 0)
+            Retrieval::from_channels(&p, &p, 0, 0)
         };
 
         // Store ξ(t), s(t) in the ring (swapping buffers, no copies once the ring is full).
@@ -197,57 +205,170 @@ impl FastHopfield {
     }
 }
 
-/// Row prefix sums of L·ξ (5-point Laplacian, zero outside), fused in one pass.
-fn lap_prefix(q: &[f64], n: usize, prefix: &mut [f64]) {
-    for r in 0..n {
-        let row = &q[r * n..(r + 1) * n];
-        let dst = &mut prefix[r * (n + 1)..(r + 1) * (n + 1)];
-        dst[0] = 0.0;
-        let mut acc = 0.0;
-        // Vertical neighbours (zero outside).
-        let up = if r > 0 { Some(&q[(r - 1) * n..r * n]) } else { None };
-        let down = if r + 1 < n {
-            Some(&q[(r + 1) * n..(r + 2) * n])
-        } else {
-            None
-        };
-        for c in 0..n {
-            let mut v = -4.0 * row[c];
-            if c > 0 {
-                v += row[c - 1];
+/// Turns the processed frame F in `q` into ξ = (F − mean)·inv in place and, in the same
+/// row-block sweep, computes ‖ξ‖², ξ_oldᵀξ (if `delayed` is given) and the row prefix sums of
+/// L·ξ (5-point Laplacian, zero outside): prefix[r·(n+1) + c] = Σ_{k<c} (L·ξ)[r, k].
+#[allow(clippy::too_many_arguments)]
+fn finish_query(
+    q: &mut [f64],
+    n: usize,
+    mean: f64,
+    inv: f64,
+    delayed: Option<&[f64]>,
+    lap: &mut [f64],
+    zero: &[f64],
+    prefix: &mut [f64],
+) -> (f64, f64) {
+    let mut qq = [0.0; LANES];
+    let mut dq = [0.0; LANES];
+    let (mut qq_rest, mut dq_rest) = (0.0, 0.0);
+    let mut scale_row = |q: &mut [f64], r: usize| {
+        let row = &mut q[r * n..(r + 1) * n];
+        let mut rc = row.chunks_exact_mut(LANES);
+        match delayed {
+            Some(old) => {
+                let old = &old[r * n..(r + 1) * n];
+                let mut oc = old.chunks_exact(LANES);
+                for (x, o) in (&mut rc).zip(&mut oc) {
+                    for k in 0..LANES {
+                        let v = (x[k] - mean) * inv;
+                        x[k] = v;
+                        qq[k] += v * v;
+                        dq[k] += v * o[k];
+                    }
+                }
+                for (x, o) in rc.into_remainder().iter_mut().zip(oc.remainder()) {
+                    let v = (*x - mean) * inv;
+                    *x = v;
+                    qq_rest += v * v;
+                    dq_rest += v * o;
+                }
             }
-            if c + 1 < n {
-                v += row[c + 1];
+            None => {
+                for x in &mut rc {
+                    for k in 0..LANES {
+                        let v = (x[k] - mean) * inv;
+                        x[k] = v;
+                        qq[k] += v * v;
+                    }
+                }
+                for x in rc.into_remainder() {
+                    let v = (*x - mean) * inv;
+                    *x = v;
+                    qq_rest += v * v;
+                }
             }
-            if let Some(u) = up {
-                v += u[c];
-            }
-            if let Some(d) = down {
-                v += d[c];
-            }
-            acc += v;
-            dst[c + 1] = acc;
         }
+    };
+    let stride = n + 1;
+    let mut scaled = 0;
+    let mut r0 = 0;
+    while r0 < n {
+        let r1 = (r0 + ROW_BLOCK).min(n);
+        // The Laplacian of rows r0..r1 needs ξ up to row r1 (inclusive, if it exists).
+        while scaled < (r1 + 1).min(n) {
+            scale_row(q, scaled);
+            scaled += 1;
+        }
+        for r in r0..r1 {
+            let up = if r > 0 { &q[(r - 1) * n..r * n] } else { zero };
+            let down = if r + 1 < n { &q[(r + 1) * n..(r + 2) * n] } else { zero };
+            let row = &q[r * n..(r + 1) * n];
+            let out = &mut lap[(r - r0) * n..(r - r0 + 1) * n];
+            out[0] = (up[0] + down[0]) + row[1] - 4.0 * row[0];
+            out[n - 1] = (up[n - 1] + down[n - 1]) + row[n - 2] - 4.0 * row[n - 1];
+            let inner = out[1..n - 1]
+                .iter_mut()
+                .zip(&up[1..n - 1])
+                .zip(&down[1..n - 1])
+                .zip(row[..n - 2].iter().zip(&row[2..]))
+                .zip(&row[1..n - 1]);
+            for ((((o, u), d), (l, r)), c) in inner {
+                *o = (u + d) + (l + r) - 4.0 * c;
+            }
+        }
+        if r1 - r0 == ROW_BLOCK {
+            let mut acc = [0.0; ROW_BLOCK];
+            for k in 0..ROW_BLOCK {
+                prefix[(r0 + k) * stride] = 0.0;
+            }
+            for c in 0..n {
+                for k in 0..ROW_BLOCK {
+                    acc[k] += lap[k * n + c];
+                    prefix[(r0 + k) * stride + c + 1] = acc[k];
+                }
+            }
+        } else {
+            for r in r0..r1 {
+                let mut acc = 0.0;
+                prefix[r * stride] = 0.0;
+                for c in 0..n {
+                    acc += lap[(r - r0) * n + c];
+                    prefix[r * stride + c + 1] = acc;
+                }
+            }
+        }
+        r0 = r1;
     }
+    (qq.iter().sum::<f64>() + qq_rest, dq.iter().sum::<f64>() + dq_rest)
 }
 
-#[inline]
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    // Four partial sums let the compiler vectorise without reassociation flags.
-    let mut acc = [0.0; 4];
-    let chunks_a = a.chunks_exact(4);
-    let chunks_b = b.chunks_exact(4);
-    let (ra, rb) = (chunks_a.remainder(), chunks_b.remainder());
-    for (x, y) in chunks_a.zip(chunks_b) {
-        for k in 0..4 {
-            acc[k] += x[k] * y[k];
+/// The pattern-space view of one frame's two memories.
+struct Channel<'a> {
+    bank: &'a TemplateBank,
+    /// s = Tᵀξ(t).
+    s: &'a [f64],
+    /// s_d = Tᵀξ_d.
+    s_d: &'a [f64],
+    /// ξ_dᵀξ(t).
+    dq: f64,
+    /// ξ_dᵀξ_d.
+    dd: f64,
+    /// ξ(t)ᵀξ(t).
+    qq: f64,
+}
+
+impl Channel<'_> {
+    /// eq. 5–6 in pattern space for the memory with template sign `sign` (+1 ON, −1 OFF);
+    /// leaves p of the last update in `w.p` and returns the number of updates.
+    fn iterate(&self, sign: f64, (beta, tolerance, max_iterations): (f64, f64, usize), w: &mut Work) -> usize {
+        // a(0) = Xᵀξ(0) = [ξ_dᵀξ, sign·s].
+        w.a[0] = self.dq;
+        for (a, si) in w.a[1..].iter_mut().zip(self.s) {
+            *a = sign * si;
         }
+        let mut iterations = 0;
+        loop {
+            for (p, a) in w.p.iter_mut().zip(&w.a) {
+                *p = beta * a;
+            }
+            softmax_in_place(&mut w.p);
+            iterations += 1;
+            if iterations >= max_iterations {
+                break; // the distance no longer matters
+            }
+            gram_product(self.bank, sign, self.dd, self.s_d, &w.p, &mut w.a_next);
+            let dist2 = if iterations == 1 {
+                // ‖X p − ξ‖² = pᵀGp − 2 pᵀXᵀξ + ξᵀξ
+                let pgp: f64 = w.p.iter().zip(&w.a_next).map(|(p, a)| p * a).sum();
+                let pa: f64 = w.p.iter().zip(&w.a).map(|(p, a)| p * a).sum();
+                pgp - 2.0 * pa + self.qq
+            } else {
+                // ‖X (p − p_prev)‖² = (p − p_prev)ᵀ(G p − G p_prev)
+                w.p.iter()
+                    .zip(&w.p_prev)
+                    .zip(w.a_next.iter().zip(&w.a))
+                    .map(|((p, pp), (an, a))| (p - pp) * (an - a))
+                    .sum()
+            };
+            if dist2.max(0.0).sqrt() <= tolerance {
+                break;
+            }
+            std::mem::swap(&mut w.p_prev, &mut w.p);
+            std::mem::swap(&mut w.a, &mut w.a_next);
+        }
+        iterations
     }
-    let mut sum = (acc[0] + acc[1]) + (acc[2] + acc[3]);
-    for (x, y) in ra.iter().zip(rb) {
-        sum += x * y;
-    }
-    sum
 }
 
 /// out = G·p for the memory with template sign `sign` (+1 ON, −1 OFF):
@@ -274,58 +395,4 @@ fn gram_product(bank: &TemplateBank, sign: f64, dd: f64, s_d: &[f64], p: &[f64],
         }
     }
     *out0 = head;
-}
-
-/// eq. 5–6 in pattern space for one channel; leaves p of the last update in `w.p`.
-#[allow(clippy::too_many_arguments)]
-fn iterate(
-    bank: &TemplateBank,
-    beta: f64,
-    tolerance: f64,
-    max_iterations: usize,
-    sign: f64,
-    dq: f64,
-    dd: f64,
-    qq: f64,
-    s: &[f64],
-    s_d: &[f64],
-    w: &mut Work,
-) -> usize {
-    // a(0) = Xᵀξ(0) = [ξ_dᵀξ, sign·s].
-    w.a[0] = dq;
-    for (a, si) in w.a[1..].iter_mut().zip(s) {
-        *a = sign * si;
-    }
-    let mut iterations = 0;
-    loop {
-        for (p, a) in w.p.iter_mut().zip(&w.a) {
-            *p = beta * a;
-        }
-        softmax_in_place(&mut w.p);
-        iterations += 1;
-        let last = iterations >= max_iterations;
-        if last {
-            break; // the distance no longer matters
-        }
-        gram_product(bank, sign, dd, s_d, &w.p, &mut w.a_next);
-        let dist2 = if iterations == 1 {
-            // ‖X p − ξ‖² = pᵀGp − 2 pᵀXᵀξ + ξᵀξ
-            let pgp: f64 = w.p.iter().zip(&w.a_next).map(|(p, a)| p * a).sum();
-            let pa: f64 = w.p.iter().zip(&w.a).map(|(p, a)| p * a).sum();
-            pgp - 2.0 * pa + qq
-        } else {
-            // ‖X (p − p_prev)‖² = (p − p_prev)ᵀ(G p − G p_prev)
-            w.p.iter()
-                .zip(&w.p_prev)
-                .zip(w.a_next.iter().zip(&w.a))
-                .map(|((p, pp), (an, a))| (p - pp) * (an - a))
-                .sum()
-        };
-        if dist2.max(0.0).sqrt() <= tolerance {
-            break;
-        }
-        std::mem::swap(&mut w.p_prev, &mut w.p);
-        std::mem::swap(&mut w.a, &mut w.a_next);
-    }
-    iterations
 }

@@ -100,12 +100,12 @@ pub struct Retrieval {
 }
 
 impl Retrieval {
-    fn from_channels(p_on: Vec<f64>, p_off: Vec<f64>, iterations_on: usize, iterations_off: usize) -> Self {
+    fn from_channels(p_on: &[f64], p_off: &[f64], iterations_on: usize, iterations_off: usize) -> Self {
         Self {
-            z_hat_on: activity(&p_on),
-            z_hat_off: activity(&p_off),
-            winner_on: argmax(&p_on),
-            winner_off: argmax(&p_off),
+            z_hat_on: activity(p_on),
+            z_hat_off: activity(p_off),
+            winner_on: argmax(p_on),
+            winner_off: argmax(p_off),
             iterations_on,
             iterations_off,
         }

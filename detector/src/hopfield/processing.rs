@@ -151,16 +151,52 @@ pub fn image_to_vector(image: &[f64], n: usize) -> Vec<f64> {
     v
 }
 
-/// The fast path's frame processing: the same F(t) and ξ(t) with reused buffers and a
-/// separable formulation of the S_odd convolution (a [3, 10, 3] horizontal smoothing, then the
-/// difference of the rows below and above), in f64.
+/// The fast path's frame processing: the same F(t) and ξ(t) with reused buffers, in f64.
+///
+/// The S_odd convolution is computed separably — a [3, 10, 3]/16 horizontal smoothing of each
+/// row, then the difference of the smoothed rows below and above — with a rolling buffer of
+/// three smoothed rows, fused with the mask and with the sums Σ F and Σ F² needed for the
+/// normalisation. Loops are written so that the compiler vectorises them (padded rows,
+/// [`LANES`] independent accumulators for the sums).
 #[derive(Debug, Clone)]
 pub struct FrameProcessor {
     n: usize,
     border: FrameBorder,
     mask: Vec<f64>,
-    /// Horizontally smoothed rows, (n + 2) rows of n (one padding row above and below).
+    /// Three smoothed rows (rolling), n each.
     smooth: Vec<f64>,
+    /// One frame row in f64 with one padding pixel at each end.
+    row: Vec<f64>,
+}
+
+/// Number of independent accumulators in the reductions (breaks the add latency chain).
+pub(crate) const LANES: usize = 8;
+
+/// Mean and 1/norm of a processed frame F, from Σ F and Σ F² (or two-pass when the one-pass
+/// formula would cancel). `None` for a blank frame (centred norm ≤ [`MIN_QUERY_NORM`]).
+pub(crate) fn normalisation(f: &[f64], sum: f64, sumsq: f64) -> Option<(f64, f64)> {
+    let d = f.len() as f64;
+    let mean = sum / d;
+    let mut var = sumsq - sum * mean;
+    if !(var > 1e-3 * sumsq) {
+        // The mean dominates (or the frame is blank): recompute Σ(F − μ)² without cancellation.
+        let mut acc = [0.0; LANES];
+        let chunks = f.chunks_exact(LANES);
+        var = chunks.remainder().iter().map(|v| (v - mean) * (v - mean)).sum();
+        for c in chunks {
+            for k in 0..LANES {
+                let v = c[k] - mean;
+                acc[k] += v * v;
+            }
+        }
+        var += acc.iter().sum::<f64>();
+    }
+    let norm = var.sqrt();
+    if norm.is_finite() && norm > MIN_QUERY_NORM {
+        Some((mean, 1.0 / norm))
+    } else {
+        None
+    }
 }
 
 impl FrameProcessor {
@@ -170,7 +206,8 @@ impl FrameProcessor {
             n,
             border,
             mask: roi_mask(n, mask),
-            smooth: vec![0.0; (n + 2) * n],
+            smooth: vec![0.0; 3 * n],
+            row: vec![0.0; n + 2],
         }
     }
 
@@ -179,79 +216,104 @@ impl FrameProcessor {
         &self.mask
     }
 
+    /// Smoothed row `i` of the frame into slot `slot` of the rolling buffer.
+    #[inline]
+    fn smooth_row(&mut self, frame: &[f32], i: usize, slot: usize) {
+        const A: f64 = 3.0 / 16.0;
+        const B: f64 = 10.0 / 16.0;
+        let n = self.n;
+        let src = &frame[i * n..(i + 1) * n];
+        let row = &mut self.row;
+        for (d, &v) in row[1..=n].iter_mut().zip(src) {
+            *d = pixel(v);
+        }
+        let (left, right) = match self.border {
+            FrameBorder::Replicate => (row[1], row[n]),
+            FrameBorder::Zero => (0.0, 0.0),
+        };
+        row[0] = left;
+        row[n + 1] = right;
+        let dst = &mut self.smooth[slot * n..(slot + 1) * n];
+        for (j, d) in dst.iter_mut().enumerate() {
+            *d = A * (row[j] + row[j + 2]) + B * row[j + 1];
+        }
+    }
+
+    /// The processed frame F(t) = R_oi ⊙ (F̃ ∗ S_odd) into `out` (row-major), returning
+    /// (Σ F, Σ F²).
+    pub fn processed(&mut self, frame: &[f32], out: &mut [f64]) -> (f64, f64) {
+        let n = self.n;
+        assert_eq!(frame.len(), n * n);
+        assert_eq!(out.len(), n * n);
+        // Slots hold smoothed rows i − 1, i, i + 1 at (i + 2) % 3, i % 3, (i + 1) % 3.
+        self.smooth_row(frame, 0, 0);
+        match self.border {
+            FrameBorder::Replicate => self.smooth.copy_within(0..n, 2 * n),
+            FrameBorder::Zero => self.smooth[2 * n..3 * n].fill(0.0),
+        }
+        let mut sum = [0.0; LANES];
+        let mut sq = [0.0; LANES];
+        let (mut sum_rest, mut sq_rest) = (0.0, 0.0);
+        for i in 0..n {
+            let (above, below) = ((i + 2) % 3, (i + 1) % 3);
+            if i + 1 < n {
+                self.smooth_row(frame, i + 1, below);
+            } else {
+                match self.border {
+                    FrameBorder::Replicate => {
+                        let cur = i % 3;
+                        self.smooth.copy_within(cur * n..(cur + 1) * n, below * n);
+                    }
+                    FrameBorder::Zero => self.smooth[below * n..(below + 1) * n].fill(0.0),
+                }
+            }
+            // F = mask ⊙ (row below − row above): true convolution puts S_odd's top row on i + 1.
+            let b = &self.smooth[below * n..(below + 1) * n];
+            let a = &self.smooth[above * n..(above + 1) * n];
+            let m = &self.mask[i * n..(i + 1) * n];
+            let o = &mut out[i * n..(i + 1) * n];
+            let mut oc = o.chunks_exact_mut(LANES);
+            let mut mc = m.chunks_exact(LANES);
+            let mut bc = b.chunks_exact(LANES);
+            let mut ac = a.chunks_exact(LANES);
+            for (((oo, mm), bb), aa) in (&mut oc).zip(&mut mc).zip(&mut bc).zip(&mut ac) {
+                for k in 0..LANES {
+                    let v = mm[k] * (bb[k] - aa[k]);
+                    oo[k] = v;
+                    sum[k] += v;
+                    sq[k] += v * v;
+                }
+            }
+            let rest = oc.into_remainder();
+            for (((oo, mm), bb), aa) in rest
+                .iter_mut()
+                .zip(mc.remainder())
+                .zip(bc.remainder())
+                .zip(ac.remainder())
+            {
+                let v = mm * (bb - aa);
+                *oo = v;
+                sum_rest += v;
+                sq_rest += v * v;
+            }
+        }
+        (sum.iter().sum::<f64>() + sum_rest, sq.iter().sum::<f64>() + sq_rest)
+    }
+
     /// Computes ξ(t) row-major into `query` (length n²). Returns the centred norm of F(t), or
     /// `None` (and a zero `query`) for a blank frame.
     pub fn query(&mut self, frame: &[f32], query: &mut [f64]) -> Option<f64> {
-        let n = self.n;
-        debug_assert_eq!(frame.len(), n * n);
-        debug_assert_eq!(query.len(), n * n);
-        // Horizontal [3, 10, 3]/16 smoothing into rows 1..=n of `smooth` (replicate or zero
-        // padding at the left/right ends).
-        for i in 0..n {
-            let src = &frame[i * n..(i + 1) * n];
-            let dst = &mut self.smooth[(i + 1) * n..(i + 2) * n];
-            smooth_row(src, dst, self.border);
-        }
-        // Padding rows above and below.
-        match self.border {
-            FrameBorder::Replicate => {
-                self.smooth.copy_within(n..2 * n, 0);
-                self.smooth.copy_within(n * n..(n + 1) * n, (n + 1) * n);
+        let (sum, sumsq) = self.processed(frame, query);
+        match normalisation(query, sum, sumsq) {
+            Some((mean, inv)) => {
+                query.iter_mut().for_each(|v| *v = (*v - mean) * inv);
+                Some(1.0 / inv)
             }
-            FrameBorder::Zero => {
-                self.smooth[..n].fill(0.0);
-                self.smooth[(n + 1) * n..].fill(0.0);
+            None => {
+                query.fill(0.0);
+                None
             }
         }
-        // F = mask ⊙ (row below − row above); true convolution puts S_odd's top row on i + 1.
-        let mut sum = 0.0;
-        for i in 0..n {
-            let below = &self.smooth[(i + 2) * n..(i + 3) * n];
-            let above = &self.smooth[i * n..(i + 1) * n];
-            let mask = &self.mask[i * n..(i + 1) * n];
-            let out = &mut query[i * n..(i + 1) * n];
-            let mut row_sum = 0.0;
-            for j in 0..n {
-                let v = mask[j] * (below[j] - above[j]);
-                out[j] = v;
-                row_sum += v;
-            }
-            sum += row_sum;
-        }
-        let mean = sum / (n * n) as f64;
-        let mut sq = 0.0;
-        for v in query.iter_mut() {
-            *v -= mean;
-            sq += *v * *v;
-        }
-        let norm = sq.sqrt();
-        if !(norm.is_finite() && norm > MIN_QUERY_NORM) {
-            query.fill(0.0);
-            return None;
-        }
-        let inv = 1.0 / norm;
-        query.iter_mut().for_each(|v| *v *= inv);
-        Some(norm)
-    }
-}
-
-/// dst[j] = (3·src[j−1] + 10·src[j] + 3·src[j+1]) / 16 with the given padding.
-#[inline]
-fn smooth_row(src: &[f32], dst: &mut [f64], border: FrameBorder) {
-    let n = src.len();
-    let (left, right) = match border {
-        FrameBorder::Replicate => (pixel(src[0]), pixel(src[n - 1])),
-        FrameBorder::Zero => (0.0, 0.0),
-    };
-    const A: f64 = 3.0 / 16.0;
-    const B: f64 = 10.0 / 16.0;
-    let mut prev = left;
-    let mut cur = pixel(src[0]);
-    for j in 0..n {
-        let next = if j + 1 < n { pixel(src[j + 1]) } else { right };
-        dst[j] = A * prev + B * cur + A * next;
-        prev = cur;
-        cur = next;
     }
 }
 

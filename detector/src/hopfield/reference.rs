@@ -113,7 +113,7 @@ impl ReferenceHopfield {
         }
         self.history.push_back(xi.clone());
         self.last_query = xi;
-        Retrieval::from_channels(on.p, off.p, on.iterations, off.iterations)
+        Retrieval::from_channels(&on.p, &off.p, on.iterations, off.iterations)
     }
 
     /// eq. 5–6 for one memory X: ξ(τ+1) = X·p(τ), p(τ) = softmax(β Xᵀξ(τ)), until

@@ -138,12 +138,21 @@ pub fn row_runs(img: &[f64], n: usize) -> Vec<Run> {
 #[inline]
 pub fn runs_dot(runs: &[Run], prefix: &[f64], n: usize) -> f64 {
     let stride = n + 1;
-    let mut acc = 0.0;
-    for run in runs {
+    let term = |run: &Run| {
         let base = run.row as usize * stride;
-        acc += run.value * (prefix[base + run.end as usize] - prefix[base + run.start as usize]);
+        run.value * (prefix[base + run.end as usize] - prefix[base + run.start as usize])
+    };
+    // Four partial sums: independent add chains.
+    let mut acc = [0.0; 4];
+    let chunks = runs.chunks_exact(4);
+    let mut s: f64 = chunks.remainder().iter().map(term).sum();
+    for c in chunks {
+        for k in 0..4 {
+            acc[k] += term(&c[k]);
+        }
     }
-    acc
+    s += (acc[0] + acc[1]) + (acc[2] + acc[3]);
+    s
 }
 
 /// Row prefix sums of a row-major n×n image into `prefix` (length n·(n+1)).

@@ -108,7 +108,7 @@ fn rel(a: f64, b: f64) -> f64 {
 
 #[test]
 fn reference_memory_has_two_plus_floor_three_n_over_five_columns() {
-    for n in [16, 32, 45] {
+    for n in [20, 32, 45] {
         let cfg = HopfieldConfig::for_size(n);
         let r = ReferenceHopfield::new(&cfg);
         assert_eq!(r.columns(), 2 + 3 * n / 5);
