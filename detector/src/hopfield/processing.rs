@@ -178,7 +178,7 @@ pub(crate) fn normalisation(f: &[f64], sum: f64, sumsq: f64) -> Option<(f64, f64
     let d = f.len() as f64;
     let mean = sum / d;
     let mut var = sumsq - sum * mean;
-    if !(var > 1e-3 * sumsq) {
+    if var.is_nan() || var <= 1e-3 * sumsq {
         // The mean dominates (or the frame is blank): recompute Σ(F − μ)² without cancellation.
         let mut acc = [0.0; LANES];
         let chunks = f.chunks_exact(LANES);
