@@ -30,7 +30,9 @@
 //! - **Low-pass** (eq. 10): out(t+1) = α·out(t) + (1 − α)·in(t) is applied after frame t and
 //!   reported for frame t (no extra frame of latency). The state starts at 1, the floor
 //!   (identical to starting from the first ẑ, which is always 1 by the start-up rule), so
-//!   z_on, z_off ∈ [1, N+1] and z ∈ [1, (N+1)²] on every frame. ẑ is clamped to [1, N+1],
+//!   z_on, z_off ∈ [1, N+1] and z ∈ [1, (N+1)²] on every frame. (The paper writes
+//!   c = [1, …, N] and z_on, z_off ∈ [1, N], counting the memory's columns as N; with N
+//!   templates plus the delayed column the top index is N + 1.) ẑ is clamped to [1, N+1],
 //!   which only absorbs rounding (Σp = 1 ± 1e-16).
 //! - **Blank frames**: if the processed frame has (near) zero centred norm
 //!   (≤ [`processing::MIN_QUERY_NORM`]: a blank or constant frame, or edges only outside the
@@ -217,12 +219,7 @@ impl Hopfield {
     pub fn new(config: HopfieldConfig) -> Result<Self, DetectorError> {
         config.validate()?;
         let engine = match config.implementation {
-            Implementation::Reference => {
-                // Build the fast bank too, only to reject edge-less templates with the same
-                // error in both implementations (cheap compared with the dense matrices).
-                TemplateBank::new(config.n, &config.template)?;
-                Engine::Reference(Box::new(ReferenceHopfield::new(&config)))
-            }
+            Implementation::Reference => Engine::Reference(Box::new(ReferenceHopfield::new(&config)?)),
             Implementation::Fast => Engine::Fast(Box::new(FastHopfield::new(&config)?)),
         };
         Ok(Self {

@@ -5,7 +5,7 @@
 
 use super::config::HopfieldConfig;
 use super::processing::{center_and_normalize, convolve_s_odd, image_to_vector, roi_mask};
-use super::templates::gray_template;
+use super::templates::{gray_template, no_edges_error};
 use super::{Retrieval, softmax_in_place};
 
 /// Literal dense implementation of pattern retrieval (eq. 4–9).
@@ -25,8 +25,9 @@ pub struct ReferenceHopfield {
 }
 
 impl ReferenceHopfield {
-    /// Builds the dense pattern memories (config must be valid).
-    pub fn new(cfg: &HopfieldConfig) -> Self {
+    /// Builds the dense pattern memories (config must be valid). Errors if a template image
+    /// has no edges (see [`super::templates::no_edges_error`]).
+    pub fn new(cfg: &HopfieldConfig) -> Result<Self, crate::DetectorError> {
         let n = cfg.n;
         let d = n * n;
         let count = cfg.template_count();
@@ -35,16 +36,19 @@ impl ReferenceHopfield {
         let mut off = vec![0.0; d * columns];
         for i in 1..=count {
             // eq. 7: P(s) = ∇² P̃(s), literally as a 3×3 convolution with zero padding.
-            let img = gray_template(n, &cfg.template, cfg.template.scale(n, i));
+            let scale = cfg.template.scale(n, i);
+            let img = gray_template(n, &cfg.template, scale);
             let lap = laplacian_literal(&img, n);
             let mut x = image_to_vector(&lap, n);
-            center_and_normalize(&mut x);
+            if center_and_normalize(&mut x).is_none() {
+                return Err(no_edges_error(scale));
+            }
             on[i * d..(i + 1) * d].copy_from_slice(&x);
             for (o, v) in off[i * d..(i + 1) * d].iter_mut().zip(&x) {
                 *o = -v;
             }
         }
-        Self {
+        Ok(Self {
             cfg: *cfg,
             d,
             columns,
@@ -53,7 +57,7 @@ impl ReferenceHopfield {
             off,
             history: Default::default(),
             last_query: vec![0.0; d],
-        }
+        })
     }
 
     /// The ON pattern memory (column-major d×(N+1)); column 0 is the delayed query of the last

@@ -170,6 +170,18 @@ pub fn row_prefix_sums(y: &[f64], n: usize, prefix: &mut [f64]) {
     }
 }
 
+/// The error for a template image without edges (an empty disk, or stripes so wide that the
+/// disk is uniformly dark): its Laplacian is zero and cannot be normalised.
+pub fn no_edges_error(scale: f64) -> crate::DetectorError {
+    crate::DetectorError::InvalidParameter {
+        name: "template",
+        value: format!("scale {scale}"),
+        reason: "the template image has no edges (empty disk or a single stripe colour); \
+                 change template.scale_start, template.cycles or template.phase"
+            .into(),
+    }
+}
+
 /// The N static templates in sparse form, with everything the fast path needs.
 #[derive(Debug, Clone)]
 pub struct TemplateBank {
@@ -189,9 +201,8 @@ pub struct TemplateBank {
 impl TemplateBank {
     /// Builds the N templates of `cfg` for frames of side `n`.
     ///
-    /// Errors (as `None`-norm templates) cannot happen for a validated config: the smallest
-    /// disk is at least two pixels wide, so every Laplacian is nonzero; a zero norm would be
-    /// reported by [`super::Hopfield::new`] as an invalid `template.scale_start`.
+    /// Errors with [`no_edges_error`] if a template image has no edges (possible only for odd
+    /// stripe settings: validation guarantees disks at least two pixels wide).
     pub fn new(n: usize, cfg: &TemplateConfig) -> Result<Self, crate::DetectorError> {
         let count = cfg.template_count(n);
         let d = (n * n) as f64;
@@ -207,13 +218,7 @@ impl TemplateBank {
             let mean = v.iter().sum::<f64>() / d;
             let norm = v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>().sqrt();
             if norm.is_nan() || norm <= 1e-12 {
-                return Err(crate::DetectorError::InvalidParameter {
-                    name: "template",
-                    value: format!("scale {s}"),
-                    reason: "the template image has no edges (empty disk or only one stripe colour); \
-                             change template.scale_start, cycles or phase"
-                        .into(),
-                });
+                return Err(no_edges_error(s));
             }
             scales.push(s);
             runs.extend(row_runs(&img, n));

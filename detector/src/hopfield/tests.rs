@@ -110,7 +110,7 @@ fn rel(a: f64, b: f64) -> f64 {
 fn reference_memory_has_two_plus_floor_three_n_over_five_columns() {
     for n in [20, 32, 45] {
         let cfg = HopfieldConfig::for_size(n);
-        let r = ReferenceHopfield::new(&cfg);
+        let r = ReferenceHopfield::new(&cfg).unwrap();
         assert_eq!(r.columns(), 2 + 3 * n / 5);
         assert_eq!(r.pattern_memory_on().len(), n * n * (2 + 3 * n / 5));
         assert_eq!(r.pattern_memory_off().len(), n * n * (2 + 3 * n / 5));
@@ -174,7 +174,7 @@ fn activities_stay_in_their_ranges() {
 
 #[test]
 fn fast_equals_reference_on_every_test_video() {
-    for n in [32, 64] {
+    for n in [32, 37, 64] {
         for (name, frames) in videos(n) {
             for mask in [Some(MaskConfig::default()), None] {
                 let cfg = HopfieldConfig {
@@ -365,4 +365,28 @@ fn softmax_is_stable() {
     let mut w = vec![f64::NAN, 1.0];
     softmax_in_place(&mut w);
     assert_eq!(w, vec![1.0, 0.0]);
+}
+
+#[test]
+fn edgeless_templates_are_rejected_by_both_implementations() {
+    // Stripes so wide that every disk is dark: the templates have no edges.
+    let template = TemplateConfig {
+        cycles: 0.01,
+        phase: 0.6,
+        ..Default::default()
+    };
+    for implementation in [Implementation::Fast, Implementation::Reference] {
+        let cfg = HopfieldConfig {
+            template,
+            implementation,
+            ..HopfieldConfig::for_size(32)
+        };
+        match Hopfield::new(cfg) {
+            Err(DetectorError::InvalidParameter { name, reason, .. }) => {
+                assert_eq!(name, "template");
+                assert!(reason.contains("no edges"), "{reason}");
+            }
+            other => panic!("{implementation}: expected an error, got {:?}", other.map(|_| ())),
+        }
+    }
 }
