@@ -157,7 +157,7 @@ pub fn image_to_vector(image: &[f64], n: usize) -> Vec<f64> {
 /// row, then the difference of the smoothed rows below and above — with a rolling buffer of
 /// three smoothed rows, fused with the mask and with the sums Σ F and Σ F² needed for the
 /// normalisation. Loops are written so that the compiler vectorises them (padded rows,
-/// [`LANES`] independent accumulators for the sums).
+/// eight independent accumulators for the sums).
 #[derive(Debug, Clone)]
 pub struct FrameProcessor {
     n: usize,
