@@ -37,9 +37,12 @@
 //! - **Blank frames**: if the processed frame has (near) zero centred norm
 //!   (≤ [`processing::MIN_QUERY_NORM`]: a blank or constant frame, or edges only outside the
 //!   mask) there is nothing to normalise. Such a frame is "no evidence": both channels report
-//!   the delayed column as retrieved (p = e_1, ẑ = 1, winner 0, 0 iterations), and the zero
-//!   vector is stored as its query, so `delay` frames later the delayed column scores 0
-//!   against any query (any template correlating positively then wins). Never NaN.
+//!   the delayed column as retrieved (p = e_1, ẑ = 1, winner 0, 0 iterations), the low-pass
+//!   states z_on, z_off are *held* (no evidence, no change: an object that fills the whole view
+//!   in the last frames of an approach keeps its high activity instead of dropping to the floor;
+//!   a detector that has seen only blank frames stays at the floor), and the zero vector is
+//!   stored as its query, so `delay` frames later the delayed column scores 0 against any query
+//!   (any template correlating positively then wins). Never NaN.
 //! - **Frame border** of the S_odd convolution: replicate (configurable), see [`processing`].
 //!
 //! # Angular-size readout
@@ -275,8 +278,11 @@ impl Hopfield {
         };
         let alpha = self.config.alpha;
         let top = self.memory_columns() as f64;
-        self.z_on = (alpha * self.z_on + (1.0 - alpha) * r.z_hat_on).clamp(1.0, top);
-        self.z_off = (alpha * self.z_off + (1.0 - alpha) * r.z_hat_off).clamp(1.0, top);
+        // A blank frame (0 iterations) carries no evidence: the low-pass state is held.
+        if r.iterations_on > 0 {
+            self.z_on = (alpha * self.z_on + (1.0 - alpha) * r.z_hat_on).clamp(1.0, top);
+            self.z_off = (alpha * self.z_off + (1.0 - alpha) * r.z_hat_off).clamp(1.0, top);
+        }
         let z = self.z_on * self.z_off;
         Ok(HopfieldSignals {
             z_on: self.z_on,

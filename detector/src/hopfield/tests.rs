@@ -266,9 +266,15 @@ fn blank_constant_and_nan_frames_give_the_floor_not_nan() {
             assert_eq!((s.winner_on, s.iterations_on), (0, 0));
         }
         // Edges after blank frames, and blanks after edges: finite, in range.
+        let mut previous = Some((1.0, 1.0));
         for f in [half_nan, noise(n, 3), Frame::uniform(n, 0.0), noise(n, 4), nan] {
             let s = det.step_hopfield(&f).unwrap();
             assert!(s.z.is_finite() && s.z >= 1.0 && s.angular_size_deg.is_finite(), "{s:?}");
+            // A blank frame holds the low-pass state (no evidence, no change).
+            if s.iterations_on == 0 {
+                assert_eq!(Some((s.z_on, s.z_off)), previous, "{implementation}");
+            }
+            previous = Some((s.z_on, s.z_off));
         }
     }
 }
