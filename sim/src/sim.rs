@@ -167,6 +167,23 @@ impl Sim {
         self.renderer
     }
 
+    /// Takes the renderer out, leaving a physics-only simulator (later steps return empty frames).
+    pub fn take_renderer(&mut self) -> Option<Renderer> {
+        self.frame.clear();
+        self.renderer.take()
+    }
+
+    /// Attaches a renderer to a running simulator, so that the following steps render (e.g. after a
+    /// cheap physics-only replay up to some frame: physics does not depend on rendering, so the state is
+    /// the same as if it had rendered all along). Its `n` must equal `world.camera.n`. Returns the
+    /// renderer it replaces, if any.
+    pub fn attach_renderer(&mut self, renderer: Renderer) -> Result<Option<Renderer>, SimError> {
+        if renderer.n() != self.world.camera.n {
+            return Err(SimError::SizeMismatch { renderer_n: renderer.n(), world_n: self.world.camera.n });
+        }
+        Ok(self.renderer.replace(renderer))
+    }
+
     fn build(desc: &WorldDesc, seed: u64, renderer: Option<Renderer>) -> Result<Sim, SimError> {
         let world = desc.build(seed)?;
         let mut physics = PhysicsWorld::new();

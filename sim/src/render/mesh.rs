@@ -87,6 +87,17 @@ pub fn cylinder() -> Vec<Vertex> {
     out
 }
 
+/// One triangle covering the whole screen, in normalised device coordinates (x, y; z = 0).
+pub fn fullscreen_triangle() -> Vec<Vertex> {
+    [[-1.0, -1.0], [3.0, -1.0], [-1.0, 3.0]]
+        .into_iter()
+        .map(|[x, y]| Vertex {
+            pos: [x, y, 0.0],
+            normal: [0.0, 0.0, 1.0],
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

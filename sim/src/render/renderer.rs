@@ -59,7 +59,9 @@ pub struct FrameDesc<'a> {
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct Globals {
     view_proj: [[f32; 4]; 4],
-    inv_view_proj: [[f32; 4]; 4],
+    cam_fwd: [f32; 4],
+    cam_right: [f32; 4],
+    cam_up: [f32; 4],
     camera: [f32; 4],
     ground_a: [f32; 4],
     ground_b: [f32; 4],
@@ -109,10 +111,12 @@ pub struct Renderer {
     mesh: wgpu::Buffer,
     cube: Range<u32>,
     cylinder: Range<u32>,
+    fullscreen: Range<u32>,
     instances: wgpu::Buffer,
     capacity: usize,
     background: wgpu::RenderPipeline,
-    mesh_pipeline: wgpu::RenderPipeline,
+    box_pipeline: wgpu::RenderPipeline,
+    cylinder_pipeline: wgpu::RenderPipeline,
     sphere_pipeline: wgpu::RenderPipeline,
     scratch: Vec<InstanceRaw>,
     map_state: Arc<AtomicU8>,
@@ -194,7 +198,7 @@ impl Renderer {
         let globals = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("globals"),
             size: std::mem::size_of::<Globals>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         let bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -203,7 +207,7 @@ impl Renderer {
                 binding: 0,
                 visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
                 ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
+                    ty: wgpu::BufferBindingType::Storage { read_only: true },
                     has_dynamic_offset: false,
                     min_binding_size: None,
                 },
@@ -222,6 +226,8 @@ impl Renderer {
         let cube = 0..verts.len() as u32;
         verts.extend(mesh::cylinder());
         let cylinder = cube.end..verts.len() as u32;
+        verts.extend(mesh::fullscreen_triangle());
+        let fullscreen = cylinder.end..verts.len() as u32;
         let mesh_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("meshes"),
             contents: bytemuck::cast_slice(&verts),
@@ -300,18 +306,31 @@ impl Renderer {
                 cache: None,
             })
         };
+        let background_buffers = [Some(wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<mesh::Vertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &vertex_attrs[..1],
+        })];
         let background = pipeline(
             "background",
             "vs_background",
             "fs_background",
-            &[],
+            &background_buffers,
             None,
             wgpu::CompareFunction::Always,
         );
-        let mesh_pipeline = pipeline(
-            "mesh",
+        let box_pipeline = pipeline(
+            "box",
             "vs_object",
-            "fs_mesh",
+            "fs_box",
+            &object_buffers,
+            Some(wgpu::Face::Back),
+            wgpu::CompareFunction::Greater,
+        );
+        let cylinder_pipeline = pipeline(
+            "cylinder",
+            "vs_object",
+            "fs_cylinder",
             &object_buffers,
             Some(wgpu::Face::Back),
             wgpu::CompareFunction::Greater,
@@ -338,10 +357,12 @@ impl Renderer {
             mesh: mesh_buf,
             cube,
             cylinder,
+            fullscreen,
             instances,
             capacity,
             background,
-            mesh_pipeline,
+            box_pipeline,
+            cylinder_pipeline,
             sphere_pipeline,
             scratch: Vec::with_capacity(capacity),
             map_state: Arc::new(AtomicU8::new(0)),
@@ -382,6 +403,7 @@ impl Renderer {
         // camera matrices (camera at the origin of the render frame)
         let fwd = (frame.camera_rotation * DVec3::X).as_vec3();
         let up = (frame.camera_rotation * DVec3::Z).as_vec3();
+        let right = (frame.camera_rotation * DVec3::NEG_Y).as_vec3();
         let view = crate::glam::camera::rh::view::look_to_mat4(Vec3::ZERO, fwd, up);
         let proj = crate::glam::camera::rh::proj::directx::perspective_infinite_reverse(
             frame.fov_rad as f32,
@@ -399,7 +421,9 @@ impl Renderer {
         };
         let globals = Globals {
             view_proj: view_proj.to_cols_array_2d(),
-            inv_view_proj: view_proj.inverse().to_cols_array_2d(),
+            cam_fwd: [fwd.x, fwd.y, fwd.z, (frame.fov_rad / 2.0).tan() as f32],
+            cam_right: [right.x, right.y, right.z, frame.near_m],
+            cam_up: [up.x, up.y, up.z, 0.0],
             camera: [cam.x as f32, cam.y as f32, cam.z as f32, frame.sky],
             ground_a,
             ground_b: [ground_b[0], ground_b[1], enabled, self.n as f32],
@@ -467,17 +491,18 @@ impl Renderer {
                 multiview_mask: None,
             });
             pass.set_bind_group(0, &self.bind_group, &[]);
+            pass.set_vertex_buffer(0, self.mesh.slice(..));
             pass.set_pipeline(&self.background);
-            pass.draw(0..3, 0..1);
+            pass.draw(self.fullscreen.clone(), 0..1);
             if !self.scratch.is_empty() {
-                pass.set_vertex_buffer(0, self.mesh.slice(..));
                 pass.set_vertex_buffer(1, self.instances.slice(..));
                 let (nb, nc, ns) = (counts[0], counts[1], counts[2]);
-                pass.set_pipeline(&self.mesh_pipeline);
                 if nb > 0 {
+                    pass.set_pipeline(&self.box_pipeline);
                     pass.draw(self.cube.clone(), 0..nb);
                 }
                 if nc > 0 {
+                    pass.set_pipeline(&self.cylinder_pipeline);
                     pass.draw(self.cylinder.clone(), nb..nb + nc);
                 }
                 if ns > 0 {

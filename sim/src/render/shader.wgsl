@@ -13,7 +13,10 @@ const PI: f32 = 3.14159265358979;
 
 struct Globals {
     view_proj: mat4x4<f32>,
-    inv_view_proj: mat4x4<f32>,
+    // camera basis (world axes): optical axis (w: tan(fov/2)), right (w: near plane), up
+    cam_fwd: vec4<f32>,
+    cam_right: vec4<f32>,
+    cam_up: vec4<f32>,
     // xyz: camera world position (for world-anchored ground texture), w: sky luminance
     camera: vec4<f32>,
     // ground texture: a = (dark, light, scale, orientation), b = (phase, binary, enabled, n)
@@ -23,7 +26,10 @@ struct Globals {
     ground_k: vec4<u32>,
 };
 
-@group(0) @binding(0) var<uniform> g: Globals;
+// A read-only storage buffer rather than a uniform buffer: lavapipe (Mesa 22) specialises shaders on
+// uniform-buffer values that feed branches ("inline uniforms") and would recompile every frame as the
+// camera moves, costing milliseconds per frame.
+@group(0) @binding(0) var<storage, read> g: Globals;
 
 // ---------------------------------------------------------------- textures
 
@@ -100,16 +106,17 @@ fn texture_value(kind: u32, seed: u32, a: vec4<f32>, b: vec4<f32>, uv: vec2<f32>
 
 struct BgOut {
     @builtin(position) pos: vec4<f32>,
-    @location(0) ndc: vec2<f32>,
+    // viewing ray with unit component along the optical axis (linear in screen space)
+    @location(0) dir: vec3<f32>,
 };
 
+// One triangle covering the screen, read from the mesh vertex buffer (NDC x, y in `pos.xy`).
 @vertex
-fn vs_background(@builtin(vertex_index) i: u32) -> BgOut {
-    // one triangle covering the screen
-    let xy = vec2<f32>(f32((i << 1u) & 2u) * 2.0 - 1.0, f32(i & 2u) * 2.0 - 1.0);
+fn vs_background(@location(0) pos: vec3<f32>) -> BgOut {
     var o: BgOut;
-    o.pos = vec4<f32>(xy, 0.0, 1.0);
-    o.ndc = xy;
+    o.pos = vec4<f32>(pos.xy, 0.0, 1.0);
+    let tan_half = g.cam_fwd.w;
+    o.dir = g.cam_fwd.xyz + tan_half * (pos.x * g.cam_right.xyz + pos.y * g.cam_up.xyz);
     return o;
 }
 
@@ -118,27 +125,22 @@ struct FragOut {
     @builtin(frag_depth) depth: f32,
 };
 
+// Ground plane z = 0 (ray cast, exact to the horizon) and sky.
 @fragment
 fn fs_background(in: BgOut) -> FragOut {
-    let p = g.inv_view_proj * vec4<f32>(in.ndc, 1.0, 1.0);
-    let dir = normalize(p.xyz / p.w);
+    let dir = in.dir;
     let cam_z = g.camera.z;
-    let hits = dir.z < -1e-6 && cam_z > 0.0 && g.ground_b.z > 0.5;
-    let t = select(1e7, min(cam_z / max(-dir.z, 1e-9), 1e7), hits);
-    let hit = dir * t;
-    let uv = hit.xy + g.camera.xy;
+    let hits = dir.z < -1e-7 && cam_z > 0.0 && g.ground_b.z > 0.5;
+    // distance along the optical axis to the ground (dir has unit forward component)
+    let t = select(1e7, min(cam_z / max(-dir.z, 1e-12), 1e7), hits);
+    let uv = dir.xy * t + g.camera.xy;
     let duv_dx = dpdx(uv);
     let duv_dy = dpdy(uv);
     let ground = texture_value(g.ground_k.x, g.ground_k.y, g.ground_a, g.ground_b, uv, duv_dx, duv_dy);
     var o: FragOut;
-    if (hits) {
-        o.lum = clamp(ground, 0.0, 1.0);
-        let clip = g.view_proj * vec4<f32>(hit, 1.0);
-        o.depth = clamp(clip.z / clip.w, 0.0, 1.0);
-    } else {
-        o.lum = g.camera.w;
-        o.depth = 0.0;
-    }
+    // reversed-Z infinite projection: depth = near / view distance
+    o.lum = select(g.camera.w, clamp(ground, 0.0, 1.0), hits);
+    o.depth = select(0.0, min(g.cam_right.w / t, 1.0), hits);
     return o;
 }
 
@@ -191,24 +193,29 @@ fn vs_object(@location(0) pos: vec3<f32>, @location(1) normal: vec3<f32>, inst: 
     return o;
 }
 
-// Boxes (kinds.x == 0) and cylinders (kinds.x == 2).
+// Boxes: the face's in-plane coordinates.
 @fragment
-fn fs_mesh(in: ObjOut) -> @location(0) f32 {
+fn fs_box(in: ObjOut) -> @location(0) f32 {
     let n = abs(in.normal);
-    let is_cyl = in.kinds.x == 2u;
+    let uv = select(select(in.local.xz, in.local.yz, n.x > 0.5), in.local.xy, n.z > 0.5);
+    let v = texture_value(in.kinds.y, in.kinds.z, in.tex_a, in.tex_b, uv, dpdx(uv), dpdy(uv));
+    return clamp(v, 0.0, 1.0);
+}
+
+// Cylinders: side u = r * azimuth, v = z; caps (x, y).
+@fragment
+fn fs_cylinder(in: ObjOut) -> @location(0) f32 {
+    let side = abs(in.normal.z) < 0.5;
     let r = 0.5 * in.size.x;
-    // cylinder side: u = r * azimuth; a second azimuth with its seam on the other side fixes derivatives
+    // a second azimuth with its seam on the opposite side gives seam-free derivatives
     let az = atan2(in.local.y, in.local.x);
     let az2 = atan2(-in.local.y, -in.local.x);
-    let side_uv = vec2<f32>(r * az, in.local.z);
-    let box_uv = select(select(in.local.xz, in.local.yz, n.x > 0.5), in.local.xy, n.z > 0.5);
-    let cyl_side = is_cyl && n.z < 0.5;
-    let uv = select(box_uv, side_uv, cyl_side);
+    let uv = select(in.local.xy, vec2<f32>(r * az, in.local.z), side);
     var duv_dx = dpdx(uv);
     var duv_dy = dpdy(uv);
     let du2_dx = r * dpdx(az2);
     let du2_dy = r * dpdy(az2);
-    if (cyl_side) {
+    if (side) {
         if (abs(du2_dx) < abs(duv_dx.x)) { duv_dx.x = du2_dx; }
         if (abs(du2_dy) < abs(duv_dy.x)) { duv_dy.x = du2_dy; }
     }
