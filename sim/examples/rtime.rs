@@ -10,6 +10,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let steps: u32 = a.get(3).map(|s| s.parse().unwrap()).unwrap_or(500);
     desc.camera.n = n;
+    if let Ok(g) = std::env::var("GROUND") {
+        desc.ground.texture = match g.as_str() {
+            "uniform" => loomlab_sim::Texture::uniform(0.4),
+            "noise" => loomlab_sim::Texture::Noise {
+                cell_m: 0.2,
+                dark: 0.2,
+                light: 0.6,
+                binary: false,
+                seed: None,
+            },
+            "sine" => loomlab_sim::Texture::SineGrating(loomlab_sim::GratingDesc::default()),
+            _ => desc.ground.texture,
+        };
+    }
     let mut sim = Sim::new(&desc, 1)?;
     for _ in 0..20 {
         sim.step(&Command::forward(1.0))?;

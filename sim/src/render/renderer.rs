@@ -2,6 +2,7 @@
 //! row-padded readback buffer, one map. All GPU resources are created once and reused every frame; only
 //! the instance buffer grows when a world has more parts than any before it.
 
+use std::collections::HashMap;
 use std::ops::Range;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};
@@ -14,7 +15,7 @@ use super::mesh;
 use crate::SimError;
 use crate::glam::{DQuat, DVec3, Mat4, Quat, Vec3, Vec4};
 use crate::shape::PrimKind;
-use crate::texture::ResolvedTexture;
+use crate::texture::{ResolvedTexture, TextureKind};
 
 const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -94,6 +95,135 @@ pub fn padded_bytes_per_row(n: u32) -> u32 {
     unpadded.div_ceil(align) * align
 }
 
+/// The four kinds of draw; each gets one pipeline per texture kind.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+enum Stage {
+    /// Ground and sky (full-screen ray cast).
+    Background,
+    /// Boxes.
+    Box,
+    /// Cylinders.
+    Cylinder,
+    /// Sphere impostors.
+    Sphere,
+}
+
+/// Render pipelines specialised per (stage, texture kind) through the WGSL override `TEX_KIND`, created
+/// on first use. Specialisation matters on CPU rasterisers: a fragment shader that switches on the
+/// texture kind at run time evaluates every case (llvmpipe runs all branches under a mask).
+struct Pipelines {
+    shader: wgpu::ShaderModule,
+    layout: wgpu::PipelineLayout,
+    cache: HashMap<(Stage, u32), wgpu::RenderPipeline>,
+}
+
+impl Pipelines {
+    fn get(&self, stage: Stage, kind: u32) -> &wgpu::RenderPipeline {
+        &self.cache[&(stage, kind)]
+    }
+
+    fn ensure(&mut self, device: &wgpu::Device, stage: Stage, kind: u32) {
+        if self.cache.contains_key(&(stage, kind)) {
+            return;
+        }
+        let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
+        let instance_attrs = wgpu::vertex_attr_array![
+            2 => Float32x4, 3 => Float32x4, 4 => Float32x4, 5 => Float32x4,
+            6 => Float32x4, 7 => Float32x4, 8 => Float32x4, 9 => Uint32x4
+        ];
+        let mesh_layout = |attributes| wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<mesh::Vertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes,
+        };
+        let instance_layout = wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<InstanceRaw>() as u64,
+            step_mode: wgpu::VertexStepMode::Instance,
+            attributes: &instance_attrs,
+        };
+        let background_buffers = [Some(mesh_layout(&vertex_attrs[..1]))];
+        let object_buffers = [Some(mesh_layout(&vertex_attrs)), Some(instance_layout)];
+        // sphere impostors draw the back faces of their bounding cube, which cover the sphere from any
+        // viewpoint (also from inside the cube); the background writes every pixel
+        let (label, vs, fs, buffers, cull, compare): (_, _, _, &[Option<wgpu::VertexBufferLayout<'_>>], _, _) =
+            match stage {
+                Stage::Background => (
+                    "background",
+                    "vs_background",
+                    "fs_background",
+                    &background_buffers,
+                    None,
+                    wgpu::CompareFunction::Always,
+                ),
+                Stage::Box => (
+                    "box",
+                    "vs_object",
+                    "fs_box",
+                    &object_buffers,
+                    Some(wgpu::Face::Back),
+                    wgpu::CompareFunction::Greater,
+                ),
+                Stage::Cylinder => (
+                    "cylinder",
+                    "vs_object",
+                    "fs_cylinder",
+                    &object_buffers,
+                    Some(wgpu::Face::Back),
+                    wgpu::CompareFunction::Greater,
+                ),
+                Stage::Sphere => (
+                    "sphere",
+                    "vs_object",
+                    "fs_sphere",
+                    &object_buffers,
+                    Some(wgpu::Face::Front),
+                    wgpu::CompareFunction::Greater,
+                ),
+            };
+        let constants = [("TEX_KIND", f64::from(kind))];
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(label),
+            layout: Some(&self.layout),
+            vertex: wgpu::VertexState {
+                module: &self.shader,
+                entry_point: Some(vs),
+                compilation_options: Default::default(),
+                buffers,
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                front_face: wgpu::FrontFace::Ccw,
+                cull_mode: cull,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(compare),
+                stencil: wgpu::StencilState::default(),
+                bias: wgpu::DepthBiasState::default(),
+            }),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &self.shader,
+                entry_point: Some(fs),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &constants,
+                    ..Default::default()
+                },
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: COLOR_FORMAT,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        self.cache.insert((stage, kind), pipeline);
+    }
+}
+
 /// An offscreen renderer for n × n single-channel frames.
 ///
 /// Reusable across worlds with the same `n` ([`crate::Sim::with_renderer`], [`crate::Sim::into_renderer`]);
@@ -114,11 +244,10 @@ pub struct Renderer {
     fullscreen: Range<u32>,
     instances: wgpu::Buffer,
     capacity: usize,
-    background: wgpu::RenderPipeline,
-    box_pipeline: wgpu::RenderPipeline,
-    cylinder_pipeline: wgpu::RenderPipeline,
-    sphere_pipeline: wgpu::RenderPipeline,
+    pipelines: Pipelines,
     scratch: Vec<InstanceRaw>,
+    order: Vec<(Stage, u32, usize)>,
+    groups: Vec<(Stage, u32, u32, u32)>,
     map_state: Arc<AtomicU8>,
     timings: RenderTimings,
 }
@@ -244,107 +373,11 @@ impl Renderer {
             bind_group_layouts: &[Some(&bgl)],
             immediate_size: 0,
         });
-        let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
-        let instance_attrs = wgpu::vertex_attr_array![
-            2 => Float32x4, 3 => Float32x4, 4 => Float32x4, 5 => Float32x4,
-            6 => Float32x4, 7 => Float32x4, 8 => Float32x4, 9 => Uint32x4
-        ];
-        let object_buffers = [
-            Some(wgpu::VertexBufferLayout {
-                array_stride: std::mem::size_of::<mesh::Vertex>() as u64,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &vertex_attrs,
-            }),
-            Some(wgpu::VertexBufferLayout {
-                array_stride: std::mem::size_of::<InstanceRaw>() as u64,
-                step_mode: wgpu::VertexStepMode::Instance,
-                attributes: &instance_attrs,
-            }),
-        ];
-        let depth_state = |compare: wgpu::CompareFunction| wgpu::DepthStencilState {
-            format: DEPTH_FORMAT,
-            depth_write_enabled: Some(true),
-            depth_compare: Some(compare),
-            stencil: wgpu::StencilState::default(),
-            bias: wgpu::DepthBiasState::default(),
+        let pipelines = Pipelines {
+            shader,
+            layout,
+            cache: HashMap::new(),
         };
-        let target = [Some(wgpu::ColorTargetState {
-            format: COLOR_FORMAT,
-            blend: None,
-            write_mask: wgpu::ColorWrites::ALL,
-        })];
-        let pipeline = |label: &str,
-                        vs: &str,
-                        fs: &str,
-                        buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
-                        cull: Option<wgpu::Face>,
-                        compare: wgpu::CompareFunction| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(label),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &shader,
-                    entry_point: Some(vs),
-                    compilation_options: Default::default(),
-                    buffers,
-                },
-                primitive: wgpu::PrimitiveState {
-                    topology: wgpu::PrimitiveTopology::TriangleList,
-                    front_face: wgpu::FrontFace::Ccw,
-                    cull_mode: cull,
-                    ..Default::default()
-                },
-                depth_stencil: Some(depth_state(compare)),
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &shader,
-                    entry_point: Some(fs),
-                    compilation_options: Default::default(),
-                    targets: &target,
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        };
-        let background_buffers = [Some(wgpu::VertexBufferLayout {
-            array_stride: std::mem::size_of::<mesh::Vertex>() as u64,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &vertex_attrs[..1],
-        })];
-        let background = pipeline(
-            "background",
-            "vs_background",
-            "fs_background",
-            &background_buffers,
-            None,
-            wgpu::CompareFunction::Always,
-        );
-        let box_pipeline = pipeline(
-            "box",
-            "vs_object",
-            "fs_box",
-            &object_buffers,
-            Some(wgpu::Face::Back),
-            wgpu::CompareFunction::Greater,
-        );
-        let cylinder_pipeline = pipeline(
-            "cylinder",
-            "vs_object",
-            "fs_cylinder",
-            &object_buffers,
-            Some(wgpu::Face::Back),
-            wgpu::CompareFunction::Greater,
-        );
-        // sphere impostors draw the back faces of their bounding cube, which cover the sphere from any
-        // viewpoint (also from inside the cube)
-        let sphere_pipeline = pipeline(
-            "sphere",
-            "vs_object",
-            "fs_sphere",
-            &object_buffers,
-            Some(wgpu::Face::Front),
-            wgpu::CompareFunction::Greater,
-        );
         Ok(Renderer {
             n,
             padded_bpr,
@@ -360,11 +393,10 @@ impl Renderer {
             fullscreen,
             instances,
             capacity,
-            background,
-            box_pipeline,
-            cylinder_pipeline,
-            sphere_pipeline,
+            pipelines,
             scratch: Vec::with_capacity(capacity),
+            order: Vec::with_capacity(capacity),
+            groups: Vec::new(),
             map_state: Arc::new(AtomicU8::new(0)),
             timings: RenderTimings::default(),
             ctx,
@@ -429,26 +461,40 @@ impl Renderer {
             ground_b: [ground_b[0], ground_b[1], enabled, self.n as f32],
             ground_k: [gk, gs, 0, 0],
         };
-        // instances sorted by primitive: boxes, cylinders, spheres
+        // instances grouped by (stage, texture kind): one specialised pipeline and one draw per group
+        self.order.clear();
+        for (i, inst) in frame.instances.iter().enumerate() {
+            let stage = match inst.prim {
+                PrimKind::Box => Stage::Box,
+                PrimKind::Cylinder => Stage::Cylinder,
+                PrimKind::Sphere => Stage::Sphere,
+            };
+            self.order.push((stage, inst.texture.kind as u32, i));
+        }
+        self.order.sort_unstable();
         self.scratch.clear();
-        let mut counts = [0u32; 3];
-        for kind in [PrimKind::Box, PrimKind::Cylinder, PrimKind::Sphere] {
-            for inst in frame.instances.iter().filter(|i| i.prim == kind) {
-                let model = Mat4::from_rotation_translation(inst.rotation, inst.position);
-                let (tex_a, tex_b, tk, seed) = tex_params(&inst.texture, frame.t_s);
-                self.scratch.push(InstanceRaw {
-                    model: model.to_cols_array_2d(),
-                    size: Vec4::from((inst.size, 0.0)).to_array(),
-                    tex_a,
-                    tex_b,
-                    kinds: [inst.prim as u32, tk, seed, 0],
-                });
-                counts[match kind {
-                    PrimKind::Box => 0,
-                    PrimKind::Cylinder => 1,
-                    PrimKind::Sphere => 2,
-                }] += 1;
+        self.groups.clear();
+        for &(stage, kind, i) in &self.order {
+            let inst = &frame.instances[i];
+            let model = Mat4::from_rotation_translation(inst.rotation, inst.position);
+            let (tex_a, tex_b, tk, seed) = tex_params(&inst.texture, frame.t_s);
+            let index = self.scratch.len() as u32;
+            self.scratch.push(InstanceRaw {
+                model: model.to_cols_array_2d(),
+                size: Vec4::from((inst.size, 0.0)).to_array(),
+                tex_a,
+                tex_b,
+                kinds: [inst.prim as u32, tk, seed, 0],
+            });
+            match self.groups.last_mut() {
+                Some(g) if g.0 == stage && g.1 == kind => g.3 += 1,
+                _ => self.groups.push((stage, kind, index, 1)),
             }
+        }
+        let ground_kind = frame.ground.map_or(TextureKind::Uniform as u32, |t| t.kind as u32);
+        self.pipelines.ensure(&self.ctx.device, Stage::Background, ground_kind);
+        for &(stage, kind, _, _) in &self.groups {
+            self.pipelines.ensure(&self.ctx.device, stage, kind);
         }
         let device = &self.ctx.device;
         let queue = &self.ctx.queue;
@@ -492,22 +538,18 @@ impl Renderer {
             });
             pass.set_bind_group(0, &self.bind_group, &[]);
             pass.set_vertex_buffer(0, self.mesh.slice(..));
-            pass.set_pipeline(&self.background);
+            pass.set_pipeline(self.pipelines.get(Stage::Background, ground_kind));
             pass.draw(self.fullscreen.clone(), 0..1);
             if !self.scratch.is_empty() {
                 pass.set_vertex_buffer(1, self.instances.slice(..));
-                let (nb, nc, ns) = (counts[0], counts[1], counts[2]);
-                if nb > 0 {
-                    pass.set_pipeline(&self.box_pipeline);
-                    pass.draw(self.cube.clone(), 0..nb);
-                }
-                if nc > 0 {
-                    pass.set_pipeline(&self.cylinder_pipeline);
-                    pass.draw(self.cylinder.clone(), nb..nb + nc);
-                }
-                if ns > 0 {
-                    pass.set_pipeline(&self.sphere_pipeline);
-                    pass.draw(self.cube.clone(), nb + nc..nb + nc + ns);
+                for &(stage, kind, first, count) in &self.groups {
+                    pass.set_pipeline(self.pipelines.get(stage, kind));
+                    let vertices = if stage == Stage::Cylinder {
+                        self.cylinder.clone()
+                    } else {
+                        self.cube.clone()
+                    };
+                    pass.draw(vertices, first..first + count);
                 }
             }
         }

@@ -11,6 +11,9 @@ const TEX_SINE: u32 = 3u;
 const TEX_NOISE: u32 = 4u;
 const PI: f32 = 3.14159265358979;
 
+// Texture kind of the surfaces a pipeline draws (set per pipeline; see Pipelines in renderer.rs).
+override TEX_KIND: u32 = 0u;
+
 struct Globals {
     view_proj: mat4x4<f32>,
     // camera basis (world axes): optical axis (w: tan(fov/2)), right (w: near plane), up
@@ -58,13 +61,13 @@ fn square_filtered(x: f32, w: f32) -> f32 {
 }
 
 // Luminance of texture (kind, a, b) at surface coords uv with screen derivatives duv_dx, duv_dy.
-fn texture_value(kind: u32, seed: u32, a: vec4<f32>, b: vec4<f32>, uv: vec2<f32>, duv_dx: vec2<f32>, duv_dy: vec2<f32>) -> f32 {
+fn texture_value(seed: u32, a: vec4<f32>, b: vec4<f32>, uv: vec2<f32>, duv_dx: vec2<f32>, duv_dy: vec2<f32>) -> f32 {
     let dark = a.x;
     let light = a.y;
     let scale = a.z;
     let mean = 0.5 * (dark + light);
     let amp = 0.5 * (light - dark);
-    switch kind {
+    switch TEX_KIND {
         case TEX_CHECKER: {
             let p = uv / (2.0 * scale);
             let w = (abs(duv_dx) + abs(duv_dy)) / (2.0 * scale);
@@ -75,7 +78,7 @@ fn texture_value(kind: u32, seed: u32, a: vec4<f32>, b: vec4<f32>, uv: vec2<f32>
             let dir = vec2<f32>(sin(a.w), cos(a.w));
             let x = dot(uv, dir) / scale - b.x;
             let w = (abs(dot(duv_dx, dir)) + abs(dot(duv_dy, dir))) / scale;
-            if (kind == TEX_SQUARE) {
+            if (TEX_KIND == TEX_SQUARE) {
                 return mean + amp * square_filtered(x, w);
             }
             var atten = 1.0;
@@ -136,7 +139,7 @@ fn fs_background(in: BgOut) -> FragOut {
     let uv = dir.xy * t + g.camera.xy;
     let duv_dx = dpdx(uv);
     let duv_dy = dpdy(uv);
-    let ground = texture_value(g.ground_k.x, g.ground_k.y, g.ground_a, g.ground_b, uv, duv_dx, duv_dy);
+    let ground = texture_value(g.ground_k.y, g.ground_a, g.ground_b, uv, duv_dx, duv_dy);
     var o: FragOut;
     // reversed-Z infinite projection: depth = near / view distance
     o.lum = select(g.camera.w, clamp(ground, 0.0, 1.0), hits);
@@ -198,7 +201,7 @@ fn vs_object(@location(0) pos: vec3<f32>, @location(1) normal: vec3<f32>, inst: 
 fn fs_box(in: ObjOut) -> @location(0) f32 {
     let n = abs(in.normal);
     let uv = select(select(in.local.xz, in.local.yz, n.x > 0.5), in.local.xy, n.z > 0.5);
-    let v = texture_value(in.kinds.y, in.kinds.z, in.tex_a, in.tex_b, uv, dpdx(uv), dpdy(uv));
+    let v = texture_value(in.kinds.z, in.tex_a, in.tex_b, uv, dpdx(uv), dpdy(uv));
     return clamp(v, 0.0, 1.0);
 }
 
@@ -219,7 +222,7 @@ fn fs_cylinder(in: ObjOut) -> @location(0) f32 {
         if (abs(du2_dx) < abs(duv_dx.x)) { duv_dx.x = du2_dx; }
         if (abs(du2_dy) < abs(duv_dy.x)) { duv_dy.x = du2_dy; }
     }
-    let v = texture_value(in.kinds.y, in.kinds.z, in.tex_a, in.tex_b, uv, duv_dx, duv_dy);
+    let v = texture_value(in.kinds.z, in.tex_a, in.tex_b, uv, duv_dx, duv_dy);
     return clamp(v, 0.0, 1.0);
 }
 
@@ -243,7 +246,7 @@ fn fs_sphere(in: ObjOut) -> FragOut {
     let uv = local.yz;
     let duv_dx = dpdx(uv);
     let duv_dy = dpdy(uv);
-    let v = texture_value(in.kinds.y, in.kinds.z, in.tex_a, in.tex_b, uv, duv_dx, duv_dy);
+    let v = texture_value(in.kinds.z, in.tex_a, in.tex_b, uv, duv_dx, duv_dy);
     if (disc < 0.0 || t <= 0.0) {
         discard;
     }
