@@ -1,0 +1,795 @@
+//! [`EscapeEpisode`]: one closed-loop episode stepped by an external agent.
+
+use std::sync::Arc;
+
+use loomlab_agents::{
+    ContinuousAction, DiscreteAction, EscapeController, LoomingSideEstimator, TriggerSignal, VelocityCommand,
+};
+use loomlab_detector::{Detector, DetectorSet, Frame, Signals};
+use loomlab_sim::{GpuContext, ObjectKind, RobotState, Sim, StepOutput};
+use serde::{Deserialize, Serialize};
+
+use super::reward::StepFacts;
+use super::{ActionKind, EnvError, EnvOptions, EnvScenario, EpisodeRng, RewardTerms, shared_gpu_context};
+use crate::metrics::{DetectorEpisode, GroundTruth, TraceSample, score_detector_episode};
+use crate::schema::{EpisodeSpec, Scenario, to_sim_command};
+
+/// Number of entries of [`Observation::robot`].
+pub const ROBOT_DIM: usize = 7;
+
+/// Names of the entries of [`Observation::robot`], in order.
+pub const ROBOT_FIELDS: [&str; ROBOT_DIM] = [
+    "x_m",
+    "y_m",
+    "yaw_rad",
+    "forward_mps",
+    "yaw_rate_rps",
+    "lateral_mps",
+    "t_s",
+];
+
+/// An action of an external agent.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Action {
+    /// Normalised `[forward, yaw_rate, lateral]` (see [`ActionKind::Continuous`]).
+    Continuous([f32; 3]),
+    /// Discrete action index (see [`ActionKind::Discrete`]).
+    Discrete(i64),
+}
+
+impl Action {
+    fn kind_name(&self) -> &'static str {
+        match self {
+            Action::Continuous(_) => "continuous",
+            Action::Discrete(_) => "discrete",
+        }
+    }
+}
+
+/// What the agent observes after a reset or a step.
+///
+/// The detectors see their first frame in the first step, exactly as in the scenario runner's
+/// open-loop pass, so the observation at reset holds the frame at t = 0 but zero signals and no
+/// alarm. Non-finite detector values are reported as 0 (observations must be finite numbers).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Observation {
+    /// Per detector (in [`EscapeEpisode::detector_labels`] order): `[output, aux…]`, names in
+    /// [`EscapeEpisode::signal_names`].
+    pub signals: Vec<Vec<f32>>,
+    /// The angular-size estimate θ̂ in degrees of the first detector that gives one (`hopfield`),
+    /// 0 when none of the chosen detectors does.
+    pub theta_hat_deg: f32,
+    /// Per detector: whether its trigger signal is at or above its alarm threshold on this frame.
+    pub alarm: Vec<bool>,
+    /// The robot: [`ROBOT_FIELDS`] — pose relative to its start pose (x ahead, y left, yaw), the
+    /// command applied during the last step (m/s, rad/s) and the episode time.
+    pub robot: [f32; ROBOT_DIM],
+    /// The egocentric frame, n·n grey levels row-major (row 0 at the top), if observed.
+    pub frame: Option<Vec<u8>>,
+}
+
+/// The scored outcome of an episode (reported with its last step).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EpisodeSummary {
+    /// Whether the episode had a threat (open-loop ground truth).
+    pub threat: bool,
+    /// Open-loop contact time of the threat (s).
+    pub t_contact_s: Option<f64>,
+    /// Whether the robot was touched.
+    pub collision: bool,
+    /// A threat that did not touch the robot.
+    pub evaded: bool,
+    /// Steps taken.
+    pub steps: u64,
+    /// Sum of the rewards.
+    pub episode_return: f64,
+    /// Per detector: the scoring of its alarms (hit / miss / false alarm / correct rejection).
+    pub detectors: Vec<DetectorEpisode>,
+}
+
+/// Ground truth and bookkeeping of one step (Gymnasium's `info`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepInfo {
+    /// Episode time (s).
+    pub t_s: f64,
+    /// Steps taken since the reset.
+    pub step: u64,
+    /// Whether the episode has a threat: an object that touches the robot if it keeps cruising.
+    pub threat: bool,
+    /// Open-loop contact time of the threat (s).
+    pub t_contact_s: Option<f64>,
+    /// True time to contact of the reference object under the current command (`None`: not on a
+    /// collision course). The reference object is the threat, else the moving object (projectile
+    /// or vehicle; any object if there is none) that comes closest in the open-loop pass, as in the
+    /// scenario runner.
+    pub ttc_s: Option<f64>,
+    /// True angular size of the reference object (degrees).
+    pub angular_size_deg: Option<f64>,
+    /// Whether the robot has been touched.
+    pub collision: bool,
+    /// Index of the scenario episode (sweep point × draw × repeat) this episode runs.
+    pub episode: usize,
+    /// Whether the last command deviated from the cruise command.
+    pub dodging: bool,
+    /// What the scenario's escape controller would command now (threshold baseline), as a
+    /// continuous action (normalised, clamped into [-1, 1]).
+    pub controller_continuous: [f32; 3],
+    /// The same as a discrete action.
+    pub controller_discrete: DiscreteAction,
+    /// The terms of the last reward.
+    pub reward_terms: RewardTerms,
+    /// The scored outcome, on the step that ends the episode (terminated or truncated).
+    pub outcome: Option<EpisodeSummary>,
+}
+
+/// The result of [`EscapeEpisode::step`] (Gymnasium's `(obs, reward, terminated, truncated, info)`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepResult {
+    /// The observation after the step.
+    pub obs: Observation,
+    /// The reward of the step ([`RewardTerms::total`]).
+    pub reward: f64,
+    /// The episode ended: collision, or the scenario's duration is over.
+    pub terminated: bool,
+    /// The episode was cut by [`EnvOptions::max_episode_steps`].
+    pub truncated: bool,
+    /// Ground truth and bookkeeping.
+    pub info: StepInfo,
+}
+
+/// How the current episode was chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EpisodeStart {
+    /// Drawn from the seed stream, whose state before the draws is given.
+    Drawn {
+        /// Seed-stream state before the episode's draws.
+        rng_state: u64,
+    },
+    /// A given scenario episode and simulator seed ([`EscapeEpisode::reset_to_episode`]).
+    Fixed {
+        /// Scenario episode index.
+        index: usize,
+        /// Simulator seed.
+        seed: u64,
+    },
+}
+
+/// The state needed to reproduce an episode exactly (pickling in Python): how it started and the
+/// actions taken since.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EpisodeSnapshot {
+    /// State of the seed stream now (restored after the replay).
+    pub rng_state: u64,
+    /// How the current episode started; `None` before the first reset.
+    pub start: Option<EpisodeStart>,
+    /// Actions since the start.
+    pub actions: Vec<Action>,
+}
+
+struct DetectorSlot {
+    label: String,
+    id: &'static str,
+    params: DetectorSet,
+    detector: Box<dyn Detector>,
+    trigger: TriggerSignal,
+    threshold: f64,
+    trace: Vec<TraceSample>,
+}
+
+struct Running {
+    sim: Sim,
+    spec: EpisodeSpec,
+    start_kind: EpisodeStart,
+    frames: u64,
+    actions: Vec<Action>,
+    threat: Option<f64>,
+    reference: Option<usize>,
+    start: RobotState,
+    last_robot: RobotState,
+    steps: u64,
+    collision: bool,
+    done: bool,
+    episode_return: f64,
+    last_command: VelocityCommand,
+    /// The cruise command during the last step.
+    last_cruise: VelocityCommand,
+}
+
+/// One closed-loop episode at a time, stepped by an external agent (the engine of the Python
+/// `loomlab.EscapeEnv`; usable from Rust as it is).
+///
+/// The scenario is expanded once ([`crate::schema`]: sweeps × random draws × repeats; scenarios with
+/// a `[random]` table are re-expanded with a fresh seed at every reset). Each
+/// [`reset`](Self::reset) draws one of its episodes and a simulator seed from the seed stream, runs
+/// the open-loop pass in physics-only mode for the ground truth (see the module docs), and renders
+/// the first frame. Each [`step`](Self::step) applies the agent's command for one camera period,
+/// renders, steps the detectors and returns observation, reward, termination and ground truth; the
+/// last step scores the episode with [`crate::metrics`]. Same seed and actions ⇒ same results (on
+/// the same GPU adapter).
+pub struct EscapeEpisode {
+    scenario: EnvScenario,
+    options: EnvOptions,
+    base: Scenario,
+    resample: bool,
+    n: u32,
+    ctx: Arc<GpuContext>,
+    detectors: Vec<DetectorSlot>,
+    signal_names: Vec<Vec<String>>,
+    controller: EscapeController,
+    side: LoomingSideEstimator,
+    rng: EpisodeRng,
+    running: Option<Running>,
+}
+
+impl std::fmt::Debug for EscapeEpisode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("EscapeEpisode")
+            .field("scenario", &self.base.name)
+            .field("n", &self.n)
+            .field("detectors", &self.detector_labels())
+            .finish()
+    }
+}
+
+fn finite_or_zero(v: f64) -> f32 {
+    if v.is_finite() { v as f32 } else { 0.0 }
+}
+
+fn wrap_angle(a: f64) -> f64 {
+    (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
+}
+
+/// 8-bit grey level of a luminance in [0, 1] (the simulator's rounding).
+fn to_u8(v: f32) -> u8 {
+    (v.clamp(0.0, 1.0) * 255.0).round() as u8
+}
+
+fn deviation(a: VelocityCommand, b: VelocityCommand) -> [f64; 3] {
+    [
+        a.forward_mps - b.forward_mps,
+        a.yaw_rate_rps - b.yaw_rate_rps,
+        a.lateral_mps - b.lateral_mps,
+    ]
+}
+
+impl EscapeEpisode {
+    /// Builds the environment: expands the scenario, validates the options, builds the detectors and
+    /// finds a GPU adapter (shared by every environment of the process).
+    pub fn new(scenario: EnvScenario, options: EnvOptions) -> Result<Self, EnvError> {
+        Self::with_context(scenario, options, shared_gpu_context()?)
+    }
+
+    /// Like [`new`](Self::new) on a given GPU context.
+    pub fn with_context(scenario: EnvScenario, options: EnvOptions, ctx: Arc<GpuContext>) -> Result<Self, EnvError> {
+        options.validate()?;
+        let base = scenario.load(&options, 0)?;
+        let first = &base.episodes[0];
+        let n = first.world.camera.n;
+        for key in options.thresholds.keys() {
+            if !first.detectors.iter().any(|d| &d.label == key) {
+                return Err(EnvError::option(
+                    format!("thresholds.{key}"),
+                    options.thresholds[key],
+                    format!(
+                        "`{key}` is not one of the chosen detectors {:?}",
+                        first.detectors.iter().map(|d| d.label.as_str()).collect::<Vec<_>>()
+                    ),
+                ));
+            }
+        }
+        let mut detectors = Vec::new();
+        let mut signal_names = Vec::new();
+        for spec in &first.detectors {
+            let mut detector = spec.build(n as usize)?;
+            // learn the auxiliary signal names (fixed per detector) from one blank frame
+            let probe = detector.step(&Frame::uniform(n as usize, 0.5))?;
+            detector.reset();
+            let mut names = vec!["output".to_string()];
+            names.extend(probe.aux.iter().map(|(k, _)| (*k).to_string()));
+            signal_names.push(names);
+            detectors.push(DetectorSlot {
+                label: spec.label.clone(),
+                id: spec.id,
+                params: spec.params,
+                detector,
+                trigger: spec.trigger,
+                threshold: options.thresholds.get(&spec.label).copied().unwrap_or(spec.threshold),
+                trace: Vec::new(),
+            });
+        }
+        let controller = EscapeController::new(first.detectors[0].controller(&first.controller))?;
+        Ok(Self {
+            resample: scenario.has_random_ranges(),
+            n,
+            ctx,
+            detectors,
+            signal_names,
+            controller,
+            side: LoomingSideEstimator::default(),
+            rng: EpisodeRng::from_entropy(),
+            running: None,
+            scenario,
+            options,
+            base,
+        })
+    }
+
+    /// The scenario file.
+    pub fn scenario(&self) -> &EnvScenario {
+        &self.scenario
+    }
+
+    /// The scenario's name.
+    pub fn scenario_name(&self) -> &str {
+        &self.base.name
+    }
+
+    /// The scenario's expanded episodes (with the file's seed; see [`reset_to_episode`](Self::reset_to_episode)).
+    pub fn episodes(&self) -> &[EpisodeSpec] {
+        &self.base.episodes
+    }
+
+    /// The options.
+    pub fn options(&self) -> &EnvOptions {
+        &self.options
+    }
+
+    /// Frame size n.
+    pub fn frame_size(&self) -> u32 {
+        self.n
+    }
+
+    /// Camera period of the current episode (s; of the scenario's first episode before a reset).
+    pub fn dt(&self) -> f64 {
+        let world = match &self.running {
+            Some(r) => &r.spec.world,
+            None => &self.base.episodes[0].world,
+        };
+        world.dt()
+    }
+
+    /// Steps of the current episode when it runs its full duration (of the first episode before a
+    /// reset).
+    pub fn duration_steps(&self) -> u64 {
+        match &self.running {
+            Some(r) => r.frames,
+            None => self.base.episodes[0].frames() as u64,
+        }
+    }
+
+    /// The chosen detectors' labels (the detector id unless the scenario gave a label), in
+    /// observation order.
+    pub fn detector_labels(&self) -> Vec<&str> {
+        self.detectors.iter().map(|d| d.label.as_str()).collect()
+    }
+
+    /// The chosen detectors' ids, in observation order.
+    pub fn detector_ids(&self) -> Vec<&'static str> {
+        self.detectors.iter().map(|d| d.id).collect()
+    }
+
+    /// Names of each detector's signal vector (`output` then its auxiliary signals).
+    pub fn signal_names(&self) -> &[Vec<String>] {
+        &self.signal_names
+    }
+
+    /// The alarm thresholds of the current episode, in detector order.
+    pub fn thresholds(&self) -> Vec<f64> {
+        self.detectors.iter().map(|d| d.threshold).collect()
+    }
+
+    /// The adapter that renders the frames.
+    pub fn adapter(&self) -> String {
+        self.ctx.describe()
+    }
+
+    /// The latest frame as 8-bit grey levels (n·n; empty before the first reset).
+    pub fn frame_u8(&self) -> Vec<u8> {
+        self.running.as_ref().map(|r| r.sim.frame_u8()).unwrap_or_default()
+    }
+
+    /// Whether an episode is running (reset and not ended).
+    pub fn is_running(&self) -> bool {
+        self.running.as_ref().is_some_and(|r| !r.done)
+    }
+
+    /// The command the robot follows now when nothing threatens it.
+    pub fn cruise(&self) -> VelocityCommand {
+        match &self.running {
+            Some(r) => r.spec.cruise.command_at(r.sim.time()),
+            None => self.base.episodes[0].cruise.command_at(0.0),
+        }
+    }
+
+    /// Starts a new episode drawn from the seed stream. `Some(seed)` restarts the stream
+    /// (reproducible); `None` continues it (a fresh environment's stream is seeded from OS entropy).
+    pub fn reset(&mut self, seed: Option<u64>) -> Result<(Observation, StepInfo), EnvError> {
+        if let Some(s) = seed {
+            self.rng = EpisodeRng::new(s);
+        }
+        let rng_state = self.rng.state();
+        let sim_seed = self.rng.next_u64();
+        let draw = self.rng.next_u64();
+        let spec = if self.resample {
+            // a fresh expansion of the random ranges (a nonzero seed mixed into the file's)
+            let sc = self.scenario.load(&self.options, draw | 1)?;
+            let i = (self.rng.next_u64() % sc.episodes.len() as u64) as usize;
+            sc.episodes[i].clone()
+        } else {
+            self.base.episodes[(draw % self.base.episodes.len() as u64) as usize].clone()
+        };
+        self.start(spec, sim_seed, EpisodeStart::Drawn { rng_state })
+    }
+
+    /// Starts scenario episode `index` (of [`episodes`](Self::episodes)) with simulator seed `seed`
+    /// (`None`: the episode's own seed, as `loomlab run` uses it). The seed stream is untouched.
+    pub fn reset_to_episode(&mut self, index: usize, seed: Option<u64>) -> Result<(Observation, StepInfo), EnvError> {
+        let spec = self.base.episodes.get(index).cloned().ok_or_else(|| {
+            EnvError::option(
+                "episode",
+                index,
+                format!("the scenario has {} episodes", self.base.episodes.len()),
+            )
+        })?;
+        let seed = seed.unwrap_or(spec.seed);
+        self.start(spec, seed, EpisodeStart::Fixed { index, seed })
+    }
+
+    fn start(
+        &mut self,
+        spec: EpisodeSpec,
+        sim_seed: u64,
+        start_kind: EpisodeStart,
+    ) -> Result<(Observation, StepInfo), EnvError> {
+        let frames = spec.frames() as u64;
+        let (threat, reference) = open_loop_truth(&spec, sim_seed, frames)?;
+        let sim = match self.running.take() {
+            Some(mut r) => {
+                r.sim.reset(&spec.world, sim_seed)?;
+                r.sim
+            }
+            None => Sim::with_context(&spec.world, sim_seed, Arc::clone(&self.ctx))?,
+        };
+        for (slot, d) in self.detectors.iter_mut().zip(&spec.detectors) {
+            if slot.params != d.params {
+                slot.detector = d.build(self.n as usize)?;
+                slot.params = d.params;
+            }
+            slot.detector.reset();
+            slot.trace.clear();
+            slot.trigger = d.trigger;
+            slot.threshold = self.options.thresholds.get(&d.label).copied().unwrap_or(d.threshold);
+        }
+        let mut ctrl = spec.detectors[0].controller(&spec.controller);
+        ctrl.trigger = self.detectors[0].trigger;
+        ctrl.threshold = self.detectors[0].threshold;
+        self.controller = EscapeController::new(ctrl)?;
+        self.side.reset();
+        let mut sim = sim;
+        let first = sim.observe()?;
+        let start = first.robot;
+        let cruise = spec.cruise.command_at(0.0);
+        self.running = Some(Running {
+            sim,
+            spec,
+            start_kind,
+            frames,
+            actions: Vec::new(),
+            threat,
+            reference,
+            start,
+            last_robot: start,
+            steps: 0,
+            collision: false,
+            done: false,
+            episode_return: 0.0,
+            last_command: cruise,
+            last_cruise: cruise,
+        });
+        self.process(&first, false, RewardTerms::default())
+    }
+
+    /// Applies an agent action for one camera period.
+    pub fn step(&mut self, action: Action) -> Result<StepResult, EnvError> {
+        let command = self.command_for(action)?;
+        let r = self.step_command(command)?;
+        if let Some(run) = self.running.as_mut() {
+            run.actions.push(action);
+        }
+        Ok(r)
+    }
+
+    /// The velocity command an action maps to now (validating it).
+    pub fn command_for(&self, action: Action) -> Result<VelocityCommand, EnvError> {
+        let cfg = &self.options.action;
+        match (self.options.action_kind, action) {
+            (ActionKind::Continuous, Action::Continuous(a)) => {
+                let a = ContinuousAction(a);
+                Ok(if self.options.clip_actions {
+                    a.to_command_clamped(cfg)?
+                } else {
+                    a.to_command(cfg)?
+                })
+            }
+            (ActionKind::Discrete, Action::Discrete(i)) => {
+                Ok(DiscreteAction::from_index(i)?.to_command(self.cruise(), cfg))
+            }
+            (kind, a) => Err(EnvError::ActionKind {
+                expected: kind.as_str(),
+                got: a.kind_name(),
+            }),
+        }
+    }
+
+    /// Applies a velocity command for one camera period (the Rust-side interface; only actions
+    /// given to [`step`](Self::step) are recorded for [`snapshot`](Self::snapshot)).
+    pub fn step_command(&mut self, command: VelocityCommand) -> Result<StepResult, EnvError> {
+        if !command.is_finite() {
+            return Err(EnvError::option(
+                "command",
+                format!("{command:?}"),
+                "velocity commands must be finite",
+            ));
+        }
+        let max_steps = self.options.max_episode_steps;
+        let r = match self.running.as_mut() {
+            None => return Err(EnvError::State("step() called before reset(); call reset() first")),
+            Some(r) if r.done => {
+                return Err(EnvError::State(
+                    "step() called after the episode ended (terminated or truncated); call reset()",
+                ));
+            }
+            Some(r) => r,
+        };
+        let cruise = r.spec.cruise.command_at(r.sim.time());
+        let dt = r.spec.world.dt();
+        let out = r.sim.step(&to_sim_command(command))?;
+        r.steps += 1;
+        r.last_command = command;
+        r.last_cruise = cruise;
+        let collision = !r.collision && !out.contacts.is_empty();
+        r.collision |= collision;
+        let (s0, c0) = r.start.yaw_rad.sin_cos();
+        let progress_m = (out.robot.x_m - r.last_robot.x_m) * c0 + (out.robot.y_m - r.last_robot.y_m) * s0;
+        r.last_robot = out.robot;
+        let facts = StepFacts {
+            dt,
+            collision,
+            progress_m,
+            deviation: deviation(command, cruise),
+            threat: r.threat.is_some(),
+        };
+        let terms = self.options.reward.terms(&facts);
+        r.episode_return += terms.total();
+        let terminated = r.collision || r.steps >= r.frames;
+        let truncated = !terminated && max_steps.is_some_and(|m| r.steps >= m);
+        r.done = terminated || truncated;
+        let done = r.done;
+        let (obs, info) = self.process(&out, done, terms)?;
+        Ok(StepResult {
+            obs,
+            reward: terms.total(),
+            terminated,
+            truncated,
+            info,
+        })
+    }
+
+    /// Steps the detectors (not on the reset frame), the shadow controller and the bookkeeping.
+    fn process(
+        &mut self,
+        out: &StepOutput,
+        done: bool,
+        terms: RewardTerms,
+    ) -> Result<(Observation, StepInfo), EnvError> {
+        let n = self.n as usize;
+        let r = self.running.as_ref().expect("process() runs inside an episode");
+        let reference = r.reference.and_then(|id| out.truth.get(id));
+        let ttc_s = reference.and_then(|t| t.ttc_s).map(f64::from);
+        let angular_size_deg = reference.map(|t| f64::from(t.angular_size_deg));
+        let cruise_now = r.spec.cruise.command_at(out.t_s);
+        let nd = self.detectors.len();
+        let mut signals = Vec::with_capacity(nd);
+        let mut alarm = Vec::with_capacity(nd);
+        let mut theta_hat = None;
+        let (controller_continuous, controller_discrete);
+        if out.frame_index == 0 {
+            // the reset frame: detectors see their first frame in the first step
+            for names in &self.signal_names {
+                signals.push(vec![0.0; names.len()]);
+                alarm.push(false);
+            }
+            controller_continuous = self.normalised(cruise_now);
+            controller_discrete = DiscreteAction::None;
+        } else {
+            let frame = Frame::from_f32(n, out.frame.clone())?;
+            let mut first_signals: Option<Signals> = None;
+            for d in &mut self.detectors {
+                let s = d.detector.step(&frame)?;
+                let value = d.trigger.value(&s).unwrap_or(f64::NAN);
+                alarm.push(value >= d.threshold);
+                d.trace.push(TraceSample {
+                    t_s: out.t_s,
+                    signal: value,
+                    ttc_s,
+                    angular_size_deg: angular_size_deg.filter(|v| v.is_finite()),
+                });
+                if theta_hat.is_none() {
+                    theta_hat = s.angular_size_deg;
+                }
+                let mut v = Vec::with_capacity(1 + s.aux.len());
+                v.push(finite_or_zero(s.output));
+                v.extend(s.aux.iter().map(|(_, x)| finite_or_zero(*x)));
+                signals.push(v);
+                if first_signals.is_none() {
+                    first_signals = Some(s);
+                }
+            }
+            let side = self.side.update(&frame);
+            let (cmd, _) = self.controller.step_signals(
+                out.t_s,
+                first_signals.as_ref().expect("at least one detector"),
+                side,
+                cruise_now,
+            );
+            controller_continuous = self.normalised(cmd);
+            controller_discrete = if cmd == cruise_now {
+                DiscreteAction::None
+            } else if cmd.lateral_mps > cruise_now.lateral_mps + 1e-9 {
+                DiscreteAction::DodgeLeft
+            } else if cmd.lateral_mps < cruise_now.lateral_mps - 1e-9 {
+                DiscreteAction::DodgeRight
+            } else {
+                DiscreteAction::Stop
+            };
+        }
+        let r = self.running.as_ref().expect("process() runs inside an episode");
+        let (dx, dy) = (out.robot.x_m - r.start.x_m, out.robot.y_m - r.start.y_m);
+        let (s0, c0) = r.start.yaw_rad.sin_cos();
+        let cmd = r.last_command;
+        let robot = [
+            (dx * c0 + dy * s0) as f32,
+            (-dx * s0 + dy * c0) as f32,
+            wrap_angle(out.robot.yaw_rad - r.start.yaw_rad) as f32,
+            cmd.forward_mps as f32,
+            cmd.yaw_rate_rps as f32,
+            cmd.lateral_mps as f32,
+            out.t_s as f32,
+        ];
+        let dodging = deviation(cmd, r.last_cruise)
+            .iter()
+            .any(|d| d.abs() > super::reward::DODGE_TOLERANCE);
+        let obs = Observation {
+            signals,
+            theta_hat_deg: theta_hat.map(finite_or_zero).unwrap_or(0.0),
+            alarm,
+            robot,
+            frame: self
+                .options
+                .observe_frames
+                .then(|| out.frame.iter().map(|&v| to_u8(v)).collect()),
+        };
+        let outcome = if done {
+            let truth = GroundTruth {
+                threat: r.threat.is_some(),
+                t_contact_s: r.threat,
+                collision: r.collision,
+            };
+            let mut scored = Vec::with_capacity(nd);
+            for d in &self.detectors {
+                scored.push(score_detector_episode(
+                    &d.label,
+                    d.threshold,
+                    &d.trace,
+                    &truth,
+                    &r.spec.scoring,
+                )?);
+            }
+            Some(EpisodeSummary {
+                threat: truth.threat,
+                t_contact_s: truth.t_contact_s,
+                collision: r.collision,
+                evaded: truth.threat && !r.collision,
+                steps: r.steps,
+                episode_return: r.episode_return,
+                detectors: scored,
+            })
+        } else {
+            None
+        };
+        let info = StepInfo {
+            t_s: out.t_s,
+            step: r.steps,
+            threat: r.threat.is_some(),
+            t_contact_s: r.threat,
+            ttc_s,
+            angular_size_deg,
+            collision: r.collision,
+            episode: r.spec.index,
+            dodging,
+            controller_continuous,
+            controller_discrete,
+            reward_terms: terms,
+            outcome,
+        };
+        Ok((obs, info))
+    }
+
+    /// A command as a normalised continuous action (clamped into [-1, 1]).
+    fn normalised(&self, c: VelocityCommand) -> [f32; 3] {
+        let cfg = &self.options.action;
+        [
+            (c.forward_mps / cfg.max_forward_mps).clamp(-1.0, 1.0) as f32,
+            (c.yaw_rate_rps / cfg.max_yaw_rate_rps).clamp(-1.0, 1.0) as f32,
+            (c.lateral_mps / cfg.max_lateral_mps).clamp(-1.0, 1.0) as f32,
+        ]
+    }
+
+    /// The state that reproduces the current episode: see [`EpisodeSnapshot`].
+    pub fn snapshot(&self) -> EpisodeSnapshot {
+        EpisodeSnapshot {
+            rng_state: self.rng.state(),
+            start: self.running.as_ref().map(|r| r.start_kind),
+            actions: self.running.as_ref().map(|r| r.actions.clone()).unwrap_or_default(),
+        }
+    }
+
+    /// Restores a snapshot by replaying it (the episode's start and the recorded actions); returns
+    /// the last observation and info when an episode was running.
+    pub fn restore(&mut self, snapshot: &EpisodeSnapshot) -> Result<Option<(Observation, StepInfo)>, EnvError> {
+        self.running = None;
+        let mut last = match snapshot.start {
+            None => {
+                self.rng = EpisodeRng::from_state(snapshot.rng_state);
+                return Ok(None);
+            }
+            Some(EpisodeStart::Drawn { rng_state }) => {
+                self.rng = EpisodeRng::from_state(rng_state);
+                self.reset(None)?
+            }
+            Some(EpisodeStart::Fixed { index, seed }) => self.reset_to_episode(index, Some(seed))?,
+        };
+        for &a in &snapshot.actions {
+            let s = self.step(a)?;
+            last = (s.obs, s.info);
+        }
+        self.rng = EpisodeRng::from_state(snapshot.rng_state);
+        Ok(Some(last))
+    }
+}
+
+/// Open-loop ground truth: the episode's world in physics-only mode with the robot following its
+/// cruise command for `frames` camera periods (as the scenario runner's open-loop pass). The first
+/// contact makes a threat with its exact contact time; the reference object is the touching one,
+/// else the moving object (projectiles and vehicles before scenery) that came closest.
+fn open_loop_truth(spec: &EpisodeSpec, seed: u64, frames: u64) -> Result<(Option<f64>, Option<usize>), EnvError> {
+    let mut sim = Sim::new_physics_only(&spec.world, seed)?;
+    let objects = sim.objects();
+    let mut min_distance = vec![f64::INFINITY; objects.len()];
+    for _ in 0..frames {
+        let cmd = spec.cruise.command_at(sim.time());
+        let out = sim.step(&to_sim_command(cmd))?;
+        for t in &out.truth {
+            min_distance[t.id] = min_distance[t.id].min(f64::from(t.distance_m));
+        }
+        if let Some(c) = out.contacts.first() {
+            return Ok((Some(c.exact_t_s.unwrap_or(c.t_s)), Some(c.object_id)));
+        }
+    }
+    let movers: Vec<usize> = objects
+        .iter()
+        .filter(|(_, _, kind)| *kind != ObjectKind::Scenery)
+        .map(|(id, _, _)| *id)
+        .collect();
+    let candidates: Vec<usize> = if movers.is_empty() {
+        objects.iter().map(|(id, _, _)| *id).collect()
+    } else {
+        movers
+    };
+    let reference = candidates
+        .into_iter()
+        .min_by(|&a, &b| min_distance[a].total_cmp(&min_distance[b]));
+    Ok((None, reference))
+}

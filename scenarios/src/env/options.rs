@@ -1,0 +1,119 @@
+//! Options of the step-by-step environment: what the agent observes, how its actions map to
+//! commands, the reward and the time limit. Deserialisable (the Python bindings pass them as JSON),
+//! unknown keys are errors.
+
+use std::collections::BTreeMap;
+
+use loomlab_agents::ActionConfig;
+use serde::{Deserialize, Serialize};
+
+use super::{EnvError, RewardConfig};
+
+/// Largest frame size the environment accepts.
+pub const MAX_FRAME_SIZE: u32 = 1024;
+
+/// The agent's action space.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ActionKind {
+    /// `[forward, yaw_rate, lateral]` in [-1, 1], scaled by [`ActionConfig`]'s maxima to an absolute
+    /// velocity command ([`loomlab_agents::ContinuousAction`]).
+    #[default]
+    Continuous,
+    /// 0 none (cruise), 1 dodge left, 2 dodge right, 3 stop ([`loomlab_agents::DiscreteAction`]).
+    Discrete,
+}
+
+impl ActionKind {
+    /// `"continuous"` or `"discrete"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ActionKind::Continuous => "continuous",
+            ActionKind::Discrete => "discrete",
+        }
+    }
+}
+
+/// Everything about an environment that is not in the scenario file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EnvOptions {
+    /// Detector ids to run and observe (`None`: the scenario's detectors). Order is kept.
+    pub detectors: Option<Vec<String>>,
+    /// Alarm thresholds by detector id, overriding the scenario's (θ̂ in degrees for `hopfield`, the
+    /// output for the baselines).
+    pub thresholds: BTreeMap<String, f64>,
+    /// Frame size n (`None`: the scenario's camera size).
+    pub frame_size: Option<u32>,
+    /// Whether the observation includes the egocentric frame (n × n, 8 bit).
+    pub observe_frames: bool,
+    /// Continuous or discrete actions.
+    pub action_kind: ActionKind,
+    /// Scales of the action mappings.
+    pub action: ActionConfig,
+    /// Clamp continuous actions into [-1, 1] instead of rejecting them (NaN/∞ are always errors).
+    pub clip_actions: bool,
+    /// Reward weights.
+    pub reward: RewardConfig,
+    /// Truncate episodes after this many steps (`None`: only the scenario's duration ends them).
+    pub max_episode_steps: Option<u64>,
+}
+
+impl Default for EnvOptions {
+    fn default() -> Self {
+        Self {
+            detectors: None,
+            thresholds: BTreeMap::new(),
+            frame_size: None,
+            observe_frames: false,
+            action_kind: ActionKind::Continuous,
+            action: ActionConfig::default(),
+            clip_actions: false,
+            reward: RewardConfig::default(),
+            max_episode_steps: None,
+        }
+    }
+}
+
+impl EnvOptions {
+    /// Parses options from JSON (unknown keys are errors that name the key).
+    pub fn from_json(text: &str) -> Result<Self, EnvError> {
+        let de = &mut serde_json::Deserializer::from_str(text);
+        serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            EnvError::option(path, "(json)", e.into_inner().to_string())
+        })
+    }
+
+    /// Checks every value.
+    pub fn validate(&self) -> Result<(), EnvError> {
+        if let Some(n) = self.frame_size
+            && !(8..=MAX_FRAME_SIZE).contains(&n)
+        {
+            return Err(EnvError::option(
+                "frame_size",
+                n,
+                format!("must be in 8..={MAX_FRAME_SIZE} pixels (64 is fast for RL)"),
+            ));
+        }
+        if let Some(d) = &self.detectors
+            && d.is_empty()
+        {
+            return Err(EnvError::option(
+                "detectors",
+                "[]",
+                "choose at least one detector (hopfield, soc, keil2004, cizek2019, fu2020)",
+            ));
+        }
+        for (id, t) in &self.thresholds {
+            if !t.is_finite() {
+                return Err(EnvError::option(format!("thresholds.{id}"), t, "must be finite"));
+            }
+        }
+        if self.max_episode_steps == Some(0) {
+            return Err(EnvError::option("max_episode_steps", 0, "must be >= 1"));
+        }
+        self.action.validate()?;
+        self.reward.validate()
+    }
+}

@@ -1,0 +1,187 @@
+//! The reward of the step-by-step environment ([`super::EscapeEpisode`]).
+//!
+//! Per step of length `dt` (one camera period) the reward is the sum of
+//! - `+ survival_per_s · dt` while the robot is untouched (also on the last step of an episode
+//!   that ends without a collision; not on the collision step),
+//! - `+ progress_per_m · Δs`, with Δs the distance travelled this step along the robot's start
+//!   heading (negative when it backs up),
+//! - `− effort_per_s · ‖u − u_cruise‖² · dt`, the control effort: squared deviation of the applied
+//!   command `u = (forward m/s, yaw rate rad/s, lateral m/s)` from the scenario's cruise command,
+//! - `− unnecessary_dodge_per_s · dt` on every step whose command deviates from the cruise command
+//!   (by more than [`DODGE_TOLERANCE`] in any component) in an episode **without** a threat (ground
+//!   truth), i.e. the cost of escaping from nothing,
+//! - `− collision_penalty` once, on the step in which the robot is first touched.
+//!
+//! Every term is reported separately in [`RewardTerms`] so that agents and tests can see where the
+//! reward came from.
+
+use serde::{Deserialize, Serialize};
+
+use super::EnvError;
+
+/// A command component that differs from the cruise command by more than this counts as a dodge.
+pub const DODGE_TOLERANCE: f64 = 1e-6;
+
+/// Weights of the reward terms (see the module docs). All must be finite and ≥ 0.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RewardConfig {
+    /// Subtracted once when the robot is touched. Default 10.
+    pub collision_penalty: f64,
+    /// Reward per second without a collision. Default 1.
+    pub survival_per_s: f64,
+    /// Reward per metre travelled along the start heading. Default 0 (off).
+    pub progress_per_m: f64,
+    /// Cost per second of the squared deviation of the command from the cruise command. Default 0.05.
+    pub effort_per_s: f64,
+    /// Cost per second of dodging (deviating from the cruise command) in an episode without a threat.
+    /// Default 1.
+    pub unnecessary_dodge_per_s: f64,
+}
+
+impl Default for RewardConfig {
+    fn default() -> Self {
+        Self {
+            collision_penalty: 10.0,
+            survival_per_s: 1.0,
+            progress_per_m: 0.0,
+            effort_per_s: 0.05,
+            unnecessary_dodge_per_s: 1.0,
+        }
+    }
+}
+
+impl RewardConfig {
+    /// Checks every weight; the error names the key.
+    pub fn validate(&self) -> Result<(), EnvError> {
+        for (key, v) in [
+            ("reward.collision_penalty", self.collision_penalty),
+            ("reward.survival_per_s", self.survival_per_s),
+            ("reward.progress_per_m", self.progress_per_m),
+            ("reward.effort_per_s", self.effort_per_s),
+            ("reward.unnecessary_dodge_per_s", self.unnecessary_dodge_per_s),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(EnvError::InvalidOption {
+                    key: key.into(),
+                    value: v.to_string(),
+                    reason: "reward weights must be finite numbers >= 0 (the sign of each term is fixed)".into(),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The terms of one step's reward (their sum is the reward).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct RewardTerms {
+    /// `−collision_penalty` on the collision step, else 0.
+    pub collision: f64,
+    /// Survival reward of this step.
+    pub survival: f64,
+    /// Progress reward of this step.
+    pub progress: f64,
+    /// Control-effort cost of this step (≤ 0).
+    pub effort: f64,
+    /// Unnecessary-dodge cost of this step (≤ 0).
+    pub unnecessary_dodge: f64,
+}
+
+impl RewardTerms {
+    /// The reward: the sum of the terms.
+    pub fn total(&self) -> f64 {
+        self.collision + self.survival + self.progress + self.effort + self.unnecessary_dodge
+    }
+}
+
+/// What the reward of one step depends on.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct StepFacts {
+    pub dt: f64,
+    pub collision: bool,
+    pub progress_m: f64,
+    /// Applied command minus cruise command: (forward, yaw rate, lateral).
+    pub deviation: [f64; 3],
+    pub threat: bool,
+}
+
+impl StepFacts {
+    pub fn dodging(&self) -> bool {
+        self.deviation.iter().any(|d| d.abs() > DODGE_TOLERANCE)
+    }
+}
+
+impl RewardConfig {
+    pub(crate) fn terms(&self, f: &StepFacts) -> RewardTerms {
+        let effort: f64 = f.deviation.iter().map(|d| d * d).sum();
+        RewardTerms {
+            collision: if f.collision { -self.collision_penalty } else { 0.0 },
+            survival: if f.collision { 0.0 } else { self.survival_per_s * f.dt },
+            progress: self.progress_per_m * f.progress_m,
+            effort: -self.effort_per_s * effort * f.dt,
+            unnecessary_dodge: if !f.threat && f.dodging() {
+                -self.unnecessary_dodge_per_s * f.dt
+            } else {
+                0.0
+            },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn facts() -> StepFacts {
+        StepFacts {
+            dt: 0.01,
+            collision: false,
+            progress_m: 0.02,
+            deviation: [0.0; 3],
+            threat: true,
+        }
+    }
+
+    #[test]
+    fn terms_follow_the_documented_formulas() {
+        let cfg = RewardConfig {
+            progress_per_m: 2.0,
+            ..Default::default()
+        };
+        let t = cfg.terms(&facts());
+        assert_eq!(t.survival, 0.01);
+        assert_eq!(t.progress, 0.04);
+        assert_eq!((t.collision, t.effort, t.unnecessary_dodge), (0.0, 0.0, 0.0));
+        assert!((t.total() - 0.05).abs() < 1e-15);
+
+        let dodge = StepFacts {
+            deviation: [0.0, 0.0, 1.5],
+            threat: false,
+            ..facts()
+        };
+        let t = cfg.terms(&dodge);
+        assert!((t.effort + 0.05 * 2.25 * 0.01).abs() < 1e-15);
+        assert_eq!(t.unnecessary_dodge, -0.01);
+        // the same dodge against a real threat is not "unnecessary"
+        assert_eq!(cfg.terms(&StepFacts { threat: true, ..dodge }).unnecessary_dodge, 0.0);
+
+        let hit = cfg.terms(&StepFacts {
+            collision: true,
+            ..facts()
+        });
+        assert_eq!((hit.collision, hit.survival), (-10.0, 0.0));
+    }
+
+    #[test]
+    fn negative_weights_are_rejected_with_the_key() {
+        let e = RewardConfig {
+            effort_per_s: -1.0,
+            ..Default::default()
+        }
+        .validate()
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("reward.effort_per_s"), "{e}");
+    }
+}

@@ -1,0 +1,284 @@
+//! Tests of the step-by-step environment (they render with the system's GPU adapter, e.g. lavapipe).
+
+use loomlab_agents::DiscreteAction;
+
+use super::*;
+use crate::metrics::Outcome;
+
+/// A ball thrown head-on at the robot cruising at 1 m/s (contact after about 0.5 s), in front of a
+/// grating wall; 1.2 s episodes at n = 32.
+const HEAD_ON: &str = r#"
+name = "head_on"
+[episode]
+duration_s = 1.2
+seed = 3
+[robot]
+forward_mps = 1.0
+[[detectors]]
+id = "hopfield"
+[[detectors]]
+id = "soc"
+[world]
+camera = { n = 32 }
+[[world.scenery]]
+kind = "wall"
+start = [20.0, -10.0]
+end = [20.0, 10.0]
+texture = { kind = "square_grating", period_m = 1.0, orientation_deg = 90.0 }
+[[world.projectiles]]
+launch_distance_m = 8.0
+speed_mps = 10.0
+radius_m = 0.2
+"#;
+
+fn scenario() -> EnvScenario {
+    EnvScenario::from_toml(HEAD_ON, "head_on.toml")
+}
+
+fn options(kind: ActionKind) -> EnvOptions {
+    EnvOptions {
+        observe_frames: true,
+        action_kind: kind,
+        ..Default::default()
+    }
+}
+
+fn run(env: &mut EscapeEpisode, seed: u64, action: impl Fn(usize) -> Action) -> Vec<StepResult> {
+    env.reset(Some(seed)).unwrap();
+    let mut out = Vec::new();
+    for i in 0.. {
+        let r = env.step(action(i)).unwrap();
+        let done = r.terminated || r.truncated;
+        out.push(r);
+        if done {
+            break;
+        }
+    }
+    out
+}
+
+#[test]
+fn cruising_into_a_ball_is_a_threat_a_collision_and_scored() {
+    let mut env = EscapeEpisode::new(scenario(), options(ActionKind::Discrete)).unwrap();
+    let (obs, info) = env.reset(Some(3)).unwrap();
+    assert!(info.threat);
+    let tc = info.t_contact_s.unwrap();
+    assert!((0.5..0.8).contains(&tc), "contact at {tc}");
+    // detectors see their first frame in the first step
+    assert!(obs.signals.iter().flatten().all(|&v| v == 0.0) && obs.alarm == vec![false, false]);
+    assert_eq!(obs.signals.len(), 2);
+    assert_eq!(obs.signals[0].len(), env.signal_names()[0].len());
+    assert_eq!(obs.frame.as_ref().unwrap().len(), 32 * 32);
+    assert_eq!(env.detector_ids(), vec!["hopfield", "soc"]);
+
+    let steps = run(&mut env, 3, |_| Action::Discrete(0));
+    let last = steps.last().unwrap();
+    assert!(last.terminated && !last.truncated);
+    assert!(last.info.collision);
+    assert!(last.reward < -9.0, "collision penalty: {}", last.reward);
+    // contact within a frame of the open-loop prediction
+    assert!(
+        (last.info.t_s - tc).abs() <= env.dt() + 1e-9,
+        "{} vs {tc}",
+        last.info.t_s
+    );
+    let outcome = last.info.outcome.as_ref().unwrap();
+    assert!(outcome.threat && outcome.collision && !outcome.evaded);
+    assert_eq!(outcome.detectors.len(), 2);
+    assert!(
+        outcome
+            .detectors
+            .iter()
+            .all(|d| matches!(d.outcome, Outcome::Hit | Outcome::Miss))
+    );
+    assert!(steps[..steps.len() - 1].iter().all(|s| s.info.outcome.is_none()));
+    // the ball was on a collision course all along, and it grew
+    let first = &steps[0].info;
+    assert!(first.ttc_s.is_some() && first.angular_size_deg.unwrap() < last.info.angular_size_deg.unwrap());
+    // stepping after the end is an error until reset
+    assert_eq!(env.step(Action::Discrete(0)).unwrap_err().kind(), ErrorKind::Other);
+}
+
+#[test]
+fn dodging_left_evades_and_is_scored_as_evaded() {
+    let mut env = EscapeEpisode::new(scenario(), options(ActionKind::Discrete)).unwrap();
+    let left = DiscreteAction::DodgeLeft.index() as i64;
+    let steps = run(&mut env, 5, |_| Action::Discrete(left));
+    let last = steps.last().unwrap();
+    assert!(last.terminated && !last.info.collision);
+    assert!(last.info.outcome.as_ref().unwrap().evaded);
+    assert!(steps.iter().all(|s| s.info.dodging));
+    // survival minus effort, never the unnecessary-dodge cost (it was a real threat)
+    assert!(steps.iter().all(|s| s.info.reward_terms.unnecessary_dodge == 0.0));
+    assert!(last.obs.robot[1] > 1.0, "moved left: {:?}", last.obs.robot);
+    assert_eq!(env.duration_steps(), 144);
+    assert_eq!(steps.len(), 144);
+}
+
+#[test]
+fn same_seed_and_actions_repeat_exactly_and_snapshots_replay() {
+    let act = |i: usize| Action::Continuous([0.3, if i % 7 == 0 { 0.5 } else { -0.2 }, (i as f32 * 0.37).sin()]);
+    let mut a = EscapeEpisode::new(scenario(), options(ActionKind::Continuous)).unwrap();
+    let mut b = EscapeEpisode::new(scenario(), options(ActionKind::Continuous)).unwrap();
+    let ra = run(&mut a, 11, act);
+    let rb = run(&mut b, 11, act);
+    assert_eq!(ra, rb);
+
+    // snapshot mid-episode, restore into a fresh environment, continue identically
+    a.reset(Some(12)).unwrap();
+    for i in 0..20 {
+        a.step(act(i)).unwrap();
+    }
+    let snap = a.snapshot();
+    let mut c = EscapeEpisode::new(scenario(), options(ActionKind::Continuous)).unwrap();
+    c.restore(&snap).unwrap();
+    for i in 20..40 {
+        assert_eq!(a.step(act(i)).unwrap(), c.step(act(i)).unwrap());
+    }
+    // and the seed stream continues identically after the episode
+    assert_eq!(a.reset(None).unwrap(), c.reset(None).unwrap());
+}
+
+#[test]
+fn bad_actions_are_action_errors_and_change_nothing() {
+    let mut env = EscapeEpisode::new(scenario(), options(ActionKind::Continuous)).unwrap();
+    assert_eq!(
+        env.step(Action::Continuous([0.0; 3])).unwrap_err().kind(),
+        ErrorKind::Other
+    );
+    env.reset(Some(1)).unwrap();
+    for bad in [
+        Action::Continuous([1.5, 0.0, 0.0]),
+        Action::Continuous([f32::NAN, 0.0, 0.0]),
+        Action::Discrete(1),
+    ] {
+        let e = env.step(bad).unwrap_err();
+        assert_eq!(e.kind(), ErrorKind::Action, "{e}");
+    }
+    assert!(env.snapshot().actions.is_empty());
+    let mut d = EscapeEpisode::new(scenario(), options(ActionKind::Discrete)).unwrap();
+    d.reset(Some(1)).unwrap();
+    let e = d.step(Action::Discrete(4)).unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::Action);
+    assert!(e.to_string().contains("0..4"), "{e}");
+}
+
+#[test]
+fn options_are_validated_with_the_key() {
+    let bad = EnvOptions {
+        frame_size: Some(4),
+        ..Default::default()
+    };
+    let e = EscapeEpisode::new(scenario(), bad).unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::Scenario);
+    assert!(e.to_string().contains("frame_size"), "{e}");
+    let e = EnvOptions::from_json(r#"{"frame_sise": 64}"#).unwrap_err().to_string();
+    assert!(e.contains("frame_sise"), "{e}");
+    let unknown = EnvOptions {
+        detectors: Some(vec!["hopfeld".into()]),
+        ..Default::default()
+    };
+    let e = EscapeEpisode::new(scenario(), unknown).unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::Detector);
+}
+
+#[test]
+fn vector_env_equals_single_envs_with_next_step_autoreset() {
+    let opts = EnvOptions {
+        max_episode_steps: Some(30),
+        ..options(ActionKind::Continuous)
+    };
+    let n = 3;
+    let mut vec = VecEscape::new(scenario(), opts.clone(), n).unwrap();
+    let mut singles: Vec<EscapeEpisode> = (0..n)
+        .map(|_| EscapeEpisode::new(scenario(), opts.clone()).unwrap())
+        .collect();
+    let v0 = vec.reset(Some(100)).unwrap();
+    for (i, s) in singles.iter_mut().enumerate() {
+        assert_eq!(v0[i], s.reset(Some(100 + i as u64)).unwrap());
+    }
+    let mut pending = vec![false; n];
+    let mut resets = 0;
+    for t in 0..70 {
+        let actions: Vec<Action> = (0..n)
+            .map(|i| Action::Continuous([0.2 * i as f32, 0.1, ((t + i) as f32 * 0.3).sin()]))
+            .collect();
+        let got = vec.step(&actions).unwrap();
+        for i in 0..n {
+            let want = if pending[i] {
+                resets += 1;
+                let (obs, info) = singles[i].reset(None).unwrap();
+                StepResult {
+                    obs,
+                    reward: 0.0,
+                    terminated: false,
+                    truncated: false,
+                    info,
+                }
+            } else {
+                singles[i].step(actions[i]).unwrap()
+            };
+            pending[i] = want.terminated || want.truncated;
+            assert_eq!(got[i], want, "env {i} step {t}");
+        }
+    }
+    assert!(resets >= n, "every env auto-reset at least once ({resets})");
+    let e = vec.step(&[Action::Continuous([0.0; 3])]).unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::Action);
+}
+
+#[test]
+fn cruising_reproduces_the_runner_open_loop_scores() {
+    // a sweep over the miss distance: a threat and a near miss
+    let text = format!("{HEAD_ON}\n[sweep]\n\"world.projectiles.0.miss_distance_m\" = [0.0, 1.5]\n");
+    let mut env = EscapeEpisode::new(
+        EnvScenario::from_toml(text.clone(), "sweep.toml"),
+        options(ActionKind::Discrete),
+    )
+    .unwrap();
+    assert_eq!(env.episodes().len(), 2);
+    // A runner that lives for the whole process: its worker threads keep renderers in thread-local
+    // pools, whose destruction at thread exit panics inside wgpu (noted for the runner's owner), so
+    // episodes are run on its pool threads, which never exit.
+    static RUNNER: std::sync::OnceLock<crate::Runner> = std::sync::OnceLock::new();
+    let runner = RUNNER.get_or_init(|| crate::Runner::with_context(shared_gpu_context().unwrap(), Some(1)).unwrap());
+    for index in 0..2 {
+        let spec = env.episodes()[index].clone();
+        let run = runner.run(&[&spec], |_, _| Ok(())).unwrap().remove(0);
+        let (_, info) = env.reset_to_episode(index, None).unwrap();
+        assert_eq!(info.episode, index);
+        assert_eq!(info.threat, index == 0);
+        let last = loop {
+            let r = env.step(Action::Discrete(0)).unwrap();
+            if r.terminated || r.truncated {
+                break r;
+            }
+        };
+        let out = last.info.outcome.unwrap();
+        assert_eq!(out.threat, index == 0);
+        for (mine, theirs) in out.detectors.iter().zip(&run.outcome.detectors) {
+            assert_eq!(mine.detector, theirs.detector);
+            assert_eq!(mine.outcome, theirs.outcome, "episode {index} {}", mine.detector);
+            assert_eq!(mine.t_contact_s, theirs.t_contact_s);
+            assert_eq!(mine.t_alarm_s, theirs.t_alarm_s);
+            assert_eq!(mine.max_signal, theirs.max_signal);
+            assert_eq!(mine.ttc_at_alarm_s, theirs.ttc_at_alarm_s);
+            assert_eq!(mine.angular_size_at_alarm_deg, theirs.angular_size_at_alarm_deg);
+        }
+    }
+}
+
+#[test]
+fn dodging_without_a_threat_costs_the_unnecessary_dodge_penalty() {
+    let text = HEAD_ON.replace("radius_m = 0.2", "radius_m = 0.2\nmiss_distance_m = 2.0");
+    let mut env = EscapeEpisode::new(EnvScenario::from_toml(text, "miss.toml"), options(ActionKind::Discrete)).unwrap();
+    let (_, info) = env.reset(Some(0)).unwrap();
+    assert!(!info.threat && info.t_contact_s.is_none());
+    assert!(info.angular_size_deg.is_some(), "the ball is the reference object");
+    let cruise = env.step(Action::Discrete(0)).unwrap();
+    assert_eq!(cruise.info.reward_terms.unnecessary_dodge, 0.0);
+    assert!(!cruise.info.dodging);
+    let dodge = env.step(Action::Discrete(2)).unwrap();
+    assert!(dodge.info.dodging);
+    assert!((dodge.info.reward_terms.unnecessary_dodge + env.dt()).abs() < 1e-12);
+}
