@@ -1,0 +1,288 @@
+"""`EscapeEnv`: a Gymnasium environment over loomlab's closed-loop escape simulator.
+
+The simulation, rendering, detectors, ground truth and scoring run in Rust (`loomlab._native`); this
+module declares the Gymnasium spaces and converts actions. See the package README for the
+observation, action and reward definitions.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import asdict, dataclass, field
+from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from . import _native
+from ._native import ActionError, ScenarioError
+
+__all__ = ["EscapeEnv", "RewardConfig", "ActionConfig", "build_options", "make_spaces"]
+
+DISCRETE_ACTIONS = ("none", "dodge_left", "dodge_right", "stop")
+"""Names of the discrete actions, by index."""
+
+CONTINUOUS_ACTION_NAMES = ("forward", "yaw_rate", "lateral")
+"""Names of the continuous action components (each in [-1, 1])."""
+
+
+@dataclass
+class RewardConfig:
+    """Reward weights (all >= 0; the sign of each term is fixed). Per step of length dt:
+
+    ``survival_per_s*dt`` (no collision) ``+ progress_per_m*Δs`` (metres along the start heading)
+    ``- effort_per_s*|u - u_cruise|²*dt`` ``- unnecessary_dodge_per_s*dt`` (dodging in an episode
+    without a threat) ``- collision_penalty`` (once, on contact).
+    """
+
+    collision_penalty: float = 10.0
+    survival_per_s: float = 1.0
+    progress_per_m: float = 0.0
+    effort_per_s: float = 0.05
+    unnecessary_dodge_per_s: float = 1.0
+
+
+@dataclass
+class ActionConfig:
+    """Scales of the action mappings: continuous ±1 = ``max_*``; discrete dodges add ``dodge_speed_mps``
+    sideways to the cruise command."""
+
+    dodge_speed_mps: float = 1.5
+    max_forward_mps: float = 3.0
+    max_yaw_rate_rps: float = 1.5
+    max_lateral_mps: float = 1.5
+
+
+def _as_dict(x: Any) -> Optional[Dict[str, Any]]:
+    if x is None:
+        return None
+    if isinstance(x, Mapping):
+        return dict(x)
+    return asdict(x)
+
+
+def build_options(
+    *,
+    detectors: Union[str, Sequence[str], None] = None,
+    thresholds: Optional[Mapping[str, float]] = None,
+    frame_size: Optional[int] = 64,
+    observe_frames: bool = False,
+    action_type: str = "continuous",
+    action_config: Union[ActionConfig, Mapping[str, float], None] = None,
+    clip_actions: bool = False,
+    reward: Union[RewardConfig, Mapping[str, float], None] = None,
+    max_episode_steps: Optional[int] = None,
+) -> Dict[str, Any]:
+    """The options dict passed (as JSON) to the native environment; validated in Rust."""
+    if isinstance(detectors, str):
+        detectors = [d.strip() for d in detectors.split(",") if d.strip()]
+        if detectors == ["all"]:
+            detectors = list(_native.detector_ids())
+    if action_type not in ("continuous", "discrete"):
+        raise ScenarioError(f"action_type must be 'continuous' or 'discrete', got {action_type!r}")
+    opts: Dict[str, Any] = {
+        "detectors": list(detectors) if detectors is not None else None,
+        "thresholds": dict(thresholds or {}),
+        "frame_size": frame_size,
+        "observe_frames": bool(observe_frames),
+        "action_kind": action_type,
+        "clip_actions": bool(clip_actions),
+        "max_episode_steps": max_episode_steps,
+    }
+    if action_config is not None:
+        opts["action"] = _as_dict(action_config)
+    if reward is not None:
+        opts["reward"] = _as_dict(reward)
+    return opts
+
+
+def make_spaces(native: Any) -> Tuple[spaces.Dict, spaces.Space]:
+    """The single-environment observation and action spaces of a native environment."""
+    obs: Dict[str, spaces.Space] = {}
+    for det_id, names in zip(native.detector_ids, native.signal_names):
+        lim = _native.SIGNAL_LIMIT
+        obs[det_id] = spaces.Box(-lim, lim, shape=(len(names),), dtype=np.float32)
+    obs["theta_hat"] = spaces.Box(0.0, 180.0, shape=(1,), dtype=np.float32)
+    obs["alarm"] = spaces.MultiBinary(len(native.detector_ids))
+    lim = _native.ROBOT_LIMIT
+    obs["robot"] = spaces.Box(-lim, lim, shape=(len(native.robot_fields),), dtype=np.float32)
+    if native.observe_frames:
+        n = native.frame_size
+        obs["frame"] = spaces.Box(0, 255, shape=(n, n), dtype=np.uint8)
+    if native.action_kind == "discrete":
+        action: spaces.Space = spaces.Discrete(len(DISCRETE_ACTIONS))
+    else:
+        action = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
+    return spaces.Dict(obs), action
+
+
+def _scenario_arg(scenario: Union[str, os.PathLike, None]) -> Optional[str]:
+    if scenario is None:
+        return None
+    return os.fspath(scenario)
+
+
+def _seed_arg(seed: Optional[int]) -> Optional[int]:
+    if seed is None:
+        return None
+    if not isinstance(seed, (int, np.integer)) or int(seed) < 0:
+        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+    return int(seed) % (1 << 64)
+
+
+class EscapeEnv(gym.Env):
+    """A robot cruises through a simulated world while objects may fly or drive at it; the agent sees
+    looming-detector signals (and optionally the camera frame) and commands velocities to avoid
+    collisions without needless dodges.
+
+    Args:
+        scenario: a shipped scenario name (``loomlab.scenario_names()``) or a path to a scenario TOML
+            file; ``None``: the default scenario.
+        scenario_toml: scenario TOML text instead of ``scenario``.
+        detectors: detector ids (list or comma-separated, ``"all"``); ``None``: the scenario's.
+        thresholds: alarm thresholds by detector id (θ̂ degrees for hopfield, output for baselines).
+        frame_size: camera frame size n (default 64; ``None``: the scenario's).
+        observe_frames: include the egocentric frame (uint8, n×n) in the observation.
+        action_type: ``"continuous"`` (Box(-1, 1, (3,)): forward, yaw rate, lateral) or
+            ``"discrete"`` (none, dodge left, dodge right, stop).
+        action_config: scales of the action mappings (:class:`ActionConfig` or dict).
+        clip_actions: clamp continuous actions into [-1, 1] instead of raising :class:`ActionError`.
+        reward: reward weights (:class:`RewardConfig` or dict).
+        max_episode_steps: truncate episodes after this many steps.
+        render_mode: ``"rgb_array"`` or ``None``.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 120}
+
+    def __init__(
+        self,
+        scenario: Union[str, os.PathLike, None] = None,
+        *,
+        scenario_toml: Optional[str] = None,
+        detectors: Union[str, Sequence[str], None] = None,
+        thresholds: Optional[Mapping[str, float]] = None,
+        frame_size: Optional[int] = 64,
+        observe_frames: bool = False,
+        action_type: str = "continuous",
+        action_config: Union[ActionConfig, Mapping[str, float], None] = None,
+        clip_actions: bool = False,
+        reward: Union[RewardConfig, Mapping[str, float], None] = None,
+        max_episode_steps: Optional[int] = None,
+        render_mode: Optional[str] = None,
+    ) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        self._kwargs: Dict[str, Any] = dict(
+            scenario=_scenario_arg(scenario),
+            scenario_toml=scenario_toml,
+            detectors=list(detectors) if detectors is not None and not isinstance(detectors, str) else detectors,
+            thresholds=dict(thresholds) if thresholds is not None else None,
+            frame_size=frame_size,
+            observe_frames=observe_frames,
+            action_type=action_type,
+            action_config=_as_dict(action_config),
+            clip_actions=clip_actions,
+            reward=_as_dict(reward),
+            max_episode_steps=max_episode_steps,
+            render_mode=render_mode,
+        )
+        options = build_options(
+            detectors=detectors,
+            thresholds=thresholds,
+            frame_size=frame_size,
+            observe_frames=observe_frames,
+            action_type=action_type,
+            action_config=action_config,
+            clip_actions=clip_actions,
+            reward=reward,
+            max_episode_steps=max_episode_steps,
+        )
+        self._native = _native.Episode(self._kwargs["scenario"], scenario_toml, json.dumps(options))
+        self.observation_space, self.action_space = make_spaces(self._native)
+        self.render_mode = render_mode
+        self.metadata = dict(self.metadata, render_fps=int(round(1.0 / self._native.dt)))
+        self._discrete = self._native.action_kind == "discrete"
+
+    # --- metadata -------------------------------------------------------------------------------
+    @property
+    def detector_ids(self) -> list:
+        """Chosen detector ids (the per-detector observation keys, the order of ``alarm``)."""
+        return list(self._native.detector_ids)
+
+    @property
+    def signal_names(self) -> Dict[str, list]:
+        """Names of each detector's signal vector: ``output``, then its auxiliary signals."""
+        return dict(zip(self._native.detector_ids, self._native.signal_names))
+
+    @property
+    def thresholds(self) -> Dict[str, float]:
+        """Alarm thresholds by detector id."""
+        return dict(zip(self._native.detector_ids, self._native.thresholds))
+
+    @property
+    def dt(self) -> float:
+        """Camera period (s): the length of one step."""
+        return float(self._native.dt)
+
+    @property
+    def adapter(self) -> str:
+        """The GPU adapter that renders the frames."""
+        return str(self._native.adapter)
+
+    # --- Gymnasium API ----------------------------------------------------------------------------
+    def reset(self, *, seed: Optional[int] = None, options: Optional[Dict[str, Any]] = None):
+        super().reset(seed=seed)
+        if options:
+            raise ScenarioError(f"reset() takes no options, got {sorted(options)}")
+        return self._native.reset(_seed_arg(seed))
+
+    def step(self, action: Any):
+        if self._discrete:
+            return self._native.step_discrete(_discrete_action(action))
+        a0, a1, a2 = _continuous_action(action)
+        return self._native.step_continuous(a0, a1, a2)
+
+    def render(self) -> Optional[np.ndarray]:
+        if self.render_mode != "rgb_array":
+            return None
+        frame = self._native.frame()
+        return np.repeat(frame[:, :, None], 3, axis=2)
+
+    def close(self) -> None:
+        pass
+
+    # --- pickling: the constructor arguments plus the episode's seed stream and actions (replayed) --
+    def __getstate__(self) -> Dict[str, Any]:
+        return {"kwargs": self._kwargs, "snapshot": self._native.snapshot(), "np_random": self._np_random}
+
+    def __setstate__(self, state: Dict[str, Any]) -> None:
+        kwargs = dict(state["kwargs"])
+        self.__init__(**kwargs)
+        self._native.restore(state["snapshot"])
+        self._np_random = state.get("np_random")
+
+
+def _discrete_action(action: Any) -> int:
+    a = np.asarray(action)
+    if a.shape != () or not np.issubdtype(a.dtype, np.integer):
+        if a.shape == () and np.issubdtype(a.dtype, np.floating) and float(a).is_integer():
+            return int(a)
+        raise ActionError(
+            f"discrete action must be an integer in 0..{len(DISCRETE_ACTIONS) - 1} "
+            f"({', '.join(DISCRETE_ACTIONS)}), got {action!r}"
+        )
+    return int(a)
+
+
+def _continuous_action(action: Any) -> Tuple[float, float, float]:
+    try:
+        a = np.asarray(action, dtype=np.float32)
+    except (TypeError, ValueError) as e:
+        raise ActionError(f"continuous action must be 3 numbers [forward, yaw_rate, lateral], got {action!r}") from e
+    if a.shape != (3,):
+        raise ActionError(
+            f"continuous action must have shape (3,) [forward, yaw_rate, lateral] in [-1, 1], got shape {a.shape}"
+        )
+    return float(a[0]), float(a[1]), float(a[2])

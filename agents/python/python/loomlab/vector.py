@@ -1,0 +1,126 @@
+"""`EscapeVectorEnv`: N environments stepped on Rust threads, returning batched numpy arrays.
+
+``gymnasium.make_vec("loomlab/Escape-v0", num_envs=N)`` builds it. Auto-reset is Gymnasium's
+``NEXT_STEP`` mode (the default of ``SyncVectorEnv``): the step after an environment's episode ended
+resets it, ignoring its action, and reports reward 0 and ``terminated = truncated = False``; so the
+results equal those of N :class:`~loomlab.EscapeEnv` in a ``SyncVectorEnv`` with the same seeds.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, Dict, Mapping, Optional, Sequence, Union
+
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from . import _native
+from ._native import ActionError, ScenarioError
+from .env import ActionConfig, RewardConfig, _scenario_arg, _seed_arg, build_options, make_spaces
+
+__all__ = ["EscapeVectorEnv"]
+
+
+class EscapeVectorEnv(VectorEnv):
+    """``num_envs`` copies of :class:`~loomlab.EscapeEnv` (same arguments) stepped in parallel in Rust.
+
+    ``reset(seed=s)`` seeds environment i with ``s + i``. ``step(actions)`` takes a ``(num_envs, 3)``
+    float array (continuous) or a ``(num_envs,)`` integer array (discrete). Observations are dicts of
+    ``(num_envs, …)`` arrays; ``info`` follows Gymnasium's vector convention (arrays plus ``_key``
+    masks), with ``info["outcome"]`` for the environments whose episode just ended.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 120, "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        scenario: Union[str, os.PathLike, None] = None,
+        *,
+        scenario_toml: Optional[str] = None,
+        detectors: Union[str, Sequence[str], None] = None,
+        thresholds: Optional[Mapping[str, float]] = None,
+        frame_size: Optional[int] = 64,
+        observe_frames: bool = False,
+        action_type: str = "continuous",
+        action_config: Union[ActionConfig, Mapping[str, float], None] = None,
+        clip_actions: bool = False,
+        reward: Union[RewardConfig, Mapping[str, float], None] = None,
+        max_episode_steps: Optional[int] = None,
+        render_mode: Optional[str] = None,
+    ) -> None:
+        if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ScenarioError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        options = build_options(
+            detectors=detectors,
+            thresholds=thresholds,
+            frame_size=frame_size,
+            observe_frames=observe_frames,
+            action_type=action_type,
+            action_config=action_config,
+            clip_actions=clip_actions,
+            reward=reward,
+            max_episode_steps=max_episode_steps,
+        )
+        self._native = _native.VecEpisode(int(num_envs), _scenario_arg(scenario), scenario_toml, json.dumps(options))
+        self.num_envs = int(num_envs)
+        self.single_observation_space, self.single_action_space = make_spaces(self._native)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.render_mode = render_mode
+        self.metadata = dict(self.metadata, render_fps=int(round(1.0 / self._native.dt)))
+        self._discrete = self._native.action_kind == "discrete"
+
+    @property
+    def detector_ids(self) -> list:
+        """Chosen detector ids."""
+        return list(self._native.detector_ids)
+
+    def reset(self, *, seed: Optional[int] = None, options: Optional[Dict[str, Any]] = None):
+        super().reset(seed=seed)
+        if options:
+            raise ScenarioError(f"reset() takes no options, got {sorted(options)}")
+        obs, info = self._native.reset(_seed_arg(seed))
+        return obs, self._merge_outcomes(info)
+
+    def step(self, actions: Any):
+        if self._discrete:
+            a = np.asarray(actions)
+            if a.shape != (self.num_envs,) or not (np.issubdtype(a.dtype, np.integer) or a.dtype == np.bool_):
+                raise ActionError(
+                    f"discrete actions must be an integer array of shape ({self.num_envs},), got "
+                    f"{a.dtype} array of shape {a.shape}"
+                )
+            result = self._native.step_discrete(np.ascontiguousarray(a, dtype=np.int64))
+        else:
+            try:
+                a = np.asarray(actions, dtype=np.float32)
+            except (TypeError, ValueError) as e:
+                raise ActionError(f"continuous actions must be a ({self.num_envs}, 3) float array") from e
+            if a.shape != (self.num_envs, 3):
+                raise ActionError(
+                    f"continuous actions must have shape ({self.num_envs}, 3) [forward, yaw_rate, lateral], "
+                    f"got shape {a.shape}"
+                )
+            result = self._native.step_continuous(np.ascontiguousarray(a))
+        obs, reward, terminated, truncated, info = result
+        return obs, reward, terminated, truncated, self._merge_outcomes(info)
+
+    def render(self) -> Optional[np.ndarray]:
+        """The latest frames as ``(num_envs, n, n, 3)`` uint8 (``render_mode="rgb_array"``)."""
+        if self.render_mode != "rgb_array":
+            return None
+        frames = self._native.frames()
+        return np.repeat(frames[..., None], 3, axis=3)
+
+    def close_extras(self, **kwargs: Any) -> None:
+        pass
+
+    def _merge_outcomes(self, info: Dict[str, Any]) -> Dict[str, Any]:
+        for i, outcome in info.pop("_outcomes"):
+            info = self._add_info(info, {"outcome": outcome}, i)
+        return info

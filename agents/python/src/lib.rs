@@ -1,0 +1,414 @@
+//! `loomlab._native`: the Rust engine of the `loomlab` Python package.
+//!
+//! Thin glue over [`loomlab_scenarios::env`]: [`Episode`] wraps one
+//! [`EscapeEpisode`](loomlab_scenarios::env::EscapeEpisode), [`VecEpisode`] a
+//! [`VecEscape`](loomlab_scenarios::env::VecEscape) whose results come back as batched numpy arrays.
+//! The GIL is released while Rust steps. Errors map to the exception tree `loomlab.LoomlabError` ⊃
+//! `ScenarioError`, `RenderError`, `DetectorError`, `ActionError`. The Gymnasium classes live in the
+//! pure-Python part of the package (`python/loomlab`).
+
+mod convert;
+mod errors;
+mod scenarios;
+
+use std::sync::{Mutex, MutexGuard};
+
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::prelude::*;
+use pyo3::types::{PyList, PyTuple};
+
+use loomlab_scenarios::env::{
+    Action, ActionKind, EnvError, EnvOptions, EscapeEpisode, ROBOT_FIELDS, StepResult, VecEscape,
+};
+
+use crate::errors::to_py;
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+fn parse_options(options_json: &str) -> PyResult<EnvOptions> {
+    EnvOptions::from_json(options_json).map_err(to_py)
+}
+
+/// Static facts about an environment, copied out so that Python can read them without the lock.
+#[derive(Clone)]
+struct Meta {
+    scenario_name: String,
+    detector_ids: Vec<String>,
+    signal_names: Vec<Vec<String>>,
+    thresholds: Vec<f64>,
+    frame_size: u32,
+    dt: f64,
+    duration_steps: u64,
+    action_kind: ActionKind,
+    observe_frames: bool,
+    adapter: String,
+}
+
+impl Meta {
+    fn of(env: &EscapeEpisode) -> Self {
+        Self {
+            scenario_name: env.scenario_name().to_string(),
+            detector_ids: env.detector_labels().iter().map(|s| s.to_string()).collect(),
+            signal_names: env.signal_names().to_vec(),
+            thresholds: env.thresholds(),
+            frame_size: env.frame_size(),
+            dt: env.dt(),
+            duration_steps: env.duration_steps(),
+            action_kind: env.options().action_kind,
+            observe_frames: env.options().observe_frames,
+            adapter: env.adapter(),
+        }
+    }
+}
+
+macro_rules! meta_getters {
+    ($ty:ty) => {
+        #[pymethods]
+        impl $ty {
+            /// Scenario name.
+            #[getter]
+            fn scenario_name(&self) -> String {
+                self.meta.scenario_name.clone()
+            }
+            /// Chosen detectors' labels (their ids unless the scenario labels them), in observation order.
+            #[getter]
+            fn detector_ids(&self) -> Vec<String> {
+                self.meta.detector_ids.clone()
+            }
+            /// Names of each detector's signal vector (`output`, then auxiliary signals).
+            #[getter]
+            fn signal_names(&self) -> Vec<Vec<String>> {
+                self.meta.signal_names.clone()
+            }
+            /// Alarm thresholds, in detector order.
+            #[getter]
+            fn thresholds(&self) -> Vec<f64> {
+                self.meta.thresholds.clone()
+            }
+            /// Frame size n.
+            #[getter]
+            fn frame_size(&self) -> u32 {
+                self.meta.frame_size
+            }
+            /// Camera period (s).
+            #[getter]
+            fn dt(&self) -> f64 {
+                self.meta.dt
+            }
+            /// Steps of a full-length episode.
+            #[getter]
+            fn duration_steps(&self) -> u64 {
+                self.meta.duration_steps
+            }
+            /// `"continuous"` or `"discrete"`.
+            #[getter]
+            fn action_kind(&self) -> &'static str {
+                self.meta.action_kind.as_str()
+            }
+            /// Whether observations include the frame.
+            #[getter]
+            fn observe_frames(&self) -> bool {
+                self.meta.observe_frames
+            }
+            /// The GPU adapter that renders.
+            #[getter]
+            fn adapter(&self) -> String {
+                self.meta.adapter.clone()
+            }
+            /// Names of the robot observation entries.
+            #[getter]
+            fn robot_fields(&self) -> Vec<&'static str> {
+                ROBOT_FIELDS.to_vec()
+            }
+        }
+    };
+}
+
+/// One environment (the engine of `loomlab.EscapeEnv`).
+#[pyclass(module = "loomlab._native")]
+struct Episode {
+    inner: Mutex<EscapeEpisode>,
+    meta: Meta,
+}
+
+meta_getters!(Episode);
+
+#[pymethods]
+impl Episode {
+    /// Builds an environment from a scenario (a shipped name or a TOML file path; `None`: the default)
+    /// or TOML text, and options as JSON.
+    #[new]
+    #[pyo3(signature = (scenario=None, scenario_toml=None, options_json="{}"))]
+    fn new(
+        py: Python<'_>,
+        scenario: Option<String>,
+        scenario_toml: Option<String>,
+        options_json: &str,
+    ) -> PyResult<Self> {
+        let options = parse_options(options_json)?;
+        let env = py
+            .detach(|| {
+                let sc = scenarios::load(scenario.as_deref(), scenario_toml.as_deref())?;
+                EscapeEpisode::new(sc, options)
+            })
+            .map_err(to_py)?;
+        Ok(Self {
+            meta: Meta::of(&env),
+            inner: Mutex::new(env),
+        })
+    }
+
+    /// Starts an episode: `(obs, info)`.
+    #[pyo3(signature = (seed=None))]
+    fn reset<'py>(&self, py: Python<'py>, seed: Option<u64>) -> PyResult<Bound<'py, PyTuple>> {
+        let (obs, info) = py.detach(|| lock(&self.inner).reset(seed)).map_err(to_py)?;
+        let n = self.meta.frame_size as usize;
+        let o = convert::obs_dict(py, &self.meta.detector_ids, &obs, n)?;
+        let i = convert::info_dict(py, &info, self.meta.action_kind, &self.meta.detector_ids)?;
+        PyTuple::new(py, [o.into_any(), i.into_any()])
+    }
+
+    /// Steps with a continuous action `[forward, yaw_rate, lateral]`.
+    fn step_continuous<'py>(&self, py: Python<'py>, a0: f32, a1: f32, a2: f32) -> PyResult<Bound<'py, PyTuple>> {
+        self.step(py, Action::Continuous([a0, a1, a2]))
+    }
+
+    /// Steps with a discrete action index.
+    fn step_discrete<'py>(&self, py: Python<'py>, index: i64) -> PyResult<Bound<'py, PyTuple>> {
+        self.step(py, Action::Discrete(index))
+    }
+
+    /// The latest frame, `(n, n)` uint8.
+    fn frame<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let data = lock(&self.inner).frame_u8();
+        let n = self.meta.frame_size as usize;
+        if data.is_empty() {
+            return Ok(PyArray1::<u8>::zeros(py, [n * n], false).reshape([n, n])?.into_any());
+        }
+        Ok(PyArray1::from_vec(py, data).reshape([n, n])?.into_any())
+    }
+
+    /// The state that reproduces the current episode, as JSON (for pickling).
+    fn snapshot(&self) -> PyResult<String> {
+        let snap = lock(&self.inner).snapshot();
+        serde_json::to_string(&snap).map_err(|e| errors::LoomlabError::new_err(e.to_string()))
+    }
+
+    /// Restores a snapshot by replaying it; returns `(obs, info)` when an episode was running.
+    fn restore<'py>(&self, py: Python<'py>, snapshot_json: &str) -> PyResult<Option<Bound<'py, PyTuple>>> {
+        let snap = serde_json::from_str(snapshot_json)
+            .map_err(|e| errors::LoomlabError::new_err(format!("invalid snapshot: {e}")))?;
+        let last = py.detach(|| lock(&self.inner).restore(&snap)).map_err(to_py)?;
+        match last {
+            None => Ok(None),
+            Some((obs, info)) => {
+                let n = self.meta.frame_size as usize;
+                let o = convert::obs_dict(py, &self.meta.detector_ids, &obs, n)?;
+                let i = convert::info_dict(py, &info, self.meta.action_kind, &self.meta.detector_ids)?;
+                Ok(Some(PyTuple::new(py, [o.into_any(), i.into_any()])?))
+            }
+        }
+    }
+}
+
+impl Episode {
+    fn step<'py>(&self, py: Python<'py>, action: Action) -> PyResult<Bound<'py, PyTuple>> {
+        let r: StepResult = py.detach(|| lock(&self.inner).step(action)).map_err(to_py)?;
+        let n = self.meta.frame_size as usize;
+        let o = convert::obs_dict(py, &self.meta.detector_ids, &r.obs, n)?;
+        let i = convert::info_dict(py, &r.info, self.meta.action_kind, &self.meta.detector_ids)?;
+        PyTuple::new(
+            py,
+            [
+                o.into_any(),
+                r.reward.into_pyobject(py)?.into_any(),
+                pyo3::types::PyBool::new(py, r.terminated).to_owned().into_any(),
+                pyo3::types::PyBool::new(py, r.truncated).to_owned().into_any(),
+                i.into_any(),
+            ],
+        )
+    }
+}
+
+/// N environments stepped on Rust threads (the engine of `loomlab.EscapeVectorEnv`).
+#[pyclass(module = "loomlab._native")]
+struct VecEpisode {
+    inner: Mutex<VecEscape>,
+    meta: Meta,
+    num_envs: usize,
+}
+
+meta_getters!(VecEpisode);
+
+#[pymethods]
+impl VecEpisode {
+    /// Builds `num_envs` environments (see `Episode`).
+    #[new]
+    #[pyo3(signature = (num_envs, scenario=None, scenario_toml=None, options_json="{}"))]
+    fn new(
+        py: Python<'_>,
+        num_envs: usize,
+        scenario: Option<String>,
+        scenario_toml: Option<String>,
+        options_json: &str,
+    ) -> PyResult<Self> {
+        let options = parse_options(options_json)?;
+        let vec = py
+            .detach(|| {
+                let sc = scenarios::load(scenario.as_deref(), scenario_toml.as_deref())?;
+                VecEscape::new(sc, options, num_envs)
+            })
+            .map_err(to_py)?;
+        Ok(Self {
+            meta: Meta::of(&vec.envs()[0]),
+            num_envs: vec.num_envs(),
+            inner: Mutex::new(vec),
+        })
+    }
+
+    /// Number of environments.
+    #[getter]
+    fn num_envs(&self) -> usize {
+        self.num_envs
+    }
+
+    /// Resets every environment (env i gets `seed + i`): `(obs, info)` batched.
+    #[pyo3(signature = (seed=None))]
+    fn reset<'py>(&self, py: Python<'py>, seed: Option<u64>) -> PyResult<Bound<'py, PyTuple>> {
+        let out = py.detach(|| lock(&self.inner).reset(seed)).map_err(to_py)?;
+        let results: Vec<StepResult> = out
+            .into_iter()
+            .map(|(obs, info)| StepResult {
+                obs,
+                reward: 0.0,
+                terminated: false,
+                truncated: false,
+                info,
+            })
+            .collect();
+        let batch = convert::Batch::new(py, &self.meta, &results)?;
+        PyTuple::new(py, [batch.obs.into_any(), batch.info.into_any()])
+    }
+
+    /// Steps with continuous actions, `(num_envs, 3)` float32.
+    fn step_continuous<'py>(
+        &self,
+        py: Python<'py>,
+        actions: PyReadonlyArray2<'py, f32>,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let view = actions.as_array();
+        if view.shape() != [self.num_envs, 3] {
+            return Err(errors::ActionError::new_err(format!(
+                "continuous actions must have shape ({}, 3), got {:?}",
+                self.num_envs,
+                view.shape()
+            )));
+        }
+        let acts: Vec<Action> = view
+            .rows()
+            .into_iter()
+            .map(|r| Action::Continuous([r[0], r[1], r[2]]))
+            .collect();
+        self.step(py, acts)
+    }
+
+    /// Steps with discrete actions, `(num_envs,)` int64.
+    fn step_discrete<'py>(
+        &self,
+        py: Python<'py>,
+        actions: PyReadonlyArray1<'py, i64>,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let view = actions.as_array();
+        if view.len() != self.num_envs {
+            return Err(errors::ActionError::new_err(format!(
+                "discrete actions must have shape ({},), got {:?}",
+                self.num_envs,
+                view.shape()
+            )));
+        }
+        let acts: Vec<Action> = view.iter().map(|&i| Action::Discrete(i)).collect();
+        self.step(py, acts)
+    }
+
+    /// The latest frames, `(num_envs, n, n)` uint8.
+    fn frames<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let n = self.meta.frame_size as usize;
+        let mut data = Vec::with_capacity(self.num_envs * n * n);
+        for env in lock(&self.inner).envs() {
+            let f = env.frame_u8();
+            if f.len() == n * n {
+                data.extend_from_slice(&f);
+            } else {
+                data.resize(data.len() + n * n, 0);
+            }
+        }
+        Ok(PyArray1::from_vec(py, data).reshape([self.num_envs, n, n])?.into_any())
+    }
+}
+
+impl VecEpisode {
+    fn step<'py>(&self, py: Python<'py>, actions: Vec<Action>) -> PyResult<Bound<'py, PyTuple>> {
+        let results = py.detach(|| lock(&self.inner).step(&actions)).map_err(to_py)?;
+        let batch = convert::Batch::new(py, &self.meta, &results)?;
+        PyTuple::new(
+            py,
+            [
+                batch.obs.into_any(),
+                batch.reward.into_any(),
+                batch.terminated.into_any(),
+                batch.truncated.into_any(),
+                batch.info.into_any(),
+            ],
+        )
+    }
+}
+
+/// Names of the scenarios shipped inside the package.
+#[pyfunction]
+fn scenario_names() -> Vec<&'static str> {
+    scenarios::BUILTIN.iter().map(|(name, _)| *name).collect()
+}
+
+/// The TOML text of a shipped scenario.
+#[pyfunction]
+fn scenario_toml(name: &str) -> PyResult<&'static str> {
+    scenarios::builtin(name).map_err(to_py)
+}
+
+/// The ids of every detector.
+#[pyfunction]
+fn detector_ids() -> Vec<&'static str> {
+    loomlab_detector::DETECTOR_IDS.to_vec()
+}
+
+/// Raises the exception an environment error of this kind maps to (tests of the mapping).
+#[pyfunction]
+fn _raise(kind: &str) -> PyResult<()> {
+    let e = match kind {
+        "scenario" => EnvError::Scenario("test".into()),
+        "render" => EnvError::Sim(loomlab_sim::SimError::NoRenderer),
+        "detector" => EnvError::Detector(loomlab_detector::DetectorError::UnknownDetector("test".into())),
+        "action" => EnvError::ActionCount { expected: 1, got: 2 },
+        _ => EnvError::State("test"),
+    };
+    Err(to_py(e))
+}
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add_class::<Episode>()?;
+    m.add_class::<VecEpisode>()?;
+    m.add_function(wrap_pyfunction!(scenario_names, m)?)?;
+    m.add_function(wrap_pyfunction!(scenario_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(detector_ids, m)?)?;
+    m.add_function(wrap_pyfunction!(_raise, m)?)?;
+    errors::register(py, m)?;
+    m.add("ROBOT_FIELDS", PyList::new(py, ROBOT_FIELDS)?)?;
+    m.add("SIGNAL_LIMIT", loomlab_scenarios::env::SIGNAL_LIMIT)?;
+    m.add("ROBOT_LIMIT", loomlab_scenarios::env::ROBOT_LIMIT)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}
