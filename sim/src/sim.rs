@@ -179,7 +179,10 @@ impl Sim {
     /// renderer it replaces, if any.
     pub fn attach_renderer(&mut self, renderer: Renderer) -> Result<Option<Renderer>, SimError> {
         if renderer.n() != self.world.camera.n {
-            return Err(SimError::SizeMismatch { renderer_n: renderer.n(), world_n: self.world.camera.n });
+            return Err(SimError::SizeMismatch {
+                renderer_n: renderer.n(),
+                world_n: self.world.camera.n,
+            });
         }
         Ok(self.renderer.replace(renderer))
     }

@@ -168,15 +168,11 @@ impl VehicleDesc {
         };
         let t0 = f64::from(self.start_time_s);
         let t_end = match self.travel_m {
-            None => f64::INFINITY,
-            Some(d) if d.is_finite() && d >= 0.0 => {
-                if speed > 0.0 {
-                    t0 + f64::from(d) / speed
-                } else {
-                    f64::INFINITY
-                }
+            Some(d) if !(d.is_finite() && d >= 0.0) => {
+                return Err(SimError::invalid(k("travel_m"), d, "must be >= 0"));
             }
-            Some(d) => return Err(SimError::invalid(k("travel_m"), d, "must be >= 0")),
+            Some(d) if speed > 0.0 => t0 + f64::from(d) / speed,
+            _ => f64::INFINITY,
         };
         Ok(ObjectSpec {
             name: self.name.clone().unwrap_or_else(|| format!("vehicle{index}")),

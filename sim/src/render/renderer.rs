@@ -63,6 +63,8 @@ struct Globals {
     cam_fwd: [f32; 4],
     cam_right: [f32; 4],
     cam_up: [f32; 4],
+    dir_dx: [f32; 4],
+    dir_dy: [f32; 4],
     camera: [f32; 4],
     ground_a: [f32; 4],
     ground_b: [f32; 4],
@@ -436,6 +438,8 @@ impl Renderer {
         let fwd = (frame.camera_rotation * DVec3::X).as_vec3();
         let up = (frame.camera_rotation * DVec3::Z).as_vec3();
         let right = (frame.camera_rotation * DVec3::NEG_Y).as_vec3();
+        // viewing-ray change per pixel: the image spans 2·tan(fov/2) at unit distance
+        let step = (2.0 * (frame.fov_rad / 2.0).tan() / f64::from(self.n)) as f32;
         let view = crate::glam::camera::rh::view::look_to_mat4(Vec3::ZERO, fwd, up);
         let proj = crate::glam::camera::rh::proj::directx::perspective_infinite_reverse(
             frame.fov_rad as f32,
@@ -456,6 +460,8 @@ impl Renderer {
             cam_fwd: [fwd.x, fwd.y, fwd.z, (frame.fov_rad / 2.0).tan() as f32],
             cam_right: [right.x, right.y, right.z, frame.near_m],
             cam_up: [up.x, up.y, up.z, 0.0],
+            dir_dx: (right * step).extend(0.0).to_array(),
+            dir_dy: (-up * step).extend(0.0).to_array(),
             camera: [cam.x as f32, cam.y as f32, cam.z as f32, frame.sky],
             ground_a,
             ground_b: [ground_b[0], ground_b[1], enabled, self.n as f32],
@@ -592,14 +598,20 @@ impl Renderer {
                 during: "waiting for the frame",
                 reason: e.to_string(),
             })?;
-        if self.map_state.load(Ordering::Acquire) != 1 {
-            // the callback runs during poll; if the submission finished before the map was queued, poll once more
+        // The callback runs during some poll; if the submission finished before the map was queued, poll
+        // again. With several renderers on one device (parallel episodes), another thread's poll may be
+        // the one that runs our callback, a moment after our own poll returned: wait for it (bounded).
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+        while self.map_state.load(Ordering::Acquire) == 0 && std::time::Instant::now() < deadline {
             device
                 .poll(wgpu::PollType::wait_indefinitely())
                 .map_err(|e| SimError::Gpu {
                     during: "mapping the readback buffer",
                     reason: e.to_string(),
                 })?;
+            if self.map_state.load(Ordering::Acquire) == 0 {
+                std::thread::yield_now();
+            }
         }
         if self.map_state.load(Ordering::Acquire) != 1 {
             return Err(SimError::Gpu {

@@ -20,6 +20,9 @@ struct Globals {
     cam_fwd: vec4<f32>,
     cam_right: vec4<f32>,
     cam_up: vec4<f32>,
+    // change of the viewing ray (unit forward component) per pixel step right (dir_dx) and down (dir_dy)
+    dir_dx: vec4<f32>,
+    dir_dy: vec4<f32>,
     // xyz: camera world position (for world-anchored ground texture), w: sky luminance
     camera: vec4<f32>,
     // ground texture: a = (dark, light, scale, orientation), b = (phase, binary, enabled, n)
@@ -137,8 +140,11 @@ fn fs_background(in: BgOut) -> FragOut {
     // distance along the optical axis to the ground (dir has unit forward component)
     let t = select(1e7, min(cam_z / max(-dir.z, 1e-12), 1e7), hits);
     let uv = dir.xy * t + g.camera.xy;
-    let duv_dx = dpdx(uv);
-    let duv_dy = dpdy(uv);
+    // analytic screen derivatives of uv (exact, and free of the quad artefacts that hardware-style
+    // derivatives show along the edges of the clipped full-screen triangle)
+    let q = max(-dir.z, 1e-12);
+    let duv_dx = g.dir_dx.xy * t + dir.xy * (t / q * g.dir_dx.z);
+    let duv_dy = g.dir_dy.xy * t + dir.xy * (t / q * g.dir_dy.z);
     let ground = texture_value(g.ground_k.y, g.ground_a, g.ground_b, uv, duv_dx, duv_dy);
     var o: FragOut;
     // reversed-Z infinite projection: depth = near / view distance
