@@ -2,6 +2,8 @@
 
 pub mod detect;
 pub mod figures;
+pub mod render;
+pub mod run;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
