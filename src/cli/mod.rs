@@ -3,7 +3,6 @@
 pub mod detect;
 pub mod figures;
 pub mod render;
-pub mod run;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
