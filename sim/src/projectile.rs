@@ -8,7 +8,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::SimError;
-use crate::glam::{DQuat, DVec3};
+use crate::glam::{DMat3, DQuat, DVec3};
 use crate::object::{ObjectKind, ObjectSpec};
 use crate::shape::{Part, ShapeDesc};
 use crate::texture::Texture;
@@ -46,7 +46,8 @@ pub struct ProjectileDesc {
     /// Sphere radius (m). Default 0.15.
     pub radius_m: f32,
     /// Surface texture (default uniform 0.1: a dark ball). Sphere texture coordinates are a planar
-    /// projection across the flight direction (see [`ShapeDesc`]).
+    /// projection across the flight direction (see [`ShapeDesc`]): seen head-on, u runs to the observer's
+    /// right and v up, so `orientation_deg = 0` shows horizontal stripes like the paper's disk stimuli.
     pub texture: Texture,
     /// Aim point before the miss offset. Default `"robot"`.
     pub target: Target,
@@ -278,7 +279,16 @@ impl ProjectileDesc {
             Motion::Linear { velocity } | Motion::Ballistic { velocity, .. } => velocity,
             _ => DVec3::X,
         };
-        let rotation = DQuat::from_rotation_arc(DVec3::X, velocity0.normalize());
+        // body frame: x along the flight, z as close to world up as possible; seen head-on, the texture's
+        // u runs to the observer's right and v up
+        let x = velocity0.normalize();
+        let y = DVec3::Z.cross(x);
+        let y = if y.length() < 1e-6 {
+            frame.robot.rotation * DVec3::Y
+        } else {
+            y.normalize()
+        };
+        let rotation = DQuat::from_mat3(&DMat3::from_cols(x, y, x.cross(y))).normalize();
         let pose = Pose64 {
             position: launch,
             rotation,
