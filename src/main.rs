@@ -19,6 +19,9 @@ enum Command {
     Figures(loomlab::cli::figures::FiguresArgs),
     /// Render the robot's egocentric view of a simulated world: PNG frames, a GIF and truth.csv.
     Render(loomlab::cli::render::RenderArgs),
+    /// Run a scenario suite closed-loop (default: the default suite), print the results table and
+    /// write report.json, episodes.csv and plots; with --baseline, exit 1 on regressions.
+    Run(loomlab::cli::run::RunArgs),
 }
 
 fn main() {
@@ -27,6 +30,7 @@ fn main() {
         Command::Detect(a) => loomlab::cli::detect::run(a),
         Command::Figures(a) => loomlab::cli::figures::run(a),
         Command::Render(a) => loomlab::cli::render::run(a),
+        Command::Run(a) => loomlab::cli::run::run(a),
     };
     match result {
         Ok(code) => std::process::exit(code),

@@ -1,7 +1,18 @@
 //! Scenario schema, closed-loop runner and scoring (design §6).
 
+pub mod calibrate;
 pub mod episodes_csv;
+pub mod error;
+pub mod expand;
 pub mod metrics;
 pub mod regression;
 pub mod report;
+pub mod runner;
+pub mod schema;
 pub mod stats;
+pub mod suite;
+
+pub use error::{RunError, ScenarioError};
+pub use runner::{EpisodeRun, Runner};
+pub use schema::{EpisodeSpec, LoadOptions, Scenario, load_scenario, parse_scenario};
+pub use suite::{DEFAULT_SUITE, Suite, load_suite};

@@ -3,6 +3,7 @@
 pub mod detect;
 pub mod figures;
 pub mod render;
+pub mod run;
 
 use indicatif::{ProgressBar, ProgressStyle};
 

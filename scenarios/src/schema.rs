@@ -1,0 +1,692 @@
+//! The scenario file schema (design §6) and its expansion into [`EpisodeSpec`]s.
+//!
+//! A scenario file is TOML (every key is documented in `scenarios/README.md`):
+//!
+//! ```toml
+//! name = "head_on_ball"            # default: the file name without .toml
+//! description = "A ball thrown straight at the robot."
+//!
+//! [episode]
+//! duration_s = 3.0                 # simulated time per episode (it ends earlier at the first contact)
+//! seed = 1                         # seeds the random ranges and every episode's simulator seed
+//! repeats = 1                      # episodes per parameter point (each with its own simulator seed)
+//!
+//! [world]                          # the simulator's WorldDesc, verbatim (see loomlab_sim::WorldDesc)
+//! camera = { n = 64 }
+//! [[world.projectiles]]
+//! speed_mps = 8.0
+//!
+//! [robot]                          # the cruise command (the body and start pose are in [world.robot])
+//! forward_mps = 1.0
+//!
+//! [[detectors]]                    # default: all five detectors at their default thresholds
+//! id = "hopfield"
+//! threshold = 10.0                 # degrees of θ̂ for hopfield, output units for the baselines
+//!
+//! [controller]                     # loomlab_agents::EscapeConfig without trigger/threshold
+//! dodge_speed_mps = 2.0
+//!
+//! [scoring]
+//! lead_min_s = 0.1
+//!
+//! [sweep]                          # see crate::expand
+//! "world.projectiles.0.speed_mps" = [6, 9, 12]
+//! ```
+//!
+//! Unknown keys are errors everywhere; every error names the file, the key path and the reason.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use loomlab_agents::{EscapeConfig, TriggerSignal, VelocityCommand};
+use loomlab_detector::baselines::BaselineConfigs;
+use loomlab_detector::{DETECTOR_IDS, Detector, DetectorError, DetectorSet, HopfieldConfig};
+use loomlab_sim::{Command, WorldDesc};
+use serde::{Deserialize, Serialize};
+use toml::{Table, Value};
+
+use crate::error::ScenarioError;
+use crate::expand::{KeyPath, MAX_EPISODES_PER_SCENARIO, Variation, merge_defaults, mix_seed};
+use crate::metrics::ScoringConfig;
+
+/// Default alarm thresholds per detector, used when a scenario's `[[detectors]]` entry gives none.
+///
+/// `hopfield`: θ̂ in degrees; the baselines: their output in their own units. Chosen by calibration
+/// on held-out draws of the default suite (`loomlab run --seed 7 --calibrate 0.1`: the smallest
+/// threshold with at most 10 % false alarms over its non-threat episodes); see `scenarios/README.md`.
+pub const DEFAULT_THRESHOLDS: [(&str, f64); 5] = [
+    ("hopfield", 10.0),
+    ("soc", 60.0),
+    ("keil2004", 0.05),
+    ("cizek2019", 0.05),
+    ("fu2020", 0.05),
+];
+
+/// The default threshold of detector `id` ([`DEFAULT_THRESHOLDS`]).
+pub fn default_threshold(id: &str) -> Option<f64> {
+    DEFAULT_THRESHOLDS.iter().find(|(k, _)| *k == id).map(|(_, t)| *t)
+}
+
+/// The default trigger signal of detector `id`: θ̂ (degrees) for `hopfield`, the output otherwise.
+pub fn default_trigger(id: &str) -> TriggerSignal {
+    if id == "hopfield" {
+        TriggerSignal::AngularSizeDeg
+    } else {
+        TriggerSignal::Output
+    }
+}
+
+fn d_duration() -> f64 {
+    3.0
+}
+fn d_repeats() -> u32 {
+    1
+}
+
+/// `[episode]`: length, seed and repetitions.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EpisodeDesc {
+    /// Simulated time per episode in seconds (default 3). The open-loop pass stops earlier at the
+    /// first contact, a closed-loop pass at its first contact.
+    #[serde(default = "d_duration")]
+    pub duration_s: f64,
+    /// Seed of the random ranges and of the episodes' simulator seeds (default 0).
+    #[serde(default)]
+    pub seed: u64,
+    /// Episodes per parameter point, each with its own simulator seed (default 1).
+    #[serde(default = "d_repeats")]
+    pub repeats: u32,
+}
+
+impl Default for EpisodeDesc {
+    fn default() -> Self {
+        Self {
+            duration_s: d_duration(),
+            seed: 0,
+            repeats: d_repeats(),
+        }
+    }
+}
+
+/// One change of the cruise command in `[[robot.schedule]]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CruiseChange {
+    /// From this time on (s) the robot cruises with the command below.
+    pub at_s: f64,
+    /// Forward speed (m/s; default 0).
+    #[serde(default)]
+    pub forward_mps: f64,
+    /// Yaw rate (rad/s, positive = left; default 0).
+    #[serde(default)]
+    pub yaw_rate_rps: f64,
+    /// Lateral speed (m/s, positive = left; default 0).
+    #[serde(default)]
+    pub lateral_mps: f64,
+}
+
+/// `[robot]`: the cruise command, what the robot does when nothing threatens it (the open-loop
+/// pass follows it for the whole episode; the escape controller passes it through when armed).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CruiseDesc {
+    /// Forward speed (m/s; default 0: standing still).
+    #[serde(default)]
+    pub forward_mps: f64,
+    /// Yaw rate (rad/s, positive = left; default 0).
+    #[serde(default)]
+    pub yaw_rate_rps: f64,
+    /// Lateral speed (m/s, positive = left; default 0).
+    #[serde(default)]
+    pub lateral_mps: f64,
+    /// Later changes of the cruise command, in increasing `at_s` (default none).
+    #[serde(default)]
+    pub schedule: Vec<CruiseChange>,
+}
+
+impl CruiseDesc {
+    /// The cruise command in effect at time `t_s`.
+    pub fn command_at(&self, t_s: f64) -> VelocityCommand {
+        let mut c = VelocityCommand {
+            forward_mps: self.forward_mps,
+            yaw_rate_rps: self.yaw_rate_rps,
+            lateral_mps: self.lateral_mps,
+        };
+        for s in &self.schedule {
+            if s.at_s <= t_s + 1e-9 {
+                c = VelocityCommand {
+                    forward_mps: s.forward_mps,
+                    yaw_rate_rps: s.yaw_rate_rps,
+                    lateral_mps: s.lateral_mps,
+                };
+            }
+        }
+        c
+    }
+
+    fn validate(&self) -> Result<(), (String, String)> {
+        let base = [
+            ("robot.forward_mps", self.forward_mps),
+            ("robot.yaw_rate_rps", self.yaw_rate_rps),
+            ("robot.lateral_mps", self.lateral_mps),
+        ];
+        for (k, v) in base {
+            if !v.is_finite() {
+                return Err((k.into(), format!("{v} must be finite")));
+            }
+        }
+        let mut last = f64::NEG_INFINITY;
+        for (i, s) in self.schedule.iter().enumerate() {
+            for (k, v) in [
+                ("at_s", s.at_s),
+                ("forward_mps", s.forward_mps),
+                ("yaw_rate_rps", s.yaw_rate_rps),
+                ("lateral_mps", s.lateral_mps),
+            ] {
+                if !v.is_finite() {
+                    return Err((format!("robot.schedule[{i}].{k}"), format!("{v} must be finite")));
+                }
+            }
+            if s.at_s < 0.0 || s.at_s < last {
+                return Err((
+                    format!("robot.schedule[{i}].at_s"),
+                    format!("{} must be >= 0 and not before the previous change", s.at_s),
+                ));
+            }
+            last = s.at_s;
+        }
+        Ok(())
+    }
+}
+
+/// Converts a controller command to the simulator's.
+pub fn to_sim_command(c: VelocityCommand) -> Command {
+    Command {
+        forward_mps: c.forward_mps as f32,
+        yaw_rate_rps: c.yaw_rate_rps as f32,
+        lateral_mps: c.lateral_mps as f32,
+    }
+}
+
+/// One `[[detectors]]` entry.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DetectorDesc {
+    /// Detector id: `hopfield`, `soc`, `keil2004`, `cizek2019` or `fu2020`.
+    pub id: String,
+    /// Name in reports and CSV (default: the id). Lets one scenario run a detector twice, e.g.
+    /// `hopfield` at two thresholds.
+    #[serde(default)]
+    pub label: Option<String>,
+    /// Alarm threshold (default: [`DEFAULT_THRESHOLDS`]).
+    #[serde(default)]
+    pub threshold: Option<f64>,
+    /// Which signal is compared with the threshold (default: `angular_size_deg` for hopfield,
+    /// `output` for the baselines).
+    #[serde(default)]
+    pub trigger: Option<TriggerSignal>,
+    /// Detector parameters: keys of `HopfieldConfig` (except `n` and `fov_deg`, which come from
+    /// `world.camera`) or of the baseline's config (e.g. `SocConfig`).
+    #[serde(default)]
+    pub params: Option<Table>,
+}
+
+/// `[scoring]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScoringDesc {
+    /// Minimal warning time (s): a threat's alarm must come at least this long before contact to
+    /// be a hit (default: `ScoringConfig::default().lead_min_s`).
+    #[serde(default = "d_lead")]
+    pub lead_min_s: f64,
+}
+
+fn d_lead() -> f64 {
+    ScoringConfig::default().lead_min_s
+}
+
+impl Default for ScoringDesc {
+    fn default() -> Self {
+        Self { lead_min_s: d_lead() }
+    }
+}
+
+/// The typed form of one expanded scenario tree.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ScenarioDoc {
+    #[serde(default)]
+    #[allow(dead_code)] // read from the tree before typing
+    name: Option<String>,
+    #[serde(default)]
+    description: String,
+    #[serde(default)]
+    episode: EpisodeDesc,
+    world: WorldDesc,
+    #[serde(default)]
+    robot: CruiseDesc,
+    #[serde(default)]
+    detectors: Option<Vec<DetectorDesc>>,
+    #[serde(default)]
+    controller: EscapeConfig,
+    #[serde(default)]
+    scoring: ScoringDesc,
+}
+
+/// A detector of an episode, ready to build.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DetectorSpec {
+    /// Name in reports (the id unless the scenario gave a label).
+    pub label: String,
+    /// Detector id.
+    pub id: &'static str,
+    /// Which signal is compared with the threshold.
+    pub trigger: TriggerSignal,
+    /// Alarm threshold: an alarm is `signal >= threshold`.
+    pub threshold: f64,
+    /// Parameters (the Hopfield `n` and `fov_deg` already match the camera).
+    pub params: DetectorSet,
+}
+
+impl DetectorSpec {
+    /// Builds a fresh detector for n×n frames.
+    pub fn build(&self, n: usize) -> Result<Box<dyn Detector>, DetectorError> {
+        self.params.build(self.id, n)
+    }
+
+    /// The escape controller's configuration for this detector.
+    pub fn controller(&self, base: &EscapeConfig) -> EscapeConfig {
+        EscapeConfig {
+            trigger: self.trigger,
+            threshold: self.threshold,
+            ..base.clone()
+        }
+    }
+}
+
+/// One episode, fully specified.
+#[derive(Debug, Clone)]
+pub struct EpisodeSpec {
+    /// Scenario name.
+    pub scenario: String,
+    /// Scenario file.
+    pub file: PathBuf,
+    /// Index within the scenario.
+    pub index: usize,
+    /// Simulator seed.
+    pub seed: u64,
+    /// Swept / sampled values, `key path → TOML text` (plus `repeat` when repeats > 1).
+    pub params: BTreeMap<String, String>,
+    /// The world.
+    pub world: WorldDesc,
+    /// Cruise command.
+    pub cruise: CruiseDesc,
+    /// Episode length (s).
+    pub duration_s: f64,
+    /// Detectors (all see the same frames).
+    pub detectors: Vec<DetectorSpec>,
+    /// Escape controller (trigger and threshold are set per detector).
+    pub controller: EscapeConfig,
+    /// Scoring parameters.
+    pub scoring: ScoringConfig,
+}
+
+impl EpisodeSpec {
+    /// Number of camera frames of the episode: round(duration · camera_hz), at least 1.
+    pub fn frames(&self) -> usize {
+        ((self.duration_s * f64::from(self.world.camera_hz)).round() as usize).max(1)
+    }
+
+    /// `key = value, …` of the episode's parameters (for messages).
+    pub fn params_text(&self) -> String {
+        params_text(&self.params)
+    }
+}
+
+fn params_text(p: &BTreeMap<String, String>) -> String {
+    if p.is_empty() {
+        return "no parameters".into();
+    }
+    p.iter()
+        .map(|(k, v)| format!("{k} = {v}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// A loaded scenario: its episodes.
+#[derive(Debug, Clone)]
+pub struct Scenario {
+    /// Name (unique within a suite).
+    pub name: String,
+    /// Description.
+    pub description: String,
+    /// The file it came from.
+    pub file: PathBuf,
+    /// The expanded episodes.
+    pub episodes: Vec<EpisodeSpec>,
+}
+
+/// Options applied while loading (command-line overrides).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LoadOptions {
+    /// Suite seed mixed into every scenario's `episode.seed` (0: the files' seeds unchanged).
+    pub seed: u64,
+    /// Frame size n overriding every `world.camera.n`.
+    pub size: Option<u32>,
+    /// Run exactly these detector ids (the scenario's settings for them when it lists them,
+    /// defaults otherwise); `None`: the scenario's list (default all five).
+    pub detectors: Option<Vec<String>>,
+}
+
+/// Reads and expands one scenario file (`defaults`: a suite's `[defaults]` table, merged under it).
+pub fn load_scenario(path: &Path, defaults: Option<&Table>, opts: &LoadOptions) -> Result<Scenario, ScenarioError> {
+    let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
+        path: path.into(),
+        source,
+    })?;
+    parse_scenario(&text, path, defaults, opts)
+}
+
+fn typed<T: serde::de::DeserializeOwned>(value: Value, prefix: &str) -> Result<T, (String, String)> {
+    serde_path_to_error::deserialize(value).map_err(|e| {
+        let mut key = e.path().to_string();
+        let reason = e.inner().to_string();
+        // serde reports an unknown field at its parent: name the field itself.
+        if let Some(rest) = reason.strip_prefix("unknown field `")
+            && let Some(field) = rest.split('`').next()
+        {
+            key = if key == "." {
+                field.to_string()
+            } else {
+                format!("{key}.{field}")
+            };
+        }
+        let key = match (prefix.is_empty(), key.as_str()) {
+            (true, ".") => "<root>".to_string(),
+            (true, _) => key,
+            (false, ".") => prefix.to_string(),
+            (false, _) => format!("{prefix}.{key}"),
+        };
+        (key, reason)
+    })
+}
+
+/// Parses and expands scenario text; `path` names the file in errors and gives the default name.
+pub fn parse_scenario(
+    text: &str,
+    path: &Path,
+    defaults: Option<&Table>,
+    opts: &LoadOptions,
+) -> Result<Scenario, ScenarioError> {
+    let mut tree: Table = toml::from_str(text).map_err(|e| ScenarioError::Syntax {
+        path: path.into(),
+        message: e.to_string().trim_end().to_string(),
+    })?;
+    if let Some(d) = defaults {
+        merge_defaults(&mut tree, d);
+    }
+    let kerr = |(k, r): (String, String)| ScenarioError::key(path, k, r);
+    if let Some(Value::Table(c)) = tree.get("controller") {
+        for k in ["threshold", "trigger"] {
+            if c.contains_key(k) {
+                return Err(ScenarioError::key(
+                    path,
+                    format!("controller.{k}"),
+                    format!("set the alarm {k} per detector, in [[detectors]] {k} = …"),
+                ));
+            }
+        }
+    }
+    let name = match tree.get("name") {
+        None => path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "scenario".into()),
+        Some(Value::String(s)) if !s.trim().is_empty() => s.clone(),
+        Some(other) => {
+            return Err(ScenarioError::key(
+                path,
+                "name",
+                format!("must be a non-empty string, not {other}"),
+            ));
+        }
+    };
+    let variation = Variation::take_from(&mut tree).map_err(kerr)?;
+    let episode: EpisodeDesc = typed(
+        tree.get("episode").cloned().unwrap_or(Value::Table(Table::new())),
+        "episode",
+    )
+    .map_err(kerr)?;
+    if !(episode.duration_s.is_finite() && episode.duration_s > 0.0 && episode.duration_s <= 3600.0) {
+        return Err(ScenarioError::key(
+            path,
+            "episode.duration_s",
+            format!("{} must be in (0, 3600] seconds", episode.duration_s),
+        ));
+    }
+    if episode.repeats == 0 {
+        return Err(ScenarioError::key(path, "episode.repeats", "must be >= 1"));
+    }
+    let total = variation.points().saturating_mul(episode.repeats as usize);
+    if total > MAX_EPISODES_PER_SCENARIO {
+        return Err(ScenarioError::key(
+            path,
+            "sweep",
+            format!("expands to {total} episodes (more than {MAX_EPISODES_PER_SCENARIO}); use fewer values or samples"),
+        ));
+    }
+    let base_seed = if opts.seed == 0 {
+        episode.seed
+    } else {
+        mix_seed(episode.seed, opts.seed)
+    };
+    let varied: Vec<String> = variation
+        .sweep
+        .iter()
+        .flat_map(|(_, ps, _)| ps.iter().map(|p| p.to_string()))
+        .chain(variation.random.iter().map(|(_, p, _)| p.to_string()))
+        .collect();
+    let mut episodes = Vec::with_capacity(total);
+    let mut description = String::new();
+    for (point, (t, params)) in variation.expand(&tree, base_seed).into_iter().enumerate() {
+        let first_index = point * episode.repeats as usize;
+        // An error at a varied key is specific to this episode; any other would hit every episode.
+        let err = |(k, r): (String, String)| {
+            let canonical = KeyPath::parse(&k).map(|p| p.to_string()).unwrap_or(k.clone());
+            if varied.iter().any(|v| canonical.starts_with(v.as_str())) {
+                ScenarioError::Episode {
+                    path: path.into(),
+                    episode: first_index,
+                    params: params_text(&params),
+                    reason: format!("`{k}`: {r}"),
+                }
+            } else {
+                ScenarioError::key(path, k, r)
+            }
+        };
+        let doc: ScenarioDoc = typed(Value::Table(t), "").map_err(&err)?;
+        description = doc.description.clone();
+        let (world, detectors) = resolve(&doc, opts).map_err(&err)?;
+        let scoring = ScoringConfig {
+            lead_min_s: doc.scoring.lead_min_s,
+            keep_traces: false,
+        };
+        for r in 0..episode.repeats as usize {
+            let index = first_index + r;
+            let mut params = params.clone();
+            if episode.repeats > 1 {
+                params.insert("repeat".into(), r.to_string());
+            }
+            episodes.push(EpisodeSpec {
+                scenario: name.clone(),
+                file: path.into(),
+                index,
+                seed: mix_seed(base_seed, index as u64),
+                params,
+                world: world.clone(),
+                cruise: doc.robot.clone(),
+                duration_s: doc.episode.duration_s,
+                detectors: detectors.clone(),
+                controller: doc.controller.clone(),
+                scoring: scoring.clone(),
+            });
+        }
+    }
+    Ok(Scenario {
+        name,
+        description,
+        file: path.into(),
+        episodes,
+    })
+}
+
+/// Validates a typed scenario and builds its world and detector specs.
+fn resolve(doc: &ScenarioDoc, opts: &LoadOptions) -> Result<(WorldDesc, Vec<DetectorSpec>), (String, String)> {
+    let mut world = doc.world.clone();
+    if let Some(n) = opts.size {
+        world.camera.n = n;
+    }
+    world.validate().map_err(|e| match e {
+        loomlab_sim::SimError::InvalidDesc { key, value, reason } => {
+            let key = if key.starts_with("world.") {
+                key
+            } else {
+                format!("world.{key}")
+            };
+            (key, format!("{value}: {reason}"))
+        }
+        other => ("world".to_string(), other.to_string()),
+    })?;
+    if !(doc.episode.duration_s.is_finite() && doc.episode.duration_s > 0.0 && doc.episode.duration_s <= 3600.0) {
+        return Err((
+            "episode.duration_s".into(),
+            format!("{} must be in (0, 3600] seconds", doc.episode.duration_s),
+        ));
+    }
+    doc.robot.validate()?;
+    doc.controller
+        .validate()
+        .map_err(|e| ("controller".to_string(), e.to_string()))?;
+    let lead = doc.scoring.lead_min_s;
+    if !(lead.is_finite() && lead >= 0.0) {
+        return Err((
+            "scoring.lead_min_s".into(),
+            format!("{lead} must be a number of seconds >= 0"),
+        ));
+    }
+    let n = world.camera.n as usize;
+    let fov = f64::from(world.camera.fov_deg);
+    let listed: Vec<(usize, DetectorDesc)> = match &doc.detectors {
+        Some(list) => list.iter().cloned().enumerate().collect(),
+        None => Vec::new(),
+    };
+    let wanted: Vec<(Option<usize>, DetectorDesc)> = match (&opts.detectors, &doc.detectors) {
+        (None, Some(_)) => listed.into_iter().map(|(i, d)| (Some(i), d)).collect(),
+        (None, None) => DETECTOR_IDS.iter().map(|id| (None, bare(id))).collect(),
+        (Some(ids), _) => {
+            let mut out = Vec::new();
+            for id in ids {
+                let mine: Vec<_> = listed.iter().filter(|(_, d)| &d.id == id).cloned().collect();
+                if mine.is_empty() {
+                    out.push((None, bare(id)));
+                } else {
+                    out.extend(mine.into_iter().map(|(i, d)| (Some(i), d)));
+                }
+            }
+            out
+        }
+    };
+    if wanted.is_empty() {
+        return Err((
+            "detectors".into(),
+            "the list is empty; give at least one detector".into(),
+        ));
+    }
+    let mut specs: Vec<DetectorSpec> = Vec::with_capacity(wanted.len());
+    for (i, d) in wanted {
+        let key = |k: &str| match i {
+            Some(i) => format!("detectors[{i}].{k}"),
+            None => format!("detectors.{k}"),
+        };
+        let Some(&id) = DETECTOR_IDS.iter().find(|&&k| k == d.id) else {
+            return Err((
+                key("id"),
+                format!("unknown detector `{}`; known ids: {}", d.id, DETECTOR_IDS.join(", ")),
+            ));
+        };
+        let threshold = d
+            .threshold
+            .or_else(|| default_threshold(id))
+            .expect("every id has a default threshold");
+        if !threshold.is_finite() {
+            return Err((key("threshold"), format!("{threshold} must be finite")));
+        }
+        let label = d.label.clone().unwrap_or_else(|| id.to_string());
+        if label.is_empty() || label.contains([',', '"', '\n']) {
+            return Err((
+                key("label"),
+                "must be non-empty, without commas, quotes or newlines".into(),
+            ));
+        }
+        if specs.iter().any(|s| s.label == label) {
+            return Err((
+                key("label"),
+                format!("detector `{label}` is listed twice; give the entries different labels"),
+            ));
+        }
+        let params = detector_params(id, d.params.as_ref(), n, fov).map_err(|(k, r)| (key(&k), r))?;
+        specs.push(DetectorSpec {
+            label,
+            id,
+            trigger: d.trigger.unwrap_or_else(|| default_trigger(id)),
+            threshold,
+            params,
+        });
+    }
+    Ok((world, specs))
+}
+
+fn bare(id: &str) -> DetectorDesc {
+    DetectorDesc {
+        id: id.to_string(),
+        label: None,
+        threshold: None,
+        trigger: None,
+        params: None,
+    }
+}
+
+fn detector_params(id: &str, params: Option<&Table>, n: usize, fov_deg: f64) -> Result<DetectorSet, (String, String)> {
+    let mut set = DetectorSet::default();
+    let table = params.cloned().unwrap_or_default();
+    if id == "hopfield" {
+        for k in ["n", "fov_deg"] {
+            if table.contains_key(k) {
+                return Err((
+                    format!("params.{k}"),
+                    format!("comes from world.camera (`{k}` of the camera); remove it here"),
+                ));
+            }
+        }
+        let cfg: HopfieldConfig = typed(Value::Table(table), "params")?;
+        set.hopfield = HopfieldConfig { n, fov_deg, ..cfg };
+        set.hopfield
+            .validate()
+            .map_err(|e| ("params".to_string(), e.to_string()))?;
+    } else {
+        let mut wrapped = Table::new();
+        wrapped.insert(id.to_string(), Value::Table(table));
+        set.baselines = typed::<BaselineConfigs>(Value::Table(wrapped), "").map_err(|(k, r)| {
+            let key = match k.strip_prefix(id) {
+                Some(rest) => format!("params{rest}"),
+                None => format!("params.{k}"),
+            };
+            (key, r)
+        })?;
+        set.baselines
+            .build(id)
+            .map_err(|e| ("params".to_string(), e.to_string()))?;
+    }
+    Ok(set)
+}

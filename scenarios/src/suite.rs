@@ -1,0 +1,187 @@
+//! Suites: sets of scenario files run and scored together.
+//!
+//! A suite is one of
+//! - a **folder**: every `*.toml` file in it (not in sub-folders) except `suite.toml`, in file-name
+//!   order. An optional `suite.toml` in the folder may hold a `description`, a `[defaults]` table
+//!   and a `scenarios` list (then only those files, in that order);
+//! - a **list file** (any TOML file with a `scenarios` key):
+//!   ```toml
+//!   description = "quick checks"
+//!   scenarios = ["default/head_on_ball.toml", "default/overpass.toml"]  # relative to this file
+//!   [defaults]            # merged under every scenario (the scenario's own values win)
+//!   world.camera.n = 64
+//!   ```
+//! - a single **scenario file** (a TOML file without a `scenarios` key).
+//!
+//! `[defaults]` is deep-merged under each scenario file before its sweeps are expanded (tables
+//! merge key by key, arrays and other values are replaced by the scenario's). Scenario names must
+//! be unique within a suite (reports are keyed by them).
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+use toml::{Table, Value};
+
+use crate::error::ScenarioError;
+use crate::schema::{EpisodeSpec, LoadOptions, Scenario, load_scenario};
+
+/// The default suite, relative to the repository root.
+pub const DEFAULT_SUITE: &str = "scenarios/suites/default";
+
+/// Name of the optional suite file inside a suite folder.
+pub const SUITE_FILE: &str = "suite.toml";
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SuiteDoc {
+    #[serde(default)]
+    description: String,
+    #[serde(default)]
+    scenarios: Option<Vec<String>>,
+    #[serde(default)]
+    defaults: Option<Table>,
+}
+
+/// A loaded suite.
+#[derive(Debug, Clone)]
+pub struct Suite {
+    /// The folder or file it was loaded from.
+    pub path: PathBuf,
+    /// Its description (from `suite.toml` or the list file; empty if none).
+    pub description: String,
+    /// The scenarios, in run order.
+    pub scenarios: Vec<Scenario>,
+}
+
+impl Suite {
+    /// Every episode, scenario by scenario.
+    pub fn episodes(&self) -> impl Iterator<Item = &EpisodeSpec> {
+        self.scenarios.iter().flat_map(|s| s.episodes.iter())
+    }
+
+    /// Number of episodes.
+    pub fn episode_count(&self) -> usize {
+        self.scenarios.iter().map(|s| s.episodes.len()).sum()
+    }
+}
+
+fn read(path: &Path) -> Result<String, ScenarioError> {
+    std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
+        path: path.into(),
+        source,
+    })
+}
+
+fn parse_suite_doc(path: &Path, table: Table) -> Result<SuiteDoc, ScenarioError> {
+    serde_path_to_error::deserialize(Value::Table(table)).map_err(|e| {
+        let reason = e.inner().to_string();
+        let mut key = e.path().to_string();
+        if let Some(rest) = reason.strip_prefix("unknown field `")
+            && let Some(f) = rest.split('`').next()
+        {
+            key = if key == "." {
+                f.to_string()
+            } else {
+                format!("{key}.{f}")
+            };
+        }
+        ScenarioError::key(path, key, reason)
+    })
+}
+
+fn toml_files(dir: &Path) -> Result<Vec<PathBuf>, ScenarioError> {
+    let io = |source| ScenarioError::Io {
+        path: dir.into(),
+        source,
+    };
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(io)? {
+        let p = entry.map_err(io)?.path();
+        if p.is_file() && p.extension().is_some_and(|e| e == "toml") && p.file_name().is_some_and(|n| n != SUITE_FILE) {
+            files.push(p);
+        }
+    }
+    files.sort();
+    Ok(files)
+}
+
+/// Loads a suite folder, list file or single scenario file (see the module docs).
+pub fn load_suite(path: &Path, opts: &LoadOptions) -> Result<Suite, ScenarioError> {
+    let meta = std::fs::metadata(path).map_err(|source| ScenarioError::Io {
+        path: path.into(),
+        source,
+    })?;
+    let (doc, base, files) = if meta.is_dir() {
+        let suite_file = path.join(SUITE_FILE);
+        let doc = if suite_file.is_file() {
+            let table: Table = toml::from_str(&read(&suite_file)?).map_err(|e| ScenarioError::Syntax {
+                path: suite_file.clone(),
+                message: e.to_string().trim_end().into(),
+            })?;
+            parse_suite_doc(&suite_file, table)?
+        } else {
+            SuiteDoc::default()
+        };
+        let files = match &doc.scenarios {
+            Some(list) => list.iter().map(|f| path.join(f)).collect(),
+            None => toml_files(path)?,
+        };
+        (doc, path.to_path_buf(), files)
+    } else {
+        let text = read(path)?;
+        let table: Table = toml::from_str(&text).map_err(|e| ScenarioError::Syntax {
+            path: path.into(),
+            message: e.to_string().trim_end().into(),
+        })?;
+        if table.contains_key("scenarios") {
+            let doc = parse_suite_doc(path, table)?;
+            let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+            let mut files = Vec::new();
+            for f in doc.scenarios.as_deref().unwrap_or_default() {
+                let p = dir.join(f);
+                if p.is_dir() {
+                    files.extend(toml_files(&p)?);
+                } else {
+                    files.push(p);
+                }
+            }
+            (doc, dir, files)
+        } else {
+            let scenario = load_scenario(path, None, opts)?;
+            return finish(path, String::new(), vec![scenario]);
+        }
+    };
+    let _ = base;
+    let mut scenarios = Vec::with_capacity(files.len());
+    for f in &files {
+        scenarios.push(load_scenario(f, doc.defaults.as_ref(), opts)?);
+    }
+    finish(path, doc.description, scenarios)
+}
+
+fn finish(path: &Path, description: String, scenarios: Vec<Scenario>) -> Result<Suite, ScenarioError> {
+    if scenarios.is_empty() {
+        return Err(ScenarioError::Suite {
+            path: path.into(),
+            reason: "no scenario files (*.toml) found".into(),
+        });
+    }
+    for (i, s) in scenarios.iter().enumerate() {
+        if let Some(other) = scenarios[..i].iter().find(|o| o.name == s.name) {
+            return Err(ScenarioError::Suite {
+                path: path.into(),
+                reason: format!(
+                    "scenario name `{}` is used by both {} and {}; names must be unique (set `name = …`)",
+                    s.name,
+                    other.file.display(),
+                    s.file.display()
+                ),
+            });
+        }
+    }
+    Ok(Suite {
+        path: path.into(),
+        description,
+        scenarios,
+    })
+}
