@@ -83,3 +83,14 @@ fn sim_can_move_between_threads() {
     assert_send::<Sim>();
     assert_send::<loomlab_sim::Renderer>();
 }
+
+#[test]
+fn readme_example_parses_and_validates() {
+    let readme = include_str!("../README.md");
+    let start = readme.find("```toml\n").expect("a toml block in the README") + "```toml\n".len();
+    let end = start + readme[start..].find("```").unwrap();
+    let f: File = toml::from_str(&readme[start..end]).unwrap_or_else(|e| panic!("README example: {e}"));
+    f.world.validate().unwrap();
+    assert_eq!(f.world.projectiles.len(), 1);
+    assert_eq!(f.world.vehicles.len(), 1);
+}
