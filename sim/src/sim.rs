@@ -13,9 +13,8 @@ use std::sync::{Arc, Mutex};
 
 use rapier3d::parry::shape::SharedShape;
 use rapier3d::prelude::{
-    ActiveCollisionTypes, ActiveEvents, ColliderBuilder, ColliderHandle, ColliderSet, CollisionEvent,
-    ContactForceEvent, ContactPair, EventHandler, PhysicsWorld, Pose, RigidBodyBuilder, RigidBodyHandle, RigidBodySet,
-    SoftBodySet, SoftBodyTearEvent,
+    ActiveCollisionTypes, ActiveEvents, ColliderBuilder, ColliderHandle, ColliderSet, CollisionEvent, ContactPair,
+    EventHandler, PhysicsWorld, Pose, RigidBodyBuilder, RigidBodyHandle, RigidBodySet, SoftBodySet, SoftBodyTearEvent,
 };
 
 use crate::SimError;
@@ -80,10 +79,6 @@ impl EventHandler for EventLog {
     fn handle_contact_force_event(&self, _: f32, _: &RigidBodySet, _: &ColliderSet, _: &ContactPair, _: f32) {}
     fn handle_soft_body_tear_event(&self, _: &SoftBodySet, _: &SoftBodyTearEvent) {}
 }
-
-// silence the unused import lint for the event type used only in the trait signature
-#[allow(dead_code)]
-fn _force_event(_: ContactForceEvent) {}
 
 /// A running simulation of one world.
 pub struct Sim {
