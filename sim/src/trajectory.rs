@@ -140,6 +140,11 @@ impl Segment {
         Some(match self.motion {
             Motion::Hold => NonlinearRigidMotion::constant_position(start),
             Motion::Linear { velocity } => NonlinearRigidMotion::new(start, Vec3::ZERO, velocity.as_vec3(), Vec3::ZERO),
+            Motion::Arc { center, .. } if (self.pose_at(now).position - center).length() > MAX_ARC_RADIUS_M => {
+                // nearly straight: f32 cannot place a far-away rotation centre precisely; the chord
+                // deviates by (v·T)²/(2R), under 5 cm for 100 m of travel
+                NonlinearRigidMotion::new(start, Vec3::ZERO, self.velocity_at(now).as_vec3(), Vec3::ZERO)
+            }
             Motion::Arc { center, yaw_rate } => {
                 let c = (center - origin).as_vec3();
                 let local_center = start.inverse_transform_point(c);
@@ -244,6 +249,9 @@ pub struct PlacedShape<'a> {
     pub bounding_radius: f64,
 }
 
+/// Turning radius above which time-of-impact queries treat an arc as a straight line (m).
+const MAX_ARC_RADIUS_M: f64 = 1.0e5;
+
 /// Distance tolerance of the conservative advancement used for ballistic segments (m).
 const BALLISTIC_TOLERANCE_M: f64 = 1e-4;
 
@@ -314,7 +322,7 @@ fn conservative_advancement(
     let span = s1 - s0;
     let bound = a_seg.speed_bound(a.bounding_radius, s0, span) + b_seg.speed_bound(b.bounding_radius, s0, span);
     let mut t = s0;
-    for _ in 0..100_000 {
+    for _ in 0..20_000 {
         let d = distance_at(a_seg, a, b_seg, b, t, origin);
         if d <= BALLISTIC_TOLERANCE_M {
             return Some(t);
