@@ -26,6 +26,8 @@
 //! # Ok::<(), loomlab_sim::SimError>(())
 //! ```
 
+#![warn(missing_docs)]
+
 pub mod camera;
 mod error;
 pub mod io;
