@@ -113,6 +113,23 @@ impl KeyPath {
         Ok(Self(segments))
     }
 
+    /// The path with purely numeric keys written as indices (`a.0.b` → `a[0].b`), for comparing
+    /// paths written either way.
+    pub fn canonical(&self) -> String {
+        let segs = self
+            .0
+            .iter()
+            .enumerate()
+            .map(|(i, s)| match s {
+                KeySegment::Key(k) if i > 0 && !k.is_empty() && k.bytes().all(|b| b.is_ascii_digit()) => {
+                    k.parse().map_or_else(|_| s.clone(), KeySegment::Index)
+                }
+                other => other.clone(),
+            })
+            .collect();
+        KeyPath(segs).to_string()
+    }
+
     /// The value at this path, if every step exists.
     pub fn get<'a>(&self, root: &'a Table) -> Option<&'a Value> {
         let mut iter = self.0.iter();

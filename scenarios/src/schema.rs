@@ -390,18 +390,9 @@ pub fn load_scenario(path: &Path, defaults: Option<&Table>, opts: &LoadOptions) 
 
 fn typed<T: serde::de::DeserializeOwned>(value: Value, prefix: &str) -> Result<T, (String, String)> {
     serde_path_to_error::deserialize(value).map_err(|e| {
-        let mut key = e.path().to_string();
-        let reason = e.inner().to_string();
-        // serde reports an unknown field at its parent: name the field itself.
-        if let Some(rest) = reason.strip_prefix("unknown field `")
-            && let Some(field) = rest.split('`').next()
-        {
-            key = if key == "." {
-                field.to_string()
-            } else {
-                format!("{key}.{field}")
-            };
-        }
+        let key = e.path().to_string();
+        // the first line: toml appends an "in `table`" context line that repeats the path
+        let reason = e.inner().to_string().lines().next().unwrap_or_default().to_string();
         let key = match (prefix.is_empty(), key.as_str()) {
             (true, ".") => "<root>".to_string(),
             (true, _) => key,
@@ -484,8 +475,8 @@ pub fn parse_scenario(
     let varied: Vec<String> = variation
         .sweep
         .iter()
-        .flat_map(|(_, ps, _)| ps.iter().map(|p| p.to_string()))
-        .chain(variation.random.iter().map(|(_, p, _)| p.to_string()))
+        .flat_map(|(_, ps, _)| ps.iter().map(KeyPath::canonical))
+        .chain(variation.random.iter().map(|(_, p, _)| p.canonical()))
         .collect();
     let mut episodes = Vec::with_capacity(total);
     let mut description = String::new();
@@ -493,7 +484,7 @@ pub fn parse_scenario(
         let first_index = point * episode.repeats as usize;
         // An error at a varied key is specific to this episode; any other would hit every episode.
         let err = |(k, r): (String, String)| {
-            let canonical = KeyPath::parse(&k).map(|p| p.to_string()).unwrap_or(k.clone());
+            let canonical = KeyPath::parse(&k).map(|p| p.canonical()).unwrap_or(k.clone());
             if varied.iter().any(|v| canonical.starts_with(v.as_str())) {
                 ScenarioError::Episode {
                     path: path.into(),

@@ -74,17 +74,9 @@ fn read(path: &Path) -> Result<String, ScenarioError> {
 
 fn parse_suite_doc(path: &Path, table: Table) -> Result<SuiteDoc, ScenarioError> {
     serde_path_to_error::deserialize(Value::Table(table)).map_err(|e| {
-        let reason = e.inner().to_string();
-        let mut key = e.path().to_string();
-        if let Some(rest) = reason.strip_prefix("unknown field `")
-            && let Some(f) = rest.split('`').next()
-        {
-            key = if key == "." {
-                f.to_string()
-            } else {
-                format!("{key}.{f}")
-            };
-        }
+        let reason = e.inner().to_string().lines().next().unwrap_or_default().to_string();
+        let key = e.path().to_string();
+        let key = if key == "." { "<root>".to_string() } else { key };
         ScenarioError::key(path, key, reason)
     })
 }
@@ -111,7 +103,7 @@ pub fn load_suite(path: &Path, opts: &LoadOptions) -> Result<Suite, ScenarioErro
         path: path.into(),
         source,
     })?;
-    let (doc, base, files) = if meta.is_dir() {
+    let (doc, files) = if meta.is_dir() {
         let suite_file = path.join(SUITE_FILE);
         let doc = if suite_file.is_file() {
             let table: Table = toml::from_str(&read(&suite_file)?).map_err(|e| ScenarioError::Syntax {
@@ -126,7 +118,7 @@ pub fn load_suite(path: &Path, opts: &LoadOptions) -> Result<Suite, ScenarioErro
             Some(list) => list.iter().map(|f| path.join(f)).collect(),
             None => toml_files(path)?,
         };
-        (doc, path.to_path_buf(), files)
+        (doc, files)
     } else {
         let text = read(path)?;
         let table: Table = toml::from_str(&text).map_err(|e| ScenarioError::Syntax {
@@ -145,13 +137,12 @@ pub fn load_suite(path: &Path, opts: &LoadOptions) -> Result<Suite, ScenarioErro
                     files.push(p);
                 }
             }
-            (doc, dir, files)
+            (doc, files)
         } else {
             let scenario = load_scenario(path, None, opts)?;
             return finish(path, String::new(), vec![scenario]);
         }
     };
-    let _ = base;
     let mut scenarios = Vec::with_capacity(files.len());
     for f in &files {
         scenarios.push(load_scenario(f, doc.defaults.as_ref(), opts)?);

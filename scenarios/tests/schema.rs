@@ -1,0 +1,354 @@
+//! Scenario schema, expansion and suite loading (no GPU needed).
+
+use std::path::{Path, PathBuf};
+
+use loomlab_agents::TriggerSignal;
+use loomlab_scenarios::schema::{DEFAULT_THRESHOLDS, default_threshold};
+use loomlab_scenarios::{DEFAULT_SUITE, LoadOptions, ScenarioError, load_scenario, load_suite, parse_scenario};
+
+const BASE: &str = r#"
+name = "ball"
+[episode]
+duration_s = 1.0
+seed = 3
+[world]
+camera = { n = 32 }
+[[world.projectiles]]
+speed_mps = 8.0
+[robot]
+forward_mps = 1.0
+"#;
+
+fn parse(text: &str) -> Result<loomlab_scenarios::Scenario, ScenarioError> {
+    parse_scenario(text, Path::new("dir/test.toml"), None, &LoadOptions::default())
+}
+
+fn err(text: &str) -> String {
+    let e = parse(text).expect_err("should be rejected");
+    e.to_string()
+}
+
+fn tmp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("loomlab-schema-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn a_plain_scenario_is_one_episode_with_all_detectors() {
+    let s = parse(BASE).unwrap();
+    assert_eq!(s.name, "ball");
+    assert_eq!(s.episodes.len(), 1);
+    let ep = &s.episodes[0];
+    assert_eq!(ep.frames(), 120);
+    assert_eq!(ep.cruise.command_at(0.5).forward_mps, 1.0);
+    let labels: Vec<&str> = ep.detectors.iter().map(|d| d.label.as_str()).collect();
+    assert_eq!(labels, ["hopfield", "soc", "keil2004", "cizek2019", "fu2020"]);
+    for d in &ep.detectors {
+        assert_eq!(Some(d.threshold), default_threshold(d.id));
+    }
+    assert_eq!(ep.detectors[0].trigger, TriggerSignal::AngularSizeDeg);
+    assert_eq!(ep.detectors[1].trigger, TriggerSignal::Output);
+    // the Hopfield readout uses the camera's size and field of view
+    assert_eq!(ep.detectors[0].params.hopfield.n, 32);
+    assert_eq!(ep.detectors[0].params.hopfield.fov_deg, 60.0);
+    assert_eq!(DEFAULT_THRESHOLDS.len(), 5);
+}
+
+#[test]
+fn the_name_defaults_to_the_file_stem() {
+    let text = BASE.replace("name = \"ball\"", "");
+    assert_eq!(parse(&text).unwrap().name, "test");
+}
+
+#[test]
+fn unknown_keys_are_errors_naming_file_and_key_path() {
+    let e = err(&BASE.replace("speed_mps = 8.0", "sped_mps = 8.0"));
+    assert!(e.starts_with("dir/test.toml: "), "{e}");
+    assert!(e.contains("`world.projectiles[0].sped_mps`"), "{e}");
+    assert!(e.contains("unknown field"), "{e}");
+
+    let e = err(&format!("{BASE}\n[controler]\nduration_s = 1.0\n"));
+    assert!(e.contains("`controler`") && e.contains("unknown field"), "{e}");
+
+    let e = err(&format!("{BASE}\n[scoring]\nlead_min = 0.1\n"));
+    assert!(e.contains("`scoring.lead_min`"), "{e}");
+
+    let e = err(&format!(
+        "{BASE}\n[[detectors]]\nid = \"hopfield\"\nparams = {{ beta2 = 3 }}\n"
+    ));
+    assert!(e.contains("`detectors[0].params.beta2`"), "{e}");
+
+    let e = err(&format!(
+        "{BASE}\n[[detectors]]\nid = \"soc\"\nparams = {{ gain = 3 }}\n"
+    ));
+    assert!(e.contains("`detectors[0].params.gain`"), "{e}");
+}
+
+#[test]
+fn wrong_types_and_values_name_the_key() {
+    let e = err(&BASE.replace("speed_mps = 8.0", "speed_mps = \"fast\""));
+    assert!(
+        e.contains("`world.projectiles[0].speed_mps`") && e.contains("invalid type"),
+        "{e}"
+    );
+
+    let e = err(&BASE.replace("duration_s = 1.0", "duration_s = -1.0"));
+    assert!(e.contains("`episode.duration_s`") && e.contains("-1"), "{e}");
+
+    let e = err(&BASE.replace("speed_mps = 8.0", "speed_mps = -8.0"));
+    assert!(
+        e.contains("`world.projectiles[0].speed_mps`") && e.contains("> 0"),
+        "{e}"
+    );
+
+    let e = err(&BASE.replace("forward_mps = 1.0", "forward_mps = nan"));
+    assert!(e.contains("`robot.forward_mps`"), "{e}");
+
+    let e = err(&format!("{BASE}\n[[detectors]]\nid = \"hopfeld\"\n"));
+    assert!(e.contains("`detectors[0].id`") && e.contains("known ids"), "{e}");
+
+    let e = err(&format!(
+        "{BASE}\n[[detectors]]\nid = \"soc\"\n[[detectors]]\nid = \"soc\"\n"
+    ));
+    assert!(e.contains("`detectors[1].label`") && e.contains("twice"), "{e}");
+
+    let e = err(&format!(
+        "{BASE}\n[[detectors]]\nid = \"hopfield\"\nparams = {{ n = 64 }}\n"
+    ));
+    assert!(
+        e.contains("`detectors[0].params.n`") && e.contains("world.camera"),
+        "{e}"
+    );
+
+    let e = err(&format!("{BASE}\n[controller]\nthreshold = 5.0\n"));
+    assert!(
+        e.contains("`controller.threshold`") && e.contains("[[detectors]]"),
+        "{e}"
+    );
+
+    let e = err(&format!("{BASE}\n[controller]\nduration_s = 0.0\n"));
+    assert!(e.contains("`controller`") && e.contains("duration_s"), "{e}");
+
+    let e = err(&BASE.replace("[world]", "[world]\ncamera_hz = -5"));
+    assert!(e.contains("`world.camera_hz`"), "{e}");
+
+    let e = err("[world\n");
+    assert!(
+        e.starts_with("dir/test.toml: invalid TOML") && e.contains("line 1"),
+        "{e}"
+    );
+
+    let e = err("[episode]\nduration_s = 1.0\n");
+    assert!(e.contains("missing field `world`"), "{e}");
+}
+
+#[test]
+fn a_missing_file_is_an_error_naming_it() {
+    let e = load_scenario(Path::new("no/such/scenario.toml"), None, &LoadOptions::default()).unwrap_err();
+    let msg = e.to_string();
+    assert!(matches!(e, ScenarioError::Io { .. }));
+    assert!(
+        msg.contains("no/such/scenario.toml") && msg.contains("cannot read"),
+        "{msg}"
+    );
+    let e = load_suite(Path::new("no/such/suite"), &LoadOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("no/such/suite"), "{e}");
+}
+
+#[test]
+fn sweeps_and_random_ranges_expand_to_the_product() {
+    let text = format!(
+        "{BASE}\n[sweep]\n\"world.projectiles.0.speed_mps\" = [4, 8, 12]\n\"robot.forward_mps\" = [0.0, 1.0]\n\
+         [random]\nsamples = 4\n\"world.projectiles.0.miss_distance_m\" = {{ min = 0.0, max = 2.0 }}\n"
+    )
+    .replace("seed = 3", "seed = 3\nrepeats = 2");
+    let s = parse(&text).unwrap();
+    assert_eq!(s.episodes.len(), 3 * 2 * 4 * 2);
+    for (i, ep) in s.episodes.iter().enumerate() {
+        assert_eq!(ep.index, i);
+    }
+    // values land in the typed episodes
+    let speeds: Vec<f32> = s.episodes.iter().map(|e| e.world.projectiles[0].speed_mps).collect();
+    // keys in sorted order, the last fastest: robot.forward_mps outer, the speed inner, then draws, repeats
+    assert_eq!(speeds[0], 4.0);
+    assert_eq!(speeds[8], 8.0);
+    assert_eq!(speeds[16], 12.0);
+    assert_eq!(speeds[24], 4.0);
+    assert_eq!(s.episodes[24].cruise.forward_mps, 1.0);
+    assert!(
+        s.episodes
+            .iter()
+            .all(|e| (0.0..2.0).contains(&e.world.projectiles[0].miss_distance_m))
+    );
+    // parameters are recorded, repeats have their own simulator seeds
+    let p = &s.episodes[1].params;
+    assert_eq!(p["world.projectiles.0.speed_mps"], "4");
+    assert_eq!(p["repeat"], "1");
+    assert!(p.contains_key("world.projectiles.0.miss_distance_m"));
+    assert_ne!(s.episodes[0].seed, s.episodes[1].seed);
+    // deterministic
+    let again = parse(&text).unwrap();
+    let seeds = |s: &loomlab_scenarios::Scenario| s.episodes.iter().map(|e| e.seed).collect::<Vec<_>>();
+    assert_eq!(seeds(&s), seeds(&again));
+    // a suite seed changes the draws and the simulator seeds
+    let other = parse_scenario(
+        &text,
+        Path::new("dir/test.toml"),
+        None,
+        &LoadOptions {
+            seed: 9,
+            ..LoadOptions::default()
+        },
+    )
+    .unwrap();
+    assert_ne!(seeds(&s), seeds(&other));
+    assert_ne!(
+        s.episodes[0].world.projectiles[0].miss_distance_m,
+        other.episodes[0].world.projectiles[0].miss_distance_m
+    );
+}
+
+#[test]
+fn sweep_errors_name_the_path_and_the_episode() {
+    let e = err(&format!("{BASE}\n[sweep]\n\"world.projectile.0.speed_mps\" = [1, 2]\n"));
+    assert!(
+        e.contains("world.projectile.0.speed_mps") && e.contains("projectile"),
+        "{e}"
+    );
+
+    let e = err(&format!(
+        "{BASE}\n[sweep]\n\"world.projectiles.3.speed_mps\" = [1, 2]\n"
+    ));
+    assert!(e.contains("index 3 does not exist"), "{e}");
+
+    // an invalid swept value: names the episode, its parameters and the key
+    let e = err(&format!(
+        "{BASE}\n[sweep]\n\"world.projectiles.0.speed_mps\" = [8, -1]\n"
+    ));
+    assert!(e.contains("episode 1"), "{e}");
+    assert!(e.contains("world.projectiles.0.speed_mps = -1"), "{e}");
+    assert!(e.contains("`world.projectiles[0].speed_mps`"), "{e}");
+
+    // a misspelt leaf is added, then rejected by the typed parse with its path
+    let e = err(&format!("{BASE}\n[sweep]\n\"world.projectiles.0.sped_mps\" = [1, 2]\n"));
+    assert!(e.contains("sped_mps") && e.contains("unknown field"), "{e}");
+}
+
+#[test]
+fn cruise_schedule_changes_the_command() {
+    let text = format!("{BASE}\n[[robot.schedule]]\nat_s = 0.5\nforward_mps = 2.0\nyaw_rate_rps = 0.1\n");
+    let s = parse(&text).unwrap();
+    let c = &s.episodes[0].cruise;
+    assert_eq!(c.command_at(0.0).forward_mps, 1.0);
+    assert_eq!(c.command_at(0.5).forward_mps, 2.0);
+    assert_eq!(c.command_at(0.9).yaw_rate_rps, 0.1);
+    let e = err(&format!(
+        "{BASE}\n[[robot.schedule]]\nat_s = 0.5\n[[robot.schedule]]\nat_s = 0.2\n"
+    ));
+    assert!(e.contains("`robot.schedule[1].at_s`"), "{e}");
+}
+
+#[test]
+fn load_options_override_size_and_detectors() {
+    let text = format!("{BASE}\n[[detectors]]\nid = \"soc\"\nthreshold = 3.0\n[[detectors]]\nid = \"hopfield\"\n");
+    let opts = LoadOptions {
+        size: Some(48),
+        detectors: Some(vec!["soc".into(), "fu2020".into()]),
+        ..LoadOptions::default()
+    };
+    let s = parse_scenario(&text, Path::new("t.toml"), None, &opts).unwrap();
+    let ep = &s.episodes[0];
+    assert_eq!(ep.world.camera.n, 48);
+    let got: Vec<(&str, f64)> = ep.detectors.iter().map(|d| (d.label.as_str(), d.threshold)).collect();
+    assert_eq!(got, [("soc", 3.0), ("fu2020", default_threshold("fu2020").unwrap())]);
+}
+
+#[test]
+fn labels_let_a_detector_run_twice() {
+    let text = format!(
+        "{BASE}\n[[detectors]]\nid = \"hopfield\"\nlabel = \"hopfield_8\"\nthreshold = 8.0\n\
+         [[detectors]]\nid = \"hopfield\"\nlabel = \"hopfield_12\"\nthreshold = 12.0\nparams = {{ beta = 300.0 }}\n"
+    );
+    let s = parse(&text).unwrap();
+    let d = &s.episodes[0].detectors;
+    assert_eq!(d[0].label, "hopfield_8");
+    assert_eq!(d[1].threshold, 12.0);
+    assert_eq!(d[1].params.hopfield.beta, 300.0);
+}
+
+#[test]
+fn suites_merge_defaults_and_reject_duplicate_names() {
+    let dir = tmp_dir("suite");
+    std::fs::write(
+        dir.join("suite.toml"),
+        "description = \"t\"\n[defaults]\nworld.camera = { n = 40 }\nscoring.lead_min_s = 0.3\n",
+    )
+    .unwrap();
+    std::fs::write(dir.join("a.toml"), BASE.replace("name = \"ball\"", "")).unwrap();
+    std::fs::write(
+        dir.join("b.toml"),
+        BASE.replace("name = \"ball\"", "")
+            .replace("[world]\ncamera = { n = 32 }", "[world]"),
+    )
+    .unwrap();
+    let suite = load_suite(&dir, &LoadOptions::default()).unwrap();
+    assert_eq!(suite.description, "t");
+    assert_eq!(suite.scenarios.len(), 2);
+    assert_eq!(suite.scenarios[0].name, "a");
+    assert_eq!(
+        suite.scenarios[0].episodes[0].world.camera.n, 32,
+        "the scenario's value wins"
+    );
+    assert_eq!(
+        suite.scenarios[1].episodes[0].world.camera.n, 40,
+        "the default fills in"
+    );
+    assert_eq!(suite.scenarios[1].episodes[0].scoring.lead_min_s, 0.3);
+    assert_eq!(suite.episode_count(), 2);
+
+    // a list file
+    let list = dir.join("list.toml");
+    std::fs::write(
+        &list,
+        "scenarios = [\"b.toml\"]\n[defaults]\nworld.camera = { n = 24 }\n",
+    )
+    .unwrap();
+    let suite = load_suite(&list, &LoadOptions::default()).unwrap();
+    assert_eq!(suite.scenarios.len(), 1);
+    assert_eq!(suite.scenarios[0].episodes[0].world.camera.n, 24);
+
+    // a single scenario file is a suite of one
+    let suite = load_suite(&dir.join("a.toml"), &LoadOptions::default()).unwrap();
+    assert_eq!(suite.scenarios[0].name, "a");
+
+    // unknown keys in suite files
+    std::fs::write(&list, "scenarios = [\"b.toml\"]\ndefault = {}\n").unwrap();
+    let e = load_suite(&list, &LoadOptions::default()).unwrap_err().to_string();
+    assert!(e.contains("`default`") && e.contains("unknown field"), "{e}");
+
+    // duplicate names
+    std::fs::remove_file(&list).unwrap();
+    std::fs::write(dir.join("c.toml"), BASE.replace("name = \"ball\"", "name = \"a\"")).unwrap();
+    let e = load_suite(&dir, &LoadOptions::default()).unwrap_err().to_string();
+    assert!(e.contains("`a`") && e.contains("unique"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_default_suite_loads_with_at_least_300_episodes() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(DEFAULT_SUITE);
+    let suite = load_suite(&path, &LoadOptions::default()).unwrap();
+    assert!(suite.scenarios.len() >= 15, "{} scenarios", suite.scenarios.len());
+    assert!(suite.episode_count() >= 300, "{} episodes", suite.episode_count());
+    for s in &suite.scenarios {
+        assert!(!s.description.is_empty(), "{} has no description", s.name);
+        let text = std::fs::read_to_string(&s.file).unwrap();
+        assert!(
+            text.starts_with('#'),
+            "{} starts without a comment header",
+            s.file.display()
+        );
+    }
+}
