@@ -151,7 +151,7 @@ fn all_detectors_see_the_same_frames_and_runs_are_deterministic() {
 #[test]
 fn parallel_runs_keep_order_and_results() {
     let text_scenario = |miss: f64| scenario(miss, EARLY_AND_NEVER).episodes.remove(0);
-    let mut eps = vec![text_scenario(0.0), text_scenario(2.0), text_scenario(0.0)];
+    let mut eps = [text_scenario(0.0), text_scenario(2.0), text_scenario(0.0)];
     for (i, e) in eps.iter_mut().enumerate() {
         e.index = i;
     }
