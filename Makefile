@@ -5,7 +5,7 @@ CARGO ?= cargo
 OUT ?= out/run
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: run test deps lint rust-test bench figures fmt
+.PHONY: run test deps lint rust-test python-test bench figures fmt
 
 ## Run the default scenario suite: prints the results table, writes $(OUT)/report.json and plots.
 run: deps
@@ -27,8 +27,22 @@ lint:
 rust-test: deps
 	$(CARGO) test --workspace
 
+## The Python package (agents/python): a venv in $(VENV), maturin build into the workspace's target
+## directory (reusing the dependencies rust-test compiled), pytest.
+VENV ?= .venv
+PYTHON ?= python3
+python-test: deps
+	@test -x $(VENV)/bin/python || $(PYTHON) -m venv $(VENV) || { \
+	  echo "installing python3-venv ..."; rm -rf $(VENV); \
+	  $(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv && \
+	  $(PYTHON) -m venv $(VENV); }
+	$(VENV)/bin/python -m pip install -q --upgrade pip maturin numpy gymnasium pytest
+	cd agents/python && VIRTUAL_ENV=$(abspath $(VENV)) CARGO_TARGET_DIR=$${CARGO_TARGET_DIR:-$(CURDIR)/target} \
+	  $(abspath $(VENV))/bin/maturin develop
+	cd agents/python && $(abspath $(VENV))/bin/python -m pytest -q
+
 ## Everything CI runs.
-test: deps lint rust-test
+test: deps lint rust-test python-test
 
 ## Criterion benchmarks (detector, baselines, simulator step).
 bench: deps

@@ -1,6 +1,7 @@
 //! Scenario schema, closed-loop runner and scoring (design §6).
 
 pub mod calibrate;
+pub mod env;
 pub mod episodes_csv;
 pub mod error;
 pub mod expand;

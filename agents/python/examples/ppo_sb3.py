@@ -37,7 +37,9 @@ def main() -> None:
     kwargs = dict(scenario=args.scenario, frame_size=args.frame_size)
     venv = make_vec_env("loomlab/EscapeDiscrete-v0", n_envs=args.n_envs, seed=args.seed, env_kwargs=kwargs)
     # detector outputs span orders of magnitude (Hopfield z up to (N+1)²): normalise observations
-    venv = VecNormalize(venv, norm_obs=True, norm_reward=False)
+    # (VecNormalize handles Box entries only: the MultiBinary alarm flags stay as they are)
+    box_keys = [k for k, s in venv.observation_space.spaces.items() if isinstance(s, gym.spaces.Box)]
+    venv = VecNormalize(venv, norm_obs=True, norm_reward=False, norm_obs_keys=box_keys)
     model = PPO("MultiInputPolicy", venv, n_steps=512, batch_size=256, seed=args.seed, verbose=1)
     model.learn(total_timesteps=args.timesteps)
     if args.save:

@@ -79,6 +79,7 @@ pub fn info_dict<'py>(
     let d = PyDict::new(py);
     d.set_item("t_s", info.t_s)?;
     d.set_item("step", info.step)?;
+    d.set_item("episode", info.episode)?;
     d.set_item("threat", info.threat)?;
     d.set_item("t_contact_s", inf_if_none(info.t_contact_s))?;
     d.set_item("ttc_s", inf_if_none(info.ttc_s))?;
@@ -172,6 +173,8 @@ impl<'py> Batch<'py> {
         set_masked(py, &info, "t_s", f64s(&|i| i.t_s).into_any(), m)?;
         let steps: Vec<i64> = results.iter().map(|r| r.info.step as i64).collect();
         set_masked(py, &info, "step", PyArray1::from_vec(py, steps).into_any(), m)?;
+        let episodes: Vec<i64> = results.iter().map(|r| r.info.episode as i64).collect();
+        set_masked(py, &info, "episode", PyArray1::from_vec(py, episodes).into_any(), m)?;
         set_masked(py, &info, "threat", bools(&|i| i.threat).into_any(), m)?;
         set_masked(
             py,

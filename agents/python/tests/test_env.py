@@ -163,3 +163,23 @@ def test_render_rgb_array(short_kwargs):
 def test_shipped_scenarios_are_listed():
     assert "escape_default" in loomlab.scenario_names()
     assert "[world]" in loomlab.scenario_toml("escape_default")
+
+
+def test_envs_step_concurrently_from_python_threads(short_kwargs):
+    """The GIL is released while Rust steps: two threads stepping two envs give the sequential results."""
+    import threading
+
+    def run(seed, out):
+        env = EscapeEnv(**short_kwargs)
+        out.append(rollout(env, seed=seed, steps=40, action_seed=seed))
+
+    sequential = []
+    for seed in (1, 2):
+        run(seed, sequential)
+    results = {1: [], 2: []}
+    threads = [threading.Thread(target=run, args=(seed, results[seed])) for seed in (1, 2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert_same([results[1][0], results[2][0]], sequential)

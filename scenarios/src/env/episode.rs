@@ -17,6 +17,13 @@ use crate::schema::{EpisodeSpec, Scenario, to_sim_command};
 /// Number of entries of [`Observation::robot`].
 pub const ROBOT_DIM: usize = 7;
 
+/// Detector signals are clamped into ±this (observation spaces need finite bounds; no detector
+/// output comes near it: the Hopfield z is at most (N+1)² ≈ 3.8·10⁵ at n = 1024).
+pub const SIGNAL_LIMIT: f32 = 1e6;
+
+/// The robot observation entries are clamped into ±this (metres, m/s, rad/s, seconds).
+pub const ROBOT_LIMIT: f32 = 1e5;
+
 /// Names of the entries of [`Observation::robot`], in order.
 pub const ROBOT_FIELDS: [&str; ROBOT_DIM] = [
     "x_m",
@@ -51,7 +58,8 @@ impl Action {
 ///
 /// The detectors see their first frame in the first step, exactly as in the scenario runner's
 /// open-loop pass, so the observation at reset holds the frame at t = 0 but zero signals and no
-/// alarm. Non-finite detector values are reported as 0 (observations must be finite numbers).
+/// alarm. Non-finite detector values are reported as 0 and values are clamped into
+/// ±[`SIGNAL_LIMIT`] (observations must be finite numbers within finite bounds).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Observation {
     /// Per detector (in [`EscapeEpisode::detector_labels`] order): `[output, aux…]`, names in
@@ -233,8 +241,13 @@ impl std::fmt::Debug for EscapeEpisode {
     }
 }
 
+/// A detector value for the observation: finite, clamped into ±[`SIGNAL_LIMIT`] (non-finite: 0).
 fn finite_or_zero(v: f64) -> f32 {
-    if v.is_finite() { v as f32 } else { 0.0 }
+    if v.is_finite() {
+        (v as f32).clamp(-SIGNAL_LIMIT, SIGNAL_LIMIT)
+    } else {
+        0.0
+    }
 }
 
 fn wrap_angle(a: f64) -> f64 {
@@ -657,7 +670,8 @@ impl EscapeEpisode {
             cmd.yaw_rate_rps as f32,
             cmd.lateral_mps as f32,
             out.t_s as f32,
-        ];
+        ]
+        .map(|v| v.clamp(-ROBOT_LIMIT, ROBOT_LIMIT));
         let dodging = deviation(cmd, r.last_cruise)
             .iter()
             .any(|d| d.abs() > super::reward::DODGE_TOLERANCE);

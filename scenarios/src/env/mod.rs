@@ -52,7 +52,7 @@ use loomlab_sim::GpuContext;
 
 pub use episode::{
     Action, EpisodeSnapshot, EpisodeStart, EpisodeSummary, EscapeEpisode, Observation, ROBOT_DIM, ROBOT_FIELDS,
-    StepInfo, StepResult,
+    ROBOT_LIMIT, SIGNAL_LIMIT, StepInfo, StepResult,
 };
 pub use error::{EnvError, ErrorKind};
 pub use options::{ActionKind, EnvOptions, MAX_FRAME_SIZE};
