@@ -246,6 +246,9 @@ fn plot_responses(path: &Path, input: &Input, columns: &[Column], memory_columns
     Ok(())
 }
 
+/// Curves with their names (detector ids).
+pub type NamedCurves = Vec<(String, Vec<f64>)>;
+
 /// Normalises detector outputs for joint display as in the paper's §3.2: Hopfield z is divided by
 /// its maximum possible value (memory columns)², FuHuPe20's filtered spikes by 2; every other
 /// curve (and the true angular size θ) is divided by its own maximum and multiplied by the largest
@@ -254,7 +257,7 @@ pub fn display_normalise(
     columns: &[(&str, &[f64])],
     theta: Option<&[f64]>,
     memory_columns: usize,
-) -> (Vec<(String, Vec<f64>)>, Option<Vec<f64>>) {
+) -> (NamedCurves, Option<Vec<f64>>) {
     let max_of = |v: &[f64]| v.iter().copied().filter(|x| x.is_finite()).fold(0.0f64, f64::max);
     let fixed = |id: &str| match id {
         "hopfield" => Some(1.0 / (memory_columns * memory_columns) as f64),
