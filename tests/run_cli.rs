@@ -1,0 +1,260 @@
+//! End-to-end tests of `loomlab run` on a tiny suite (4 episodes, 32×32 frames): outputs, the
+//! report contract (design §7), regression mode and exit codes. Needs a GPU adapter (lavapipe).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const BALL: &str = r#"# A slow ball at a standing robot, hitting it or passing 2 m to its right.
+description = "slow ball"
+[episode]
+duration_s = 2.2
+seed = 1
+[world]
+sky_luminance = 0.5
+camera = { n = 32 }
+ground = { enabled = false }
+[[world.projectiles]]
+target = "camera"
+radius_m = 0.15
+speed_mps = 3.0
+launch_distance_m = 5.0
+launch_time_s = 0.2
+miss_angle_deg = 180.0
+texture = { kind = "uniform", luminance = 0.0 }
+[[detectors]]
+id = "hopfield"
+[[detectors]]
+id = "soc"
+threshold = 0.01
+[sweep]
+"world.projectiles.0.miss_distance_m" = [0.0, 2.0]
+"#;
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("loomlab-run-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A suite folder with two scenarios of two episodes each.
+fn tiny_suite(dir: &Path) -> PathBuf {
+    let suite = dir.join("suite");
+    std::fs::create_dir_all(&suite).unwrap();
+    std::fs::write(suite.join("ball.toml"), BALL).unwrap();
+    std::fs::write(
+        suite.join("fast_ball.toml"),
+        BALL.replace("speed_mps = 3.0", "speed_mps = 5.0"),
+    )
+    .unwrap();
+    suite
+}
+
+fn loomlab(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_loomlab"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run the loomlab binary")
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn tiny_suite_writes_report_csv_plots_and_checks_regressions() {
+    let dir = tmp("suite");
+    let suite = tiny_suite(&dir);
+    let out = dir.join("out");
+    let baseline = dir.join("baseline").join("report.json");
+
+    // --bless runs the suite and writes the baseline
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--baseline",
+        s(&baseline),
+        "--bless",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}{}", text(&o.stdout), text(&o.stderr));
+    let stdout = text(&o.stdout);
+    assert!(stdout.contains("hit rate [95% CI]") && stdout.contains("hopfield") && stdout.contains("soc"));
+    assert!(
+        stdout.contains("scenario ball") && stdout.contains("scenario fast_ball"),
+        "{stdout}"
+    );
+    assert!(baseline.is_file());
+
+    // report.json has the contract keys
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["episodes"], 4);
+    for id in ["hopfield", "soc"] {
+        let d = &report["detectors"][id];
+        for key in [
+            "episodes",
+            "hits",
+            "misses",
+            "false_alarms",
+            "correct_rejections",
+            "hit_rate",
+            "false_alarm_rate",
+            "collisions",
+            "collision_rate",
+        ] {
+            assert!(d.get(key).is_some(), "detectors.{id}.{key} missing");
+        }
+        assert_eq!(d["episodes"], 4);
+        assert_eq!(
+            d["hits"].as_u64().unwrap() + d["misses"].as_u64().unwrap(),
+            2,
+            "two threats"
+        );
+    }
+    assert!(report["scenarios"]["ball"]["detectors"]["soc"].is_object());
+    // the early soc alarm (threshold 0.01) evades the slow ball
+    assert_eq!(report["scenarios"]["ball"]["detectors"]["soc"]["hits"], 1);
+
+    // episodes.csv: a header and one row per episode and detector
+    let csv = std::fs::read_to_string(out.join("episodes.csv")).unwrap();
+    assert!(csv.starts_with("scenario,episode,seed,params,detector,threat,"));
+    assert_eq!(csv.lines().count(), 1 + 4 * 2);
+    for png in ["roc.png", "rates.png", "collisions.png", "trace.png"] {
+        assert!(out.join(png).metadata().unwrap().len() > 1000, "{png}");
+    }
+
+    // the same run against its own baseline: no regression
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--baseline",
+        s(&baseline),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+
+    // a baseline that was better: exit 1, every regression listed
+    let mut better: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&baseline).unwrap()).unwrap();
+    for d in ["hopfield", "soc"] {
+        let det = &mut better["detectors"][d];
+        det["hit_rate"] = 1.0.into();
+        det["hit_rate_ci"] = serde_json::json!({"lower": 1.0, "upper": 1.0});
+        det["collision_rate"] = 0.0.into();
+        det["collision_rate_ci"] = serde_json::json!({"lower": 0.0, "upper": 0.0});
+    }
+    let worse_base = dir.join("better.json");
+    std::fs::write(&worse_base, serde_json::to_string_pretty(&better).unwrap()).unwrap();
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--baseline",
+        s(&worse_base),
+        "--quiet",
+        "--no-plots",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o.stderr));
+    let stderr = text(&o.stderr);
+    assert!(stderr.contains("regression"), "{stderr}");
+    assert!(
+        stderr.contains("`hopfield` / hit_rate") && stderr.contains("`hopfield` / collision_rate"),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_input_exits_2_with_a_clear_message() {
+    let dir = tmp("bad");
+    let out = dir.join("out");
+    let case = |name: &str, content: &str| {
+        let p = dir.join(name);
+        std::fs::write(&p, content).unwrap();
+        p
+    };
+
+    let malformed = case("malformed.toml", "[world\ncamera = 3\n");
+    let o = loomlab(&["run", s(&malformed), "--out", s(&out)]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = text(&o.stderr);
+    assert!(e.contains("malformed.toml") && e.contains("invalid TOML"), "{e}");
+
+    let unknown = case("unknown.toml", &BALL.replace("radius_m = 0.15", "radius = 0.15"));
+    let o = loomlab(&["run", s(&unknown), "--out", s(&out)]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = text(&o.stderr);
+    assert!(
+        e.contains("unknown.toml") && e.contains("`world.projectiles[0].radius`"),
+        "{e}"
+    );
+    assert!(e.contains("unknown field"), "{e}");
+
+    let wrong_type = case(
+        "wrong_type.toml",
+        &BALL.replace("duration_s = 2.2", "duration_s = \"long\""),
+    );
+    let o = loomlab(&["run", s(&wrong_type), "--out", s(&out)]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = text(&o.stderr);
+    assert!(
+        e.contains("wrong_type.toml") && e.contains("`episode.duration_s`") && e.contains("invalid type"),
+        "{e}"
+    );
+
+    let missing = dir.join("no_such_suite");
+    let o = loomlab(&["run", s(&missing), "--out", s(&out)]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = text(&o.stderr);
+    assert!(e.contains("no_such_suite") && e.contains("cannot read"), "{e}");
+
+    let good = case("good.toml", BALL);
+    let o = loomlab(&[
+        "run",
+        s(&good),
+        "--out",
+        s(&out),
+        "--baseline",
+        s(&dir.join("nope.json")),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("nope.json"), "{}", text(&o.stderr));
+
+    let o = loomlab(&["run", s(&good), "--out", s(&out), "--detectors", "hopfeld"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("hopfeld"), "{}", text(&o.stderr));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn no_suite_argument_runs_the_default_suite() {
+    let dir = tmp("default");
+    let out = dir.join("out");
+    let o = loomlab(&[
+        "run",
+        "--limit",
+        "2",
+        "--size",
+        "32",
+        "--brief",
+        "--no-plots",
+        "--out",
+        s(&out),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let stdout = text(&o.stdout);
+    assert!(
+        stdout.contains("scenarios/suites/default") && stdout.contains("2 episodes"),
+        "{stdout}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
