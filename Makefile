@@ -5,7 +5,7 @@ CARGO ?= cargo
 OUT ?= out/run
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: run test deps lint rust-test python-test bench figures fmt
+.PHONY: run test deps lint rust-test python-test suite-check bless bench figures fmt
 
 ## Run the default scenario suite: prints the results table, writes $(OUT)/report.json and plots.
 run: deps
@@ -41,8 +41,18 @@ python-test: deps
 	  $(abspath $(VENV))/bin/maturin develop
 	cd agents/python && $(abspath $(VENV))/bin/python -m pytest -q
 
+## The default suite must not regress against its committed baseline report (exit 1 lists every
+## regression; tolerances in scenarios/README.md).
+BASELINE ?= scenarios/baseline/default-report.json
+suite-check: deps
+	$(CARGO) run --release -- run --out out/suite-check --baseline $(BASELINE) --quiet --no-plots
+
+## Re-run the default suite and make its report the new baseline (after an intended change).
+bless: deps
+	$(CARGO) run --release -- run --out $(OUT) --baseline $(BASELINE) --bless
+
 ## Everything CI runs.
-test: deps lint rust-test python-test
+test: deps lint rust-test python-test suite-check
 
 ## Criterion benchmarks (detector, baselines, simulator step).
 bench: deps

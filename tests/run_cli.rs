@@ -258,3 +258,22 @@ fn no_suite_argument_runs_the_default_suite() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The default suite against its committed baseline (minutes: `make suite-check` runs it in a release
+/// build; `cargo test -- --ignored default_suite` here).
+#[test]
+#[ignore = "runs the whole default suite (about 1.5 min in release, 3 in dev on 2 cores); make suite-check"]
+fn default_suite_does_not_regress() {
+    let dir = tmp("default-suite");
+    let o = loomlab(&[
+        "run",
+        "--out",
+        s(&dir.join("out")),
+        "--baseline",
+        "scenarios/baseline/default-report.json",
+        "--quiet",
+        "--no-plots",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -184,9 +184,13 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
     if let Some(target) = args.calibrate {
         println!("\nthresholds for a false-alarm rate <= {target} over this run's non-threat episodes:");
         for c in calibrate(&outcomes, target) {
-            let t = c
-                .threshold
-                .map_or("any (no finite score)".to_string(), |t| format!("{t}"));
+            // three significant digits in the shortest form (0.000095, 2.47, 270)
+            let sig3 = |t: f64| {
+                format!("{t:.2e}")
+                    .parse::<f64>()
+                    .map_or(t.to_string(), |v| v.to_string())
+            };
+            let t = c.threshold.map_or("any (no finite score)".to_string(), sig3);
             let hit = c.hit_rate.map_or("n/a".to_string(), |h| format!("{h:.2}"));
             println!(
                 "  {:<10} threshold {t:<12} FA rate {:.2} over {} non-threats, hit rate {hit}",
@@ -292,7 +296,8 @@ fn write_plots(out: &Path, report: &Report, runs: &[EpisodeRun]) -> anyhow::Resu
             })
             .collect()
     };
-    let width = (160 + 70 * scenarios.len() as u32).max(640);
+    // wide enough for the (horizontal) scenario names under each group of bars
+    let width = (160 + 120 * scenarios.len() as u32).max(640);
     rate_bars(
         &out.join("rates.png"),
         "correct decisions (hits + correct rejections) / episodes, per scenario",
