@@ -4,6 +4,8 @@ SHELL := /bin/bash
 CARGO ?= cargo
 OUT ?= out/run
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+# Mesa's Vulkan loader complains on every device creation when XDG_RUNTIME_DIR is unset (CI, containers).
+export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 $$d && echo $$d)
 
 .PHONY: run test deps lint rust-test python-test suite-check bless bench figures fmt
 
@@ -45,7 +47,7 @@ python-test: deps
 ## regression; tolerances in scenarios/README.md).
 BASELINE ?= scenarios/baseline/default-report.json
 suite-check: deps
-	$(CARGO) run --release -- run --out out/suite-check --baseline $(BASELINE) --quiet --no-plots
+	$(CARGO) run -- run --out out/suite-check --baseline $(BASELINE) --quiet --no-plots
 
 ## Re-run the default suite and make its report the new baseline (after an intended change).
 bless: deps
