@@ -155,7 +155,11 @@ fn nearly_straight_turn_predicts_like_a_straight_line() {
     let desc = projectile_world(0.0, false);
     let sim = Sim::new_physics_only(&desc, 1).unwrap();
     let straight = sim.truth(&Command::forward(2.0))[0].ttc_s.unwrap();
-    let tiny = Command { forward_mps: 2.0, yaw_rate_rps: 1e-7, lateral_mps: 0.0 };
+    let tiny = Command {
+        forward_mps: 2.0,
+        yaw_rate_rps: 1e-7,
+        lateral_mps: 0.0,
+    };
     let curved = sim.truth(&tiny)[0].ttc_s.unwrap();
     assert!((straight - curved).abs() < 1e-3, "{straight} vs {curved}");
 }

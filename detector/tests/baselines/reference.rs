@@ -3,8 +3,8 @@
 //! reused, no fused passes. The optimised models must agree with them bit for bit, which
 //! shows that the row-slice stencils and fused loops do not change any result.
 
-use loomlab_detector::baselines::{Cizek2019, Cizek2019Config, Fu2020, Fu2020Config, Keil2004, Keil2004Config};
 use loomlab_detector::Frame;
+use loomlab_detector::baselines::{Cizek2019, Cizek2019Config, Fu2020, Fu2020Config, Keil2004, Keil2004Config};
 
 use crate::stimuli::{Id, get};
 use crate::{aux, outputs, run};
