@@ -47,14 +47,14 @@ python-test: deps
 ## regression; tolerances in scenarios/README.md).
 BASELINE ?= scenarios/baseline/default-report.json
 suite-check: deps
-	$(CARGO) run -- run --out out/suite-check --baseline $(BASELINE) --quiet --no-plots
+	$(CARGO) run -- run --out out/suite-check --baseline $(BASELINE) --brief --no-plots
 
 ## Re-run the default suite and make its report the new baseline (after an intended change).
 bless: deps
 	$(CARGO) run --release -- run --out $(OUT) --baseline $(BASELINE) --bless
 
 ## Everything CI runs.
-test: deps lint rust-test python-test suite-check
+test: deps lint rust-test suite-check python-test
 
 ## Criterion benchmarks (detector, baselines, simulator step).
 bench: deps
