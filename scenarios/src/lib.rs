@@ -12,6 +12,7 @@ pub mod runner;
 pub mod schema;
 pub mod stats;
 pub mod suite;
+pub mod sweep;
 
 pub use error::{RunError, ScenarioError};
 pub use runner::{EpisodeRun, Runner};

@@ -381,6 +381,9 @@ pub struct LoadOptions {
     /// Run exactly these detector ids (the scenario's settings for them when it lists them,
     /// defaults otherwise); `None`: the scenario's list (default all five).
     pub detectors: Option<Vec<String>>,
+    /// Use these `[[detectors]]` entries instead of every scenario's own list (a detectors file,
+    /// or the parameter points of a sweep); `detectors` then filters them by id.
+    pub detector_entries: Option<Vec<DetectorDesc>>,
 }
 
 /// Reads and expands one scenario file (`defaults`: a suite's `[defaults]` table, merged under it).
@@ -572,11 +575,12 @@ fn resolve(doc: &ScenarioDoc, opts: &LoadOptions) -> Result<(WorldDesc, Vec<Dete
     }
     let n = world.camera.n as usize;
     let fov = f64::from(world.camera.fov_deg);
-    let listed: Vec<(usize, DetectorDesc)> = match &doc.detectors {
+    let entries = opts.detector_entries.as_ref().or(doc.detectors.as_ref());
+    let listed: Vec<(usize, DetectorDesc)> = match entries {
         Some(list) => list.iter().cloned().enumerate().collect(),
         None => Vec::new(),
     };
-    let wanted: Vec<(Option<usize>, DetectorDesc)> = match (&opts.detectors, &doc.detectors) {
+    let wanted: Vec<(Option<usize>, DetectorDesc)> = match (&opts.detectors, entries) {
         (None, Some(_)) => listed.into_iter().map(|(i, d)| (Some(i), d)).collect(),
         (None, None) => DETECTOR_IDS.iter().map(|id| (None, bare(id))).collect(),
         (Some(ids), _) => {
@@ -604,42 +608,91 @@ fn resolve(doc: &ScenarioDoc, opts: &LoadOptions) -> Result<(WorldDesc, Vec<Dete
             Some(i) => format!("detectors[{i}].{k}"),
             None => format!("detectors.{k}"),
         };
-        let Some(&id) = DETECTOR_IDS.iter().find(|&&k| k == d.id) else {
-            return Err((
-                key("id"),
-                format!("unknown detector `{}`; known ids: {}", d.id, DETECTOR_IDS.join(", ")),
-            ));
-        };
-        let threshold = d
-            .threshold
-            .or_else(|| default_threshold(id))
-            .expect("every id has a default threshold");
-        if !threshold.is_finite() {
-            return Err((key("threshold"), format!("{threshold} must be finite")));
-        }
-        let label = d.label.clone().unwrap_or_else(|| id.to_string());
-        if label.is_empty() || label.contains([',', '"', '\n']) {
+        let spec = resolve_detector(&d, n, fov).map_err(|(k, r)| (key(&k), r))?;
+        if specs.iter().any(|s| s.label == spec.label) {
             return Err((
                 key("label"),
-                "must be non-empty, without commas, quotes or newlines".into(),
+                format!("detector `{}` is listed twice; give the entries different labels", spec.label),
             ));
         }
-        if specs.iter().any(|s| s.label == label) {
-            return Err((
-                key("label"),
-                format!("detector `{label}` is listed twice; give the entries different labels"),
-            ));
-        }
-        let params = detector_params(id, d.params.as_ref(), n, fov).map_err(|(k, r)| (key(&k), r))?;
-        specs.push(DetectorSpec {
-            label,
-            id,
-            trigger: d.trigger.unwrap_or_else(|| default_trigger(id)),
-            threshold,
-            params,
-        });
+        specs.push(spec);
     }
     Ok((world, specs))
+}
+
+/// Validates one `[[detectors]]` entry for n×n frames at `fov_deg` and builds its spec.
+/// Errors are `(key, reason)` with the key relative to the entry (`threshold`, `params.alpha`, …).
+pub fn resolve_detector(d: &DetectorDesc, n: usize, fov_deg: f64) -> Result<DetectorSpec, (String, String)> {
+    let Some(&id) = DETECTOR_IDS.iter().find(|&&k| k == d.id) else {
+        return Err((
+            "id".into(),
+            format!("unknown detector `{}`; known ids: {}", d.id, DETECTOR_IDS.join(", ")),
+        ));
+    };
+    let threshold = d
+        .threshold
+        .or_else(|| default_threshold(id))
+        .expect("every id has a default threshold");
+    if !threshold.is_finite() {
+        return Err(("threshold".into(), format!("{threshold} must be finite")));
+    }
+    let label = d.label.clone().unwrap_or_else(|| id.to_string());
+    if label.is_empty() || label.contains([',', '"', '\n']) {
+        return Err((
+            "label".into(),
+            "must be non-empty, without commas, quotes or newlines".into(),
+        ));
+    }
+    let params = detector_params(id, d.params.as_ref(), n, fov_deg)?;
+    Ok(DetectorSpec {
+        label,
+        id,
+        trigger: d.trigger.unwrap_or_else(|| default_trigger(id)),
+        threshold,
+        params,
+    })
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DetectorsDoc {
+    detectors: Vec<DetectorDesc>,
+}
+
+/// Parses a detectors file: TOML holding only `[[detectors]]` entries (the scenario syntax), as
+/// `loomlab run --detectors-file` takes and a sweep writes for each parameter point. Every entry is
+/// checked (at a 64×64, 60° camera; the real camera is checked when the suite loads).
+pub fn parse_detector_entries(text: &str, path: &Path) -> Result<Vec<DetectorDesc>, ScenarioError> {
+    let tree: Table = toml::from_str(text).map_err(|e| ScenarioError::Syntax {
+        path: path.into(),
+        message: e.to_string().trim_end().to_string(),
+    })?;
+    let doc: DetectorsDoc = typed(Value::Table(tree), "").map_err(|(k, r)| ScenarioError::key(path, k, r))?;
+    if doc.detectors.is_empty() {
+        return Err(ScenarioError::key(path, "detectors", "the list is empty; give at least one [[detectors]] entry"));
+    }
+    let mut labels = Vec::new();
+    for (i, d) in doc.detectors.iter().enumerate() {
+        let spec = resolve_detector(d, 64, 60.0).map_err(|(k, r)| ScenarioError::key(path, format!("detectors[{i}].{k}"), r))?;
+        if labels.contains(&spec.label) {
+            return Err(ScenarioError::key(
+                path,
+                format!("detectors[{i}].label"),
+                format!("detector `{}` is listed twice; give the entries different labels", spec.label),
+            ));
+        }
+        labels.push(spec.label);
+    }
+    Ok(doc.detectors)
+}
+
+/// Reads a detectors file (see [`parse_detector_entries`]).
+pub fn load_detector_entries(path: &Path) -> Result<Vec<DetectorDesc>, ScenarioError> {
+    let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
+        path: path.into(),
+        source,
+    })?;
+    parse_detector_entries(&text, path)
 }
 
 fn bare(id: &str) -> DetectorDesc {

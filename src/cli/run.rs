@@ -25,6 +25,7 @@ use loomlab_scenarios::episodes_csv::EpisodesCsvWriter;
 use loomlab_scenarios::metrics::{EpisodeOutcome, Outcome};
 use loomlab_scenarios::regression::{Tolerances, compare};
 use loomlab_scenarios::report::{Report, ReportMeta};
+use loomlab_scenarios::schema::load_detector_entries;
 use loomlab_scenarios::{DEFAULT_SUITE, EpisodeRun, EpisodeSpec, LoadOptions, Runner, load_suite};
 
 use crate::plot::{LineChart, Series, line_chart, line_chart_grid, rate_bars};
@@ -49,6 +50,12 @@ pub struct RunArgs {
     /// them where given.
     #[arg(long, value_name = "ID[,ID...]|all")]
     pub detectors: Option<String>,
+    /// Run the `[[detectors]]` entries of this TOML file instead of each scenario's own list (the
+    /// scenario syntax: id, label, threshold, trigger, params). A sweep writes one such file per
+    /// parameter point, so `loomlab run SUITE --detectors-file points/<label>/detectors.toml`
+    /// reruns that point. Combines with --detectors (filters the file's entries by id).
+    #[arg(long, value_name = "FILE")]
+    pub detectors_file: Option<PathBuf>,
     /// Episodes run in parallel (default: number of CPUs).
     #[arg(long, short)]
     pub jobs: Option<usize>,
@@ -105,10 +112,15 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
     {
         bail!("--calibrate takes a false-alarm rate in [0, 1], got {fa}");
     }
+    let detector_entries = match &args.detectors_file {
+        Some(path) => Some(load_detector_entries(path)?),
+        None => None,
+    };
     let opts = LoadOptions {
         seed: args.seed,
         size: args.size,
         detectors,
+        detector_entries,
     };
     let suite_path = args.suite.clone().unwrap_or_else(default_suite);
     let suite = load_suite(&suite_path, &opts)?;

@@ -37,6 +37,13 @@ create_exception!(
     "An action has the wrong shape or type, is out of range or not finite."
 );
 
+create_exception!(
+    loomlab,
+    SweepError,
+    LoomlabError,
+    "A sweep's output folder holds another sweep, or a shard's results do not match the plan."
+);
+
 /// Maps an environment error to its Python exception (the message is the Rust error's).
 pub fn to_py(e: EnvError) -> PyErr {
     let msg = e.to_string();
@@ -56,5 +63,6 @@ pub fn register(py: Python<'_>, m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("RenderError", py.get_type::<RenderError>())?;
     m.add("DetectorError", py.get_type::<DetectorError>())?;
     m.add("ActionError", py.get_type::<ActionError>())?;
+    m.add("SweepError", py.get_type::<SweepError>())?;
     Ok(())
 }

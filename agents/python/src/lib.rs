@@ -10,6 +10,7 @@
 mod convert;
 mod errors;
 mod scenarios;
+mod sweep;
 
 use std::sync::{Mutex, MutexGuard};
 
@@ -401,6 +402,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add_class::<Episode>()?;
     m.add_class::<VecEpisode>()?;
+    m.add_class::<sweep::SweepPlan>()?;
+    m.add_function(wrap_pyfunction!(sweep::run_suite, m)?)?;
     m.add_function(wrap_pyfunction!(scenario_names, m)?)?;
     m.add_function(wrap_pyfunction!(scenario_toml, m)?)?;
     m.add_function(wrap_pyfunction!(detector_ids, m)?)?;

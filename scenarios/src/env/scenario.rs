@@ -56,6 +56,7 @@ impl EnvScenario {
             seed,
             size: options.frame_size,
             detectors: options.detectors.clone(),
+            detector_entries: None,
         };
         let sc = parse_scenario(&self.text, &self.path, None, &opts)?;
         if sc.episodes.is_empty() {

@@ -7,6 +7,10 @@ Importing the package registers the Gymnasium ids
 
 both with a native vector entry point, so ``gymnasium.make_vec(id, num_envs=N)`` steps N
 environments on Rust threads.
+
+:func:`run_suite` runs a scenario suite in-process; ``python -m loomlab.sweep`` runs detector
+parameter sweeps on Ray and :mod:`loomlab.rllib` registers the environments with RLlib. Ray is an
+optional extra (``pip install 'loomlab[ray]'``) that importing this package never loads.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from ._native import (
     LoomlabError,
     RenderError,
     ScenarioError,
+    SweepError,
 )
 from .env import ActionConfig, EscapeEnv, RewardConfig
 from .vector import EscapeVectorEnv
@@ -36,7 +41,9 @@ __all__ = [
     "RenderError",
     "RewardConfig",
     "ScenarioError",
+    "SweepError",
     "detector_ids",
+    "run_suite",
     "scenario_names",
     "scenario_toml",
 ]
@@ -50,6 +57,37 @@ def scenario_names() -> list:
 def scenario_toml(name: str) -> str:
     """The TOML text of a shipped scenario (a starting point for your own)."""
     return _native.scenario_toml(name)
+
+
+def run_suite(
+    suite,
+    *,
+    seed: int = 0,
+    size=None,
+    limit=None,
+    detectors=None,
+    detectors_file=None,
+    jobs=None,
+) -> dict:
+    """Runs a scenario suite in this process and returns its report (the ``report.json`` dict).
+
+    The same as ``loomlab run SUITE --seed SEED --size SIZE --limit LIMIT --detectors IDS
+    --detectors-file FILE --jobs JOBS`` (without the CSV and plots). For many parameter settings
+    use :mod:`loomlab.sweep`.
+    """
+    import json
+    import os
+
+    text = _native.run_suite(
+        os.fspath(suite),
+        seed,
+        size,
+        limit,
+        None if detectors is None else list(detectors),
+        None if detectors_file is None else os.fspath(detectors_file),
+        jobs,
+    )
+    return json.loads(text)
 
 
 def detector_ids() -> list:
