@@ -236,6 +236,47 @@ fn bad_input_exits_2_with_a_clear_message() {
 }
 
 #[test]
+fn detectors_file_replaces_every_scenarios_detector_list() {
+    let dir = tmp("detectors-file");
+    let suite = tiny_suite(&dir);
+    let entries = dir.join("detectors.toml");
+    std::fs::write(
+        &entries,
+        "[[detectors]]\nid = \"soc\"\nlabel = \"soc-low\"\nthreshold = 0.01\n\n[[detectors]]\nid = \"soc\"\nlabel = \"soc-never\"\nthreshold = 1e12\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--quiet",
+        "--no-plots",
+        "--detectors-file",
+        s(&entries),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let labels: Vec<&String> = report["detectors"].as_object().unwrap().keys().collect();
+    assert_eq!(labels, ["soc-low", "soc-never"]);
+    // the low threshold alarms in every episode, the other never
+    assert_eq!(report["detectors"]["soc-never"]["hits"], 0);
+    assert_eq!(report["detectors"]["soc-never"]["false_alarms"], 0);
+    assert_eq!(report["detectors"]["soc-low"]["false_alarms"], 2);
+    assert_eq!(report["detectors"]["soc-low"]["misses"], 0);
+
+    // a bad entry is named with its file and key
+    std::fs::write(&entries, "[[detectors]]\nid = \"soc\"\nthreshhold = 1.0\n").unwrap();
+    let o = loomlab(&["run", s(&suite), "--out", s(&out), "--detectors-file", s(&entries)]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = text(&o.stderr);
+    assert!(e.contains("detectors.toml") && e.contains("threshhold"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn no_suite_argument_runs_the_default_suite() {
     let dir = tmp("default");
     let out = dir.join("out");

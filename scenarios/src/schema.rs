@@ -612,7 +612,10 @@ fn resolve(doc: &ScenarioDoc, opts: &LoadOptions) -> Result<(WorldDesc, Vec<Dete
         if specs.iter().any(|s| s.label == spec.label) {
             return Err((
                 key("label"),
-                format!("detector `{}` is listed twice; give the entries different labels", spec.label),
+                format!(
+                    "detector `{}` is listed twice; give the entries different labels",
+                    spec.label
+                ),
             ));
         }
         specs.push(spec);
@@ -669,16 +672,24 @@ pub fn parse_detector_entries(text: &str, path: &Path) -> Result<Vec<DetectorDes
     })?;
     let doc: DetectorsDoc = typed(Value::Table(tree), "").map_err(|(k, r)| ScenarioError::key(path, k, r))?;
     if doc.detectors.is_empty() {
-        return Err(ScenarioError::key(path, "detectors", "the list is empty; give at least one [[detectors]] entry"));
+        return Err(ScenarioError::key(
+            path,
+            "detectors",
+            "the list is empty; give at least one [[detectors]] entry",
+        ));
     }
     let mut labels = Vec::new();
     for (i, d) in doc.detectors.iter().enumerate() {
-        let spec = resolve_detector(d, 64, 60.0).map_err(|(k, r)| ScenarioError::key(path, format!("detectors[{i}].{k}"), r))?;
+        let spec = resolve_detector(d, 64, 60.0)
+            .map_err(|(k, r)| ScenarioError::key(path, format!("detectors[{i}].{k}"), r))?;
         if labels.contains(&spec.label) {
             return Err(ScenarioError::key(
                 path,
                 format!("detectors[{i}].label"),
-                format!("detector `{}` is listed twice; give the entries different labels", spec.label),
+                format!(
+                    "detector `{}` is listed twice; give the entries different labels",
+                    spec.label
+                ),
             ));
         }
         labels.push(spec.label);

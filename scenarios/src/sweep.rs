@@ -284,7 +284,11 @@ impl SweepFile {
             return Err(key_err(path, "episodes_per_shard", "must be at least 1"));
         }
         if doc.limit == Some(0) {
-            return Err(key_err(path, "limit", "must be at least 1 (or left out for every episode)"));
+            return Err(key_err(
+                path,
+                "limit",
+                "must be at least 1 (or left out for every episode)",
+            ));
         }
         if let Some(b) = doc.objective.false_alarm_budget
             && !(0.0..=1.0).contains(&b)
@@ -319,7 +323,11 @@ impl SweepFile {
             }
             let prefix = match entry.get("label") {
                 Some(Value::String(s)) => s.clone(),
-                _ => entry.get("id").and_then(Value::as_str).unwrap_or("detector").to_string(),
+                _ => entry
+                    .get("id")
+                    .and_then(Value::as_str)
+                    .unwrap_or("detector")
+                    .to_string(),
             };
             for (k, (table, values)) in variation
                 .expand(&entry, mix_seed(doc.search_seed, i as u64))
@@ -334,7 +342,11 @@ impl SweepFile {
                 desc.label = Some(label.clone());
                 // Check the point (values out of range name the point and its values).
                 resolve_detector(&desc, doc.size.unwrap_or(64) as usize, 60.0).map_err(|(key, r)| {
-                    let vals = values.iter().map(|(k, v)| format!("{k} = {v}")).collect::<Vec<_>>().join(", ");
+                    let vals = values
+                        .iter()
+                        .map(|(k, v)| format!("{k} = {v}"))
+                        .collect::<Vec<_>>()
+                        .join(", ");
                     key_err(path, here(&key), format!("point {label} ({vals}): {r}"))
                 })?;
                 if points.iter().any(|p| p.label == label) {
@@ -344,15 +356,29 @@ impl SweepFile {
                         format!("points labelled `{label}` come from two entries; give the entries different `label`s"),
                     ));
                 }
-                points.push(SweepPoint { label, detector: desc, values });
+                points.push(SweepPoint {
+                    label,
+                    detector: desc,
+                    values,
+                });
             }
         }
         if points.len() > MAX_POINTS {
-            return Err(key_err(path, "detectors", format!("more than {MAX_POINTS} points in all")));
+            return Err(key_err(
+                path,
+                "detectors",
+                format!("more than {MAX_POINTS} points in all"),
+            ));
         }
         let name = match doc.name {
             Some(n) if !n.trim().is_empty() && !n.contains(['/', '\\']) => n,
-            Some(n) => return Err(key_err(path, "name", format!("`{n}` must be a non-empty name without slashes"))),
+            Some(n) => {
+                return Err(key_err(
+                    path,
+                    "name",
+                    format!("`{n}` must be a non-empty name without slashes"),
+                ));
+            }
             None => path
                 .file_stem()
                 .map_or_else(|| "sweep".into(), |s| s.to_string_lossy().into_owned()),
@@ -552,7 +578,8 @@ impl SweepPlan {
                 reason: format!("{} shard results for {} shards", shards.len(), self.shards.len()),
             });
         }
-        let mut per_point: Vec<Vec<EpisodeOutcome>> = vec![Vec::with_capacity(self.episodes.len()); self.file.points.len()];
+        let mut per_point: Vec<Vec<EpisodeOutcome>> =
+            vec![Vec::with_capacity(self.episodes.len()); self.file.points.len()];
         // Shards are episode block outer, so walking them in order keeps suite order per point.
         for (shard, outcomes) in self.shards.iter().zip(shards) {
             for o in outcomes {
@@ -756,7 +783,10 @@ impl SweepDir {
             k
         };
         let cell = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
-        let mut csv = format!("rank,label,detector,{},score,within_budget,hit_rate,false_alarm_rate,collision_rate,auc,mean_lead_s\n", keys.iter().map(|k| csv_quote(k)).collect::<Vec<_>>().join(","));
+        let mut csv = format!(
+            "rank,label,detector,{},score,within_budget,hit_rate,false_alarm_rate,collision_rate,auc,mean_lead_s\n",
+            keys.iter().map(|k| csv_quote(k)).collect::<Vec<_>>().join(",")
+        );
         let mut ranking = Vec::new();
         for (rank, &i) in order.iter().enumerate() {
             let r = &results[i];

@@ -15,7 +15,17 @@ optional extra (``pip install 'loomlab[ray]'``) that importing this package neve
 
 from __future__ import annotations
 
+import os as _os
+import tempfile as _tempfile
+
 import gymnasium as gym
+
+# Mesa's Vulkan drivers complain on stderr when XDG_RUNTIME_DIR is unset (headless machines,
+# containers, Ray workers); give them a private folder.
+if not _os.environ.get("XDG_RUNTIME_DIR"):
+    _runtime = _os.path.join(_tempfile.gettempdir(), f"loomlab-runtime-{_os.getuid() if hasattr(_os, 'getuid') else 0}")
+    _os.makedirs(_runtime, mode=0o700, exist_ok=True)
+    _os.environ["XDG_RUNTIME_DIR"] = _runtime
 
 from . import _native
 from ._native import (
