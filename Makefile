@@ -7,7 +7,7 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # Mesa's Vulkan loader complains on every device creation when XDG_RUNTIME_DIR is unset (CI, containers).
 export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 $$d && echo $$d)
 
-.PHONY: run test deps lint rust-test python-test suite-check bless bench figures fmt
+.PHONY: run test deps lint rust-test python-test python-env suite-check sweep bless bench figures fmt
 
 ## Run the default scenario suite: prints the results table, writes $(OUT)/report.json and plots.
 run: deps
@@ -33,15 +33,24 @@ rust-test: deps
 ## directory (reusing the dependencies rust-test compiled), pytest.
 VENV ?= .venv
 PYTHON ?= python3
-python-test: deps
+python-env: deps
 	@test -x $(VENV)/bin/python || $(PYTHON) -m venv $(VENV) || { \
 	  echo "installing python3-venv ..."; rm -rf $(VENV); \
 	  $(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv && \
 	  $(PYTHON) -m venv $(VENV); }
-	$(VENV)/bin/python -m pip install -q --upgrade pip maturin numpy gymnasium pytest
+	$(VENV)/bin/python -m pip install -q --upgrade pip maturin numpy gymnasium pytest "ray[tune]>=2.9"
 	cd agents/python && VIRTUAL_ENV=$(abspath $(VENV)) CARGO_TARGET_DIR=$${CARGO_TARGET_DIR:-$(CURDIR)/target} \
 	  $(abspath $(VENV))/bin/maturin develop
+
+## pytest, the sweep tests on a local Ray with 2 CPUs included (the RLlib training test needs torch,
+## which is not installed here: `pip install 'loomlab[rllib]'` to run it).
+python-test: python-env
 	cd agents/python && $(abspath $(VENV))/bin/python -m pytest -q
+
+## A detector-parameter sweep on a local Ray: `make sweep SWEEP=sweeps/baselines_random.toml`.
+SWEEP ?= sweeps/hopfield_threshold_alpha.toml
+sweep: python-env
+	$(VENV)/bin/python -m loomlab.sweep $(SWEEP)
 
 ## The default suite must not regress against its committed baseline report (exit 1 lists every
 ## regression; tolerances in scenarios/README.md).

@@ -164,6 +164,7 @@ impl SweepPlan {
 /// Runs a suite in this process and returns its report as JSON text: what `loomlab run SUITE
 /// --seed --size --limit --detectors --detectors-file` writes to report.json.
 #[pyfunction]
+#[allow(clippy::too_many_arguments)] // the Python keyword arguments
 #[pyo3(signature = (suite, seed = 0, size = None, limit = None, detectors = None, detectors_file = None, jobs = None))]
 pub fn run_suite(
     py: Python<'_>,
@@ -181,12 +182,17 @@ pub fn run_suite(
             None => None,
         };
         if let Some(ids) = &detectors
-            && let Some(bad) = ids.iter().find(|id| !loomlab_detector::DETECTOR_IDS.contains(&id.as_str()))
+            && let Some(bad) = ids
+                .iter()
+                .find(|id| !loomlab_detector::DETECTOR_IDS.contains(&id.as_str()))
         {
             return Err(loomlab_scenarios::ScenarioError::key(
                 &suite,
                 "detectors",
-                format!("unknown detector `{bad}`; known ids: {}", loomlab_detector::DETECTOR_IDS.join(", ")),
+                format!(
+                    "unknown detector `{bad}`; known ids: {}",
+                    loomlab_detector::DETECTOR_IDS.join(", ")
+                ),
             )
             .into());
         }
