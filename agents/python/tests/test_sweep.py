@@ -58,6 +58,8 @@ def test_sweep_on_ray_completes_and_equals_single_process(reference):
     r = reference
     assert r.complete and r.shards_total == 8 and r.shards_run == 8 and r.shards_skipped == 0
     assert (r.episodes, r.points) == (8, 4)
+    # 4 episode blocks x 2 point blocks: every episode runs twice, each run scores 2 points
+    assert (r.episodes_run, r.scores_run) == (16, 32)
     assert [row["label"] for row in r.summary["ranking"]] and r.ranking_table.startswith("rank")
     for label in LABELS:
         swept = r.report(label)

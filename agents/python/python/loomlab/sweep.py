@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 from . import _native
-from ._native import LoomlabError, SweepError
+from ._native import LoomlabError, ScenarioError, SweepError
 
 __all__ = ["SweepResult", "main", "run_sweep"]
 
@@ -81,8 +81,10 @@ class SweepResult:
     #: Episodes in the sweep and parameter points.
     episodes: int
     points: int
-    #: Episodes run by this call (each with the points of its shard) and their wall time.
+    #: Episode runs by this call (an episode once per shard it is in; each run scores the points of
+    #: its shard), the (episode, point) scores they gave, and this call's wall time.
     episodes_run: int
+    scores_run: int
     wall_time_s: float
     #: Whether every shard is finished and the reports are merged.
     complete: bool
@@ -93,8 +95,13 @@ class SweepResult:
 
     @property
     def episodes_per_s(self) -> float:
-        """Episodes (each with every point of its shard) finished per second by this call."""
+        """Episode runs (each scoring every point of its shard) finished per second by this call."""
         return self.episodes_run / self.wall_time_s if self.wall_time_s > 0 else 0.0
+
+    @property
+    def scores_per_s(self) -> float:
+        """(Episode, point) scores per second by this call."""
+        return self.scores_run / self.wall_time_s if self.wall_time_s > 0 else 0.0
 
     def report(self, label: str) -> dict:
         """The merged report of parameter point ``label``."""
@@ -198,7 +205,8 @@ def run_sweep(
     skipped = len(done) - len(todo)
     if max_shards is not None:
         todo = todo[:max_shards]
-    sizes = [end - start for start, end, _, _ in (plan.shard(i) for i in range(plan.shard_count))]
+    cuts = [plan.shard(i) for i in range(plan.shard_count)]
+    sizes = [e1 - e0 for e0, e1, _, _ in cuts]
     bar = _Progress(len(todo), sizes, progress)
 
     def finished(i: int, csv: str) -> None:
@@ -225,6 +233,7 @@ def run_sweep(
         episodes=plan.episode_count,
         points=len(plan.points()),
         episodes_run=sum(sizes[i] for i in todo),
+        scores_run=sum(sizes[i] * (cuts[i][3] - cuts[i][2]) for i in todo),
         wall_time_s=wall,
         complete=remaining == 0,
     )
@@ -313,12 +322,14 @@ def main(argv: Optional[List[str]] = None) -> int:
         return 130
     except (LoomlabError, OSError) as e:
         print(f"error: {e}", file=sys.stderr)
+        if not isinstance(e, (ScenarioError, SweepError)):
+            print("(finished shards are kept: fix the cause and rerun the same command to resume)", file=sys.stderr)
         return 2
     if not args.quiet:
         print(
-            f"{r.shards_run} shards run ({r.episodes_run} episodes x their points) in {r.wall_time_s:.1f} s "
-            f"= {r.episodes_per_s:.2f} episodes/s; {r.shards_skipped} already done; {r.points} points "
-            f"over {r.episodes} episodes"
+            f"{r.shards_run} shards run in {r.wall_time_s:.1f} s: {r.episodes_run} episode runs "
+            f"({r.episodes_per_s:.2f}/s), {r.scores_run} episode x point scores ({r.scores_per_s:.1f}/s); "
+            f"{r.shards_skipped} shards already done; {r.points} points over {r.episodes} episodes"
         )
     if not r.complete:
         left = r.shards_total - r.shards_skipped - r.shards_run
