@@ -554,12 +554,12 @@ impl SweepPlan {
                 shard.episodes.len()
             )));
         }
+        let want: Vec<&str> = self.file.points[shard.points.clone()]
+            .iter()
+            .map(|p| p.label.as_str())
+            .collect();
         for (o, ep) in outcomes.iter().zip(&self.episodes[shard.episodes.clone()]) {
             let labels: Vec<&str> = o.detectors.iter().map(|d| d.detector.as_str()).collect();
-            let want: Vec<&str> = self.file.points[shard.points.clone()]
-                .iter()
-                .map(|p| p.label.as_str())
-                .collect();
             if o.scenario != ep.scenario || o.episode != ep.index || o.seed != ep.seed || labels != want {
                 return Err(bad(format!(
                     "rows of {} episode {} ({labels:?}) where {} episode {} ({want:?}) belongs",
