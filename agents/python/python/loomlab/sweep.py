@@ -157,7 +157,7 @@ def run_sweep(
     *,
     out: Optional[os.PathLike | str] = None,
     workers: Optional[int] = None,
-    threads_per_worker: int = 1,
+    threads_per_worker: Optional[int] = None,
     limit: Optional[int] = None,
     restart: bool = False,
     max_shards: Optional[int] = None,
@@ -174,7 +174,7 @@ def run_sweep(
         out: output folder (default ``out/sweep/<name>``).
         workers: shards run at once (default: the cluster's CPUs / ``threads_per_worker``).
         threads_per_worker: episode threads inside each shard task (each task asks Ray for this
-            many CPUs).
+            many CPUs); default 1 on Ray, every CPU with ``local``.
         limit: run only the first ``limit`` episodes of the suite (overrides the file's).
         restart: discard the output folder's shards and results and start over.
         max_shards: run at most this many new shards, then stop (resume later).
@@ -192,7 +192,7 @@ def run_sweep(
     """
     started = time.perf_counter()
     path = str(Path(sweep).resolve())
-    if threads_per_worker < 1:
+    if threads_per_worker is not None and threads_per_worker < 1:
         raise SweepError("threads_per_worker must be at least 1")
     if workers is not None and workers < 1:
         raise SweepError("workers must be at least 1")
@@ -220,7 +220,7 @@ def run_sweep(
             for i in todo:
                 finished(i, plan.run_shard(i, threads_per_worker))
         else:
-            _run_on_ray(plan, path, limit, todo, workers, threads_per_worker, address, finished)
+            _run_on_ray(plan, path, limit, todo, workers, threads_per_worker or 1, address, finished)
     finally:
         bar.close()
     wall = time.perf_counter() - started
@@ -289,7 +289,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("sweep", type=Path, help="sweep file (TOML; format in scenarios/README.md)")
     p.add_argument("--out", "-o", type=Path, help="output folder (default: out/sweep/<name>)")
     p.add_argument("--workers", "-w", type=int, help="shards run at once (default: the cluster's CPUs)")
-    p.add_argument("--threads-per-worker", type=int, default=1, help="episode threads per shard task (default 1)")
+    p.add_argument(
+        "--threads-per-worker", type=int, help="episode threads per shard task (default: 1 on Ray, every CPU with --local)"
+    )
     p.add_argument("--limit", type=int, help="run only the first N episodes of the suite")
     p.add_argument("--max-shards", type=int, help="run at most N new shards, then stop (resume later)")
     p.add_argument("--restart", action="store_true", help="discard the output folder's shards and start over")
