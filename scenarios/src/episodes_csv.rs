@@ -46,7 +46,8 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> ScoringError + '_ {
     }
 }
 
-fn quote(field: &str) -> String {
+/// Quote a field per RFC 4180 when it holds a comma, quote or line break.
+pub(crate) fn quote(field: &str) -> String {
     if field.contains([',', '"', '\n', '\r']) {
         format!("\"{}\"", field.replace('"', "\"\""))
     } else {
@@ -58,7 +59,8 @@ fn opt(v: Option<f64>) -> String {
     v.filter(|v| v.is_finite()).map_or_else(String::new, |v| v.to_string())
 }
 
-fn header_line() -> String {
+/// The header line, with its newline.
+pub(crate) fn header_line() -> String {
     HEADER.join(",") + "\n"
 }
 

@@ -395,7 +395,8 @@ pub fn load_scenario(path: &Path, defaults: Option<&Table>, opts: &LoadOptions) 
     parse_scenario(&text, path, defaults, opts)
 }
 
-fn typed<T: serde::de::DeserializeOwned>(value: Value, prefix: &str) -> Result<T, (String, String)> {
+/// Deserialises `value`, reporting errors as `(key path under prefix, first line of the reason)`.
+pub(crate) fn typed<T: serde::de::DeserializeOwned>(value: Value, prefix: &str) -> Result<T, (String, String)> {
     serde_path_to_error::deserialize(value).map_err(|e| {
         let key = e.path().to_string();
         // the first line: toml appends an "in `table`" context line that repeats the path

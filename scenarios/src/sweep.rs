@@ -43,13 +43,13 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use toml::{Table, Value};
 
-use crate::episodes_csv::{HEADER, format_rows, parse_episodes_csv};
+use crate::episodes_csv::{format_rows, header_line, parse_episodes_csv, quote};
 use crate::error::{RunError, ScenarioError};
 use crate::expand::{KeyPath, KeySegment, Variation, mix_seed};
 use crate::metrics::{DetectorSummary, EpisodeOutcome, ScoringError};
 use crate::report::{LOOMLAB_VERSION, Report, ReportMeta};
 use crate::runner::Runner;
-use crate::schema::{DetectorDesc, EpisodeSpec, LoadOptions, resolve_detector};
+use crate::schema::{DetectorDesc, EpisodeSpec, LoadOptions, resolve_detector, typed};
 use crate::suite::load_suite;
 
 /// Most parameter points one sweep may expand to.
@@ -275,11 +275,7 @@ impl SweepFile {
             path: path.into(),
             message: e.to_string().trim_end().to_string(),
         })?;
-        let doc: SweepDoc = serde_path_to_error::deserialize(Value::Table(tree)).map_err(|e| {
-            let reason = e.inner().to_string().lines().next().unwrap_or_default().to_string();
-            let key = e.path().to_string();
-            key_err(path, if key == "." { "<root>".into() } else { key }, reason)
-        })?;
+        let doc: SweepDoc = typed(Value::Table(tree), "").map_err(|(k, r)| key_err(path, k, r))?;
         if doc.episodes_per_shard == 0 {
             return Err(key_err(path, "episodes_per_shard", "must be at least 1"));
         }
@@ -334,10 +330,8 @@ impl SweepFile {
                 .into_iter()
                 .enumerate()
             {
-                let mut desc: DetectorDesc = serde_path_to_error::deserialize(Value::Table(table)).map_err(|e| {
-                    let reason = e.inner().to_string().lines().next().unwrap_or_default().to_string();
-                    key_err(path, here(&e.path().to_string()), reason)
-                })?;
+                let mut desc: DetectorDesc =
+                    typed(Value::Table(table), &format!("detectors[{i}]")).map_err(|(k, r)| key_err(path, k, r))?;
                 let label = format!("{prefix}-{k:03}");
                 desc.label = Some(label.clone());
                 // Check the point (values out of range name the point and its values).
@@ -532,7 +526,7 @@ impl SweepPlan {
 
     /// The shard file text of shard outcomes (the `episodes.csv` format).
     pub fn shard_csv(outcomes: &[EpisodeOutcome]) -> String {
-        let mut text = HEADER.join(",") + "\n";
+        let mut text = header_line();
         for o in outcomes {
             text += &format_rows(o);
         }
@@ -785,7 +779,7 @@ impl SweepDir {
         let cell = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
         let mut csv = format!(
             "rank,label,detector,{},score,within_budget,hit_rate,false_alarm_rate,collision_rate,auc,mean_lead_s\n",
-            keys.iter().map(|k| csv_quote(k)).collect::<Vec<_>>().join(",")
+            keys.iter().map(|k| quote(k)).collect::<Vec<_>>().join(",")
         );
         let mut ranking = Vec::new();
         for (rank, &i) in order.iter().enumerate() {
@@ -793,7 +787,7 @@ impl SweepDir {
             let s = r.report.detectors.get(&r.point.label);
             let vals: Vec<String> = keys
                 .iter()
-                .map(|k| csv_quote(r.point.values.get(k).map_or("", String::as_str)))
+                .map(|k| quote(r.point.values.get(k).map_or("", String::as_str)))
                 .collect();
             let _ = writeln!(
                 csv,
@@ -837,14 +831,6 @@ impl SweepDir {
         let text = serde_json::to_string_pretty(&summary).expect("a summary serialises");
         std::fs::write(self.root.join("summary.json"), text).map_err(io_err(&self.root))?;
         Ok(order)
-    }
-}
-
-fn csv_quote(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.into()
     }
 }
 
