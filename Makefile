@@ -29,7 +29,7 @@ lint:
 rust-test: deps
 	$(CARGO) test --workspace
 
-## The Python package (agents/python): a venv in $(VENV), maturin build into the workspace's target
+## The Python package (python): a venv in $(VENV), maturin build into the workspace's target
 ## directory (reusing the dependencies rust-test compiled), pytest.
 VENV ?= .venv
 PYTHON ?= python3
@@ -39,13 +39,13 @@ python-env: deps
 	  $(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv && \
 	  $(PYTHON) -m venv $(VENV); }
 	$(VENV)/bin/python -m pip install -q --upgrade pip maturin numpy gymnasium pytest "ray[tune]>=2.9"
-	cd agents/python && VIRTUAL_ENV=$(abspath $(VENV)) CARGO_TARGET_DIR=$${CARGO_TARGET_DIR:-$(CURDIR)/target} \
+	cd python && VIRTUAL_ENV=$(abspath $(VENV)) CARGO_TARGET_DIR=$${CARGO_TARGET_DIR:-$(CURDIR)/target} \
 	  $(abspath $(VENV))/bin/maturin develop
 
 ## pytest, the sweep tests on a local Ray with 2 CPUs included (the RLlib training test needs torch,
 ## which is not installed here: `pip install 'loomlab[rllib]'` to run it).
 python-test: python-env
-	cd agents/python && $(abspath $(VENV))/bin/python -m pytest -q
+	cd python && $(abspath $(VENV))/bin/python -m pytest -q
 
 ## A detector-parameter sweep on a local Ray: `make sweep SWEEP=sweeps/baselines_random.toml`.
 SWEEP ?= sweeps/hopfield_threshold_alpha.toml

@@ -108,6 +108,21 @@ impl DiscreteAction {
             Self::Stop => VelocityCommand::STOP,
         }
     }
+
+    /// The discrete action closest in meaning to `command` given the cruise command: `None` when
+    /// it is the cruise command, a dodge by the sign of the extra lateral speed, else `Stop` (the
+    /// escape controller's manoeuvres as discrete actions).
+    pub fn from_command(command: VelocityCommand, cruise: VelocityCommand) -> Self {
+        if command == cruise {
+            Self::None
+        } else if command.lateral_mps > cruise.lateral_mps + 1e-9 {
+            Self::DodgeLeft
+        } else if command.lateral_mps < cruise.lateral_mps - 1e-9 {
+            Self::DodgeRight
+        } else {
+            Self::Stop
+        }
+    }
 }
 
 /// A continuous action `[forward, yaw_rate, lateral]`, each normalised to [-1, 1].
@@ -149,6 +164,19 @@ impl ContinuousAction {
     /// Map to a command after clamping into [-1, 1]; errors only on NaN/∞.
     pub fn to_command_clamped(&self, config: &ActionConfig) -> Result<VelocityCommand, AgentError> {
         Ok(self.clamped()?.scale(config))
+    }
+
+    /// The normalised action of a command (each component divided by its maximum, clamped into
+    /// [-1, 1]): the inverse of [`to_command`](Self::to_command) for commands within the limits.
+    pub fn from_command(command: VelocityCommand, config: &ActionConfig) -> Self {
+        Self(
+            [
+                command.forward_mps / config.max_forward_mps,
+                command.yaw_rate_rps / config.max_yaw_rate_rps,
+                command.lateral_mps / config.max_lateral_mps,
+            ]
+            .map(|v| v.clamp(-1.0, 1.0) as f32),
+        )
     }
 
     fn check_finite(&self) -> Result<(), AgentError> {

@@ -37,4 +37,13 @@ impl VelocityCommand {
     pub fn is_finite(&self) -> bool {
         self.forward_mps.is_finite() && self.yaw_rate_rps.is_finite() && self.lateral_mps.is_finite()
     }
+
+    /// The simulator's command (single precision).
+    pub fn to_sim(self) -> loomlab_sim::Command {
+        loomlab_sim::Command {
+            forward_mps: self.forward_mps as f32,
+            yaw_rate_rps: self.yaw_rate_rps as f32,
+            lateral_mps: self.lateral_mps as f32,
+        }
+    }
 }

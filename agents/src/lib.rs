@@ -14,12 +14,14 @@
 //! (right edge). The simulator has its own command type; the scenario runner converts.
 
 pub mod action;
+pub mod agent;
 pub mod command;
 pub mod error;
 pub mod escape;
 pub mod looming_side;
 
 pub use action::{ActionConfig, ContinuousAction, DiscreteAction};
+pub use agent::{AgentStep, EscapeAgent};
 pub use command::VelocityCommand;
 pub use error::AgentError;
 pub use escape::{ControllerEvent, DodgeSide, EscapeConfig, EscapeController, Manoeuvre, TriggerSignal};

@@ -1,7 +1,6 @@
 //! Scenario schema, closed-loop runner and scoring (design §6).
 
 pub mod calibrate;
-pub mod env;
 pub mod episodes_csv;
 pub mod error;
 pub mod expand;
@@ -13,6 +12,7 @@ pub mod schema;
 pub mod stats;
 pub mod suite;
 pub mod sweep;
+pub mod truth;
 
 pub use error::{RunError, ScenarioError};
 pub use runner::{EpisodeRun, Runner};

@@ -38,15 +38,15 @@
 
 use std::sync::{Arc, Mutex};
 
-use loomlab_agents::looming_side::{DEFAULT_MIN_MEAN_CHANGE, temporal_contrast_centroid_x};
-use loomlab_agents::{EscapeController, TriggerSignal};
+use loomlab_agents::{EscapeAgent, TriggerSignal};
 use loomlab_detector::{Detector, Frame};
-use loomlab_sim::{Contact, GpuContext, ObjectKind, Renderer, Sim, SimError};
+use loomlab_sim::{GpuContext, Renderer, Sim, SimError};
 use rayon::prelude::*;
 
 use crate::error::RunError;
 use crate::metrics::{DetectorEpisode, EpisodeOutcome, GroundTruth, TraceSample, score_detector_episode};
-use crate::schema::{DetectorSpec, EpisodeSpec, to_sim_command};
+use crate::schema::{DetectorSpec, EpisodeSpec};
+use crate::truth::TruthRecorder;
 
 /// Renderers kept between episodes, one per frame size and worker at most.
 #[derive(Default)]
@@ -244,14 +244,14 @@ impl Runner {
         let mut t_s = Vec::with_capacity(total);
         let mut signal = vec![Vec::with_capacity(total); nd];
         let mut output = vec![Vec::with_capacity(total); nd];
-        // per frame, per object: (ttc, angular size, distance)
-        let mut truth: Vec<Vec<(Option<f64>, f64, f64)>> = Vec::with_capacity(total);
-        let mut contact: Option<(usize, Contact)> = None;
+        // per frame, per object: (ttc, angular size)
+        let mut truth: Vec<Vec<(Option<f64>, f64)>> = Vec::with_capacity(total);
+        let mut recorder = TruthRecorder::new(&sim);
         let open = (|| -> Result<(), RunError> {
-            for k in 0..total {
+            for _ in 0..total {
                 let cmd = ep.cruise.command_at(sim.time());
-                let out = sim.step(&to_sim_command(cmd)).map_err(|e| c.sim(e))?;
-                let frame = Frame::from_f32(nn, out.frame).map_err(|e| c.det(e))?;
+                let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
+                let frame = Frame::from_f32(nn, out.frame.clone()).map_err(|e| c.det(e))?;
                 for (i, (d, spec)) in detectors.iter_mut().zip(&ep.detectors).enumerate() {
                     let s = d.step(&frame).map_err(|e| c.det(e))?;
                     signal[i].push(spec.trigger.value(&s).unwrap_or(f64::NAN));
@@ -261,18 +261,11 @@ impl Runner {
                 truth.push(
                     out.truth
                         .iter()
-                        .map(|o| {
-                            (
-                                o.ttc_s.map(f64::from),
-                                f64::from(o.angular_size_deg),
-                                f64::from(o.distance_m),
-                            )
-                        })
+                        .map(|o| (o.ttc_s.map(f64::from), f64::from(o.angular_size_deg)))
                         .collect(),
                 );
                 frames.push(frame);
-                if let Some(first) = out.contacts.into_iter().next() {
-                    contact = Some((k, first));
+                if recorder.record(&out).is_some() {
                     break;
                 }
             }
@@ -285,27 +278,10 @@ impl Runner {
         let mut frames_rendered = frames.len();
 
         // ---- ground truth ----
-        let threat = contact.is_some();
-        let t_contact_s = contact.as_ref().map(|(_, ct)| ct.exact_t_s.unwrap_or(ct.t_s));
-        let reference = match &contact {
-            Some((_, ct)) => Some(ct.object_id),
-            None => {
-                let movers: Vec<usize> = objects
-                    .iter()
-                    .filter(|(_, _, kind)| *kind != ObjectKind::Scenery)
-                    .map(|(id, _, _)| *id)
-                    .collect();
-                let candidates: Vec<usize> = if movers.is_empty() {
-                    objects.iter().map(|(id, _, _)| *id).collect()
-                } else {
-                    movers
-                };
-                candidates.into_iter().min_by(|&a, &b| {
-                    let min_d = |id: usize| truth.iter().map(|row| row[id].2).fold(f64::INFINITY, f64::min);
-                    min_d(a).total_cmp(&min_d(b))
-                })
-            }
-        };
+        let episode_truth = recorder.finish();
+        let threat = episode_truth.threat();
+        let t_contact_s = episode_truth.t_contact_s();
+        let reference = episode_truth.reference;
         let ref_ttc: Vec<Option<f64>> = truth.iter().map(|row| reference.and_then(|id| row[id].0)).collect();
         let ref_theta: Vec<f64> = truth
             .iter()
@@ -337,7 +313,7 @@ impl Runner {
                 },
             )?;
             let first_alarm = signal[i].iter().position(|&s| s >= spec.threshold);
-            let contact_frame = contact.as_ref().map(|(k, _)| *k);
+            let contact_frame = episode_truth.contact.as_ref().map(|c| c.frame);
             let cl = match (first_alarm, contact_frame) {
                 (None, _) => ClosedLoop {
                     label: spec.label.clone(),
@@ -406,47 +382,42 @@ impl Runner {
         let nn = n as usize;
         let total = ep.frames();
         let mut sim = Sim::new_physics_only(&ep.world, ep.seed).map_err(|e| c.sim(e))?;
-        let mut detector = spec.build(nn).map_err(|e| c.det(e))?;
-        let mut controller =
-            EscapeController::new(spec.controller(&ep.controller)).map_err(|source| RunError::Controller {
+        let detector = spec.build(nn).map_err(|e| c.det(e))?;
+        let mut agent =
+            EscapeAgent::new(vec![detector], spec.controller(&ep.controller)).map_err(|source| RunError::Controller {
                 scenario: ep.scenario.clone(),
                 episode: ep.index,
                 source,
             })?;
-        let side = |prev: &Frame, cur: &Frame| temporal_contrast_centroid_x(prev, cur, DEFAULT_MIN_MEAN_CHANGE);
-        // Replay up to and including the alarm frame: physics only, detector on the cached frames.
+        // Replay up to and including the alarm frame: physics only, the agent on the cached frames.
         let mut cmd = ep.cruise.command_at(0.0);
-        for k in 0..=ka {
-            let out = sim.step(&to_sim_command(cmd)).map_err(|e| c.sim(e))?;
-            let s = detector.step(&frames[k]).map_err(|e| c.det(e))?;
-            let looming = if k > 0 { side(&frames[k - 1], &frames[k]) } else { None };
-            cmd = controller
-                .step_signals(out.t_s, &s, looming, ep.cruise.command_at(out.t_s))
-                .0;
+        for frame in &frames[..=ka] {
+            let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
+            cmd = agent
+                .step(out.t_s, frame, ep.cruise.command_at(out.t_s))
+                .map_err(|e| c.det(e))?
+                .command;
         }
-        // Continue with rendering, the controller in the loop.
+        // Continue with rendering, the agent in the loop.
         let renderer = self.renderers.take(&self.ctx, n).map_err(|e| c.sim(e))?;
         if let Err(e) = sim.attach_renderer(renderer) {
             return Err(c.sim(e));
         }
-        let mut prev = frames[ka].clone();
         let mut collision_t_s = None;
         let mut rendered = 0;
         let tail = (|| -> Result<(), RunError> {
             for _ in ka + 1..total {
-                let out = sim.step(&to_sim_command(cmd)).map_err(|e| c.sim(e))?;
+                let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
                 rendered += 1;
                 if let Some(ct) = out.contacts.first() {
-                    collision_t_s = Some(ct.exact_t_s.unwrap_or(ct.t_s));
+                    collision_t_s = Some(ct.time_s());
                     break;
                 }
                 let frame = Frame::from_f32(nn, out.frame).map_err(|e| c.det(e))?;
-                let s = detector.step(&frame).map_err(|e| c.det(e))?;
-                let looming = side(&prev, &frame);
-                cmd = controller
-                    .step_signals(out.t_s, &s, looming, ep.cruise.command_at(out.t_s))
-                    .0;
-                prev = frame;
+                cmd = agent
+                    .step(out.t_s, &frame, ep.cruise.command_at(out.t_s))
+                    .map_err(|e| c.det(e))?
+                    .command;
             }
             Ok(())
         })();
@@ -457,7 +428,7 @@ impl Runner {
         Ok(ClosedLoop {
             label: spec.label.clone(),
             simulated: true,
-            triggers: controller.triggers(),
+            triggers: agent.controller().triggers(),
             collision_t_s,
             frames_rendered: rendered,
         })

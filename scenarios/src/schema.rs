@@ -41,7 +41,7 @@ use std::path::{Path, PathBuf};
 use loomlab_agents::{EscapeConfig, TriggerSignal, VelocityCommand};
 use loomlab_detector::baselines::BaselineConfigs;
 use loomlab_detector::{DETECTOR_IDS, Detector, DetectorError, DetectorSet, HopfieldConfig};
-use loomlab_sim::{Command, WorldDesc};
+use loomlab_sim::WorldDesc;
 use serde::{Deserialize, Serialize};
 use toml::{Table, Value};
 
@@ -201,15 +201,6 @@ impl CruiseDesc {
             last = s.at_s;
         }
         Ok(())
-    }
-}
-
-/// Converts a controller command to the simulator's.
-pub fn to_sim_command(c: VelocityCommand) -> Command {
-    Command {
-        forward_mps: c.forward_mps as f32,
-        yaw_rate_rps: c.yaw_rate_rps as f32,
-        lateral_mps: c.lateral_mps as f32,
     }
 }
 

@@ -65,6 +65,14 @@ pub struct Contact {
     pub exact_t_s: Option<f64>,
 }
 
+impl Contact {
+    /// The contact time (s): the exact time of first touch when known, else the time of the
+    /// substep in which rapier found the bodies touching.
+    pub fn time_s(&self) -> f64 {
+        self.exact_t_s.unwrap_or(self.t_s)
+    }
+}
+
 /// The angular diameter (rad) of a set of primitives (in the body frame at `pose`) seen from `eye`.
 pub(crate) fn angular_size(prims: &[AngularPrimitive], pose: &Pose64, eye: DVec3) -> f64 {
     let pi = std::f64::consts::PI;

@@ -6,8 +6,8 @@ use loomlab_agents::AgentError;
 use loomlab_detector::DetectorError;
 use loomlab_sim::SimError;
 
-use crate::error::ScenarioError;
-use crate::metrics::ScoringError;
+use loomlab_scenarios::ScenarioError;
+use loomlab_scenarios::metrics::ScoringError;
 
 /// Everything that can go wrong while building or stepping an environment.
 #[derive(Debug, thiserror::Error)]

@@ -4,7 +4,7 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 
-use loomlab_scenarios::env::{EnvError, ErrorKind};
+use loomlab_env::{EnvError, ErrorKind};
 
 create_exception!(
     loomlab,

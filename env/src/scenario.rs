@@ -1,4 +1,4 @@
-//! The scenario of an environment: a scenario file (the schema of [`crate::schema`]) expanded into
+//! The scenario of an environment: a scenario file (the schema of [`loomlab_scenarios::schema`]) expanded into
 //! its episodes, from which every reset draws one.
 
 use std::path::{Path, PathBuf};
@@ -6,10 +6,10 @@ use std::path::{Path, PathBuf};
 use loomlab_detector::{DETECTOR_IDS, DetectorError};
 
 use super::{EnvError, EnvOptions};
-use crate::error::ScenarioError;
-use crate::schema::{EpisodeSpec, LoadOptions, Scenario, parse_scenario};
+use loomlab_scenarios::ScenarioError;
+use loomlab_scenarios::schema::{EpisodeSpec, LoadOptions, Scenario, parse_scenario};
 
-/// A scenario for environments: TOML text in the scenario schema ([`crate::schema`]) and the file
+/// A scenario for environments: TOML text in the scenario schema ([`loomlab_scenarios::schema`]) and the file
 /// name that error messages and the default scenario name use.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EnvScenario {

@@ -9,7 +9,7 @@ use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use loomlab_scenarios::env::{ActionKind, EpisodeSummary, Observation, ROBOT_DIM, StepInfo, StepResult};
+use loomlab_env::{ActionKind, EpisodeSummary, Observation, ROBOT_DIM, StepInfo, StepResult};
 
 use crate::Meta;
 

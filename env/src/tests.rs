@@ -3,7 +3,7 @@
 use loomlab_agents::DiscreteAction;
 
 use super::*;
-use crate::metrics::Outcome;
+use loomlab_scenarios::metrics::Outcome;
 
 /// A ball thrown head-on at the robot cruising at 1 m/s (contact after about 0.5 s), in front of a
 /// grating wall; 1.2 s episodes at n = 32.
@@ -240,8 +240,8 @@ fn cruising_reproduces_the_runner_open_loop_scores() {
     // A runner that lives for the whole process: its worker threads keep renderers in thread-local
     // pools, whose destruction at thread exit panics inside wgpu (noted for the runner's owner), so
     // episodes are run on its pool threads, which never exit.
-    static RUNNER: std::sync::OnceLock<crate::Runner> = std::sync::OnceLock::new();
-    let runner = RUNNER.get_or_init(|| crate::Runner::with_context(shared_gpu_context().unwrap(), Some(1)).unwrap());
+    static RUNNER: std::sync::OnceLock<loomlab_scenarios::Runner> = std::sync::OnceLock::new();
+    let runner = RUNNER.get_or_init(|| loomlab_scenarios::Runner::with_context(shared_gpu_context().unwrap(), Some(1)).unwrap());
     for index in 0..2 {
         let spec = env.episodes()[index].clone();
         let run = runner.run(&[&spec], |_, _| Ok(())).unwrap().remove(0);

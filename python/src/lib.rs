@@ -1,8 +1,8 @@
 //! `loomlab._native`: the Rust engine of the `loomlab` Python package.
 //!
-//! Thin glue over [`loomlab_scenarios::env`]: [`Episode`] wraps one
-//! [`EscapeEpisode`](loomlab_scenarios::env::EscapeEpisode), [`VecEpisode`] a
-//! [`VecEscape`](loomlab_scenarios::env::VecEscape) whose results come back as batched numpy arrays.
+//! Thin glue over [`loomlab_env`]: [`Episode`] wraps one
+//! [`EscapeEpisode`](loomlab_env::EscapeEpisode), [`VecEpisode`] a
+//! [`VecEscape`](loomlab_env::VecEscape) whose results come back as batched numpy arrays.
 //! The GIL is released while Rust steps. Errors map to the exception tree `loomlab.LoomlabError` ⊃
 //! `ScenarioError`, `RenderError`, `DetectorError`, `ActionError`. The Gymnasium classes live in the
 //! pure-Python part of the package (`python/loomlab`).
@@ -18,7 +18,7 @@ use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::{PyList, PyTuple};
 
-use loomlab_scenarios::env::{
+use loomlab_env::{
     Action, ActionKind, EnvError, EnvOptions, EscapeEpisode, ROBOT_FIELDS, StepResult, VecEscape,
 };
 
@@ -410,8 +410,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(_raise, m)?)?;
     errors::register(py, m)?;
     m.add("ROBOT_FIELDS", PyList::new(py, ROBOT_FIELDS)?)?;
-    m.add("SIGNAL_LIMIT", loomlab_scenarios::env::SIGNAL_LIMIT)?;
-    m.add("ROBOT_LIMIT", loomlab_scenarios::env::ROBOT_LIMIT)?;
+    m.add("SIGNAL_LIMIT", loomlab_env::SIGNAL_LIMIT)?;
+    m.add("ROBOT_LIMIT", loomlab_env::ROBOT_LIMIT)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

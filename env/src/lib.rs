@@ -4,12 +4,12 @@
 //! - [`EscapeEpisode`]: one environment. `reset(seed)` → [`Observation`], `step(action)` →
 //!   [`StepResult`] `{ obs, reward, terminated, truncated, info }`.
 //! - [`VecEscape`]: N environments stepped on Rust threads (rayon) with next-step auto-reset.
-//! - [`EnvScenario`]: a scenario file in the suite schema ([`crate::schema`]: world, cruise command,
+//! - [`EnvScenario`]: a scenario file in the suite schema ([`loomlab_scenarios::schema`]: world, cruise command,
 //!   detectors with thresholds, escape controller, episode length, sweeps and random ranges);
 //!   [`EnvOptions`]: what an environment adds (chosen detectors, frame size, observed frame, action
 //!   kind, reward, time limit).
 //!
-//! # Ground truth (as the scenario runner, [`crate::runner`])
+//! # Ground truth (as the scenario runner, [`loomlab_scenarios::runner`])
 //! At every reset an **open-loop pass** runs the episode's world in physics-only mode (no
 //! rendering) with the robot following its cruise command for the episode's duration: the first
 //! object that touches the robot makes the episode a **threat**, with its exact contact time
@@ -19,7 +19,7 @@
 //! frame in the first step (the reset observation has the t = 0 frame but zero signals), so an
 //! agent that always cruises gives the detectors exactly the runner's open-loop frames and its
 //! traces. The step that ends the episode scores every detector's alarms over the frames seen with
-//! [`crate::metrics::score_detector_episode`] (hit / miss / false alarm / correct rejection, with
+//! [`loomlab_scenarios::metrics::score_detector_episode`] (hit / miss / false alarm / correct rejection, with
 //! the *agent's* collision as the closed-loop outcome).
 //!
 //! # Episodes, termination, seeds

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use loomlab_scenarios::env::{EnvError, EnvScenario};
+use loomlab_env::{EnvError, EnvScenario};
 
 /// The name of the default scenario of `loomlab/Escape-v0`.
 pub const DEFAULT: &str = "escape_default";

@@ -2,17 +2,16 @@
 
 use std::sync::Arc;
 
-use loomlab_agents::{
-    ContinuousAction, DiscreteAction, EscapeController, LoomingSideEstimator, TriggerSignal, VelocityCommand,
-};
-use loomlab_detector::{Detector, DetectorSet, Frame, Signals};
-use loomlab_sim::{GpuContext, ObjectKind, RobotState, Sim, StepOutput};
+use loomlab_agents::{ContinuousAction, DiscreteAction, EscapeAgent, TriggerSignal, VelocityCommand};
+use loomlab_detector::{DetectorSet, Frame};
+use loomlab_sim::{GpuContext, RobotState, Sim, StepOutput};
 use serde::{Deserialize, Serialize};
 
 use super::reward::StepFacts;
 use super::{ActionKind, EnvError, EnvOptions, EnvScenario, EpisodeRng, RewardTerms, shared_gpu_context};
-use crate::metrics::{DetectorEpisode, GroundTruth, TraceSample, score_detector_episode};
-use crate::schema::{EpisodeSpec, Scenario, to_sim_command};
+use loomlab_scenarios::metrics::{DetectorEpisode, GroundTruth, TraceSample, score_detector_episode};
+use loomlab_scenarios::schema::{EpisodeSpec, Scenario};
+use loomlab_scenarios::truth::open_loop_truth;
 
 /// Number of entries of [`Observation::robot`].
 pub const ROBOT_DIM: usize = 7;
@@ -176,11 +175,11 @@ pub struct EpisodeSnapshot {
     pub actions: Vec<Action>,
 }
 
+/// What the environment keeps per detector (the detector itself lives in the [`EscapeAgent`]).
 struct DetectorSlot {
     label: String,
     id: &'static str,
     params: DetectorSet,
-    detector: Box<dyn Detector>,
     trigger: TriggerSignal,
     threshold: f64,
     trace: Vec<TraceSample>,
@@ -192,7 +191,8 @@ struct Running {
     start_kind: EpisodeStart,
     frames: u64,
     actions: Vec<Action>,
-    threat: Option<f64>,
+    /// Open-loop contact time of the threat (s); `None`: no threat.
+    t_contact_s: Option<f64>,
     reference: Option<usize>,
     start: RobotState,
     last_robot: RobotState,
@@ -208,13 +208,13 @@ struct Running {
 /// One closed-loop episode at a time, stepped by an external agent (the engine of the Python
 /// `loomlab.EscapeEnv`; usable from Rust as it is).
 ///
-/// The scenario is expanded once ([`crate::schema`]: sweeps × random draws × repeats; scenarios with
+/// The scenario is expanded once ([`loomlab_scenarios::schema`]: sweeps × random draws × repeats; scenarios with
 /// a `[random]` table are re-expanded with a fresh seed at every reset). Each
 /// [`reset`](Self::reset) draws one of its episodes and a simulator seed from the seed stream, runs
 /// the open-loop pass in physics-only mode for the ground truth (see the module docs), and renders
 /// the first frame. Each [`step`](Self::step) applies the agent's command for one camera period,
 /// renders, steps the detectors and returns observation, reward, termination and ground truth; the
-/// last step scores the episode with [`crate::metrics`]. Same seed and actions ⇒ same results (on
+/// last step scores the episode with [`loomlab_scenarios::metrics`]. Same seed and actions ⇒ same results (on
 /// the same GPU adapter).
 pub struct EscapeEpisode {
     scenario: EnvScenario,
@@ -225,8 +225,8 @@ pub struct EscapeEpisode {
     ctx: Arc<GpuContext>,
     detectors: Vec<DetectorSlot>,
     signal_names: Vec<Vec<String>>,
-    controller: EscapeController,
-    side: LoomingSideEstimator,
+    /// Detectors, looming side and the shadow escape controller (driven by the first detector).
+    agent: EscapeAgent,
     rng: EpisodeRng,
     running: Option<Running>,
 }
@@ -293,6 +293,7 @@ impl EscapeEpisode {
             }
         }
         let mut detectors = Vec::new();
+        let mut built = Vec::new();
         let mut signal_names = Vec::new();
         for spec in &first.detectors {
             let mut detector = spec.build(n as usize)?;
@@ -302,25 +303,24 @@ impl EscapeEpisode {
             let mut names = vec!["output".to_string()];
             names.extend(probe.aux.iter().map(|(k, _)| (*k).to_string()));
             signal_names.push(names);
+            built.push(detector);
             detectors.push(DetectorSlot {
                 label: spec.label.clone(),
                 id: spec.id,
                 params: spec.params,
-                detector,
                 trigger: spec.trigger,
                 threshold: options.thresholds.get(&spec.label).copied().unwrap_or(spec.threshold),
                 trace: Vec::new(),
             });
         }
-        let controller = EscapeController::new(first.detectors[0].controller(&first.controller))?;
+        let agent = EscapeAgent::new(built, first.detectors[0].controller(&first.controller))?;
         Ok(Self {
             resample: scenario.has_random_ranges(),
             n,
             ctx,
             detectors,
             signal_names,
-            controller,
-            side: LoomingSideEstimator::default(),
+            agent,
             rng: EpisodeRng::from_entropy(),
             running: None,
             scenario,
@@ -457,7 +457,7 @@ impl EscapeEpisode {
         start_kind: EpisodeStart,
     ) -> Result<(Observation, StepInfo), EnvError> {
         let frames = spec.frames() as u64;
-        let (threat, reference) = open_loop_truth(&spec, sim_seed, frames)?;
+        let truth = open_loop_truth(&spec, sim_seed)?;
         let sim = match self.running.take() {
             Some(mut r) => {
                 r.sim.reset(&spec.world, sim_seed)?;
@@ -465,12 +465,11 @@ impl EscapeEpisode {
             }
             None => Sim::with_context(&spec.world, sim_seed, Arc::clone(&self.ctx))?,
         };
-        for (slot, d) in self.detectors.iter_mut().zip(&spec.detectors) {
+        for (i, (slot, d)) in self.detectors.iter_mut().zip(&spec.detectors).enumerate() {
             if slot.params != d.params {
-                slot.detector = d.build(self.n as usize)?;
+                self.agent.replace_detector(i, d.build(self.n as usize)?);
                 slot.params = d.params;
             }
-            slot.detector.reset();
             slot.trace.clear();
             slot.trigger = d.trigger;
             slot.threshold = self.options.thresholds.get(&d.label).copied().unwrap_or(d.threshold);
@@ -478,8 +477,8 @@ impl EscapeEpisode {
         let mut ctrl = spec.detectors[0].controller(&spec.controller);
         ctrl.trigger = self.detectors[0].trigger;
         ctrl.threshold = self.detectors[0].threshold;
-        self.controller = EscapeController::new(ctrl)?;
-        self.side.reset();
+        self.agent.set_controller(ctrl)?;
+        self.agent.reset();
         let mut sim = sim;
         let first = sim.observe()?;
         let start = first.robot;
@@ -490,8 +489,8 @@ impl EscapeEpisode {
             start_kind,
             frames,
             actions: Vec::new(),
-            threat,
-            reference,
+            t_contact_s: truth.t_contact_s(),
+            reference: truth.reference,
             start,
             last_robot: start,
             steps: 0,
@@ -558,7 +557,7 @@ impl EscapeEpisode {
         };
         let cruise = r.spec.cruise.command_at(r.sim.time());
         let dt = r.spec.world.dt();
-        let out = r.sim.step(&to_sim_command(command))?;
+        let out = r.sim.step(&command.to_sim())?;
         r.steps += 1;
         r.last_command = command;
         r.last_cruise = cruise;
@@ -572,7 +571,7 @@ impl EscapeEpisode {
             collision,
             progress_m,
             deviation: deviation(command, cruise),
-            threat: r.threat.is_some(),
+            threat: r.t_contact_s.is_some(),
         };
         let terms = self.options.reward.terms(&facts);
         r.episode_return += terms.total();
@@ -618,10 +617,9 @@ impl EscapeEpisode {
             controller_discrete = DiscreteAction::None;
         } else {
             let frame = Frame::from_f32(n, out.frame.clone())?;
-            let mut first_signals: Option<Signals> = None;
-            for d in &mut self.detectors {
-                let s = d.detector.step(&frame)?;
-                let value = d.trigger.value(&s).unwrap_or(f64::NAN);
+            let step = self.agent.step(out.t_s, &frame, cruise_now)?;
+            for (d, s) in self.detectors.iter_mut().zip(&step.signals) {
+                let value = d.trigger.value(s).unwrap_or(f64::NAN);
                 alarm.push(value >= d.threshold);
                 d.trace.push(TraceSample {
                     t_s: out.t_s,
@@ -636,27 +634,9 @@ impl EscapeEpisode {
                 v.push(finite_or_zero(s.output));
                 v.extend(s.aux.iter().map(|(_, x)| finite_or_zero(*x)));
                 signals.push(v);
-                if first_signals.is_none() {
-                    first_signals = Some(s);
-                }
             }
-            let side = self.side.update(&frame);
-            let (cmd, _) = self.controller.step_signals(
-                out.t_s,
-                first_signals.as_ref().expect("at least one detector"),
-                side,
-                cruise_now,
-            );
-            controller_continuous = self.normalised(cmd);
-            controller_discrete = if cmd == cruise_now {
-                DiscreteAction::None
-            } else if cmd.lateral_mps > cruise_now.lateral_mps + 1e-9 {
-                DiscreteAction::DodgeLeft
-            } else if cmd.lateral_mps < cruise_now.lateral_mps - 1e-9 {
-                DiscreteAction::DodgeRight
-            } else {
-                DiscreteAction::Stop
-            };
+            controller_continuous = self.normalised(step.command);
+            controller_discrete = DiscreteAction::from_command(step.command, cruise_now);
         }
         let r = self.running.as_ref().expect("process() runs inside an episode");
         let (dx, dy) = (out.robot.x_m - r.start.x_m, out.robot.y_m - r.start.y_m);
@@ -687,8 +667,8 @@ impl EscapeEpisode {
         };
         let outcome = if done {
             let truth = GroundTruth {
-                threat: r.threat.is_some(),
-                t_contact_s: r.threat,
+                threat: r.t_contact_s.is_some(),
+                t_contact_s: r.t_contact_s,
                 collision: r.collision,
             };
             let mut scored = Vec::with_capacity(nd);
@@ -716,8 +696,8 @@ impl EscapeEpisode {
         let info = StepInfo {
             t_s: out.t_s,
             step: r.steps,
-            threat: r.threat.is_some(),
-            t_contact_s: r.threat,
+            threat: r.t_contact_s.is_some(),
+            t_contact_s: r.t_contact_s,
             ttc_s,
             angular_size_deg,
             collision: r.collision,
@@ -733,12 +713,7 @@ impl EscapeEpisode {
 
     /// A command as a normalised continuous action (clamped into [-1, 1]).
     fn normalised(&self, c: VelocityCommand) -> [f32; 3] {
-        let cfg = &self.options.action;
-        [
-            (c.forward_mps / cfg.max_forward_mps).clamp(-1.0, 1.0) as f32,
-            (c.yaw_rate_rps / cfg.max_yaw_rate_rps).clamp(-1.0, 1.0) as f32,
-            (c.lateral_mps / cfg.max_lateral_mps).clamp(-1.0, 1.0) as f32,
-        ]
+        ContinuousAction::from_command(c, &self.options.action).0
     }
 
     /// The state that reproduces the current episode: see [`EpisodeSnapshot`].
@@ -772,38 +747,4 @@ impl EscapeEpisode {
         self.rng = EpisodeRng::from_state(snapshot.rng_state);
         Ok(Some(last))
     }
-}
-
-/// Open-loop ground truth: the episode's world in physics-only mode with the robot following its
-/// cruise command for `frames` camera periods (as the scenario runner's open-loop pass). The first
-/// contact makes a threat with its exact contact time; the reference object is the touching one,
-/// else the moving object (projectiles and vehicles before scenery) that came closest.
-fn open_loop_truth(spec: &EpisodeSpec, seed: u64, frames: u64) -> Result<(Option<f64>, Option<usize>), EnvError> {
-    let mut sim = Sim::new_physics_only(&spec.world, seed)?;
-    let objects = sim.objects();
-    let mut min_distance = vec![f64::INFINITY; objects.len()];
-    for _ in 0..frames {
-        let cmd = spec.cruise.command_at(sim.time());
-        let out = sim.step(&to_sim_command(cmd))?;
-        for t in &out.truth {
-            min_distance[t.id] = min_distance[t.id].min(f64::from(t.distance_m));
-        }
-        if let Some(c) = out.contacts.first() {
-            return Ok((Some(c.exact_t_s.unwrap_or(c.t_s)), Some(c.object_id)));
-        }
-    }
-    let movers: Vec<usize> = objects
-        .iter()
-        .filter(|(_, _, kind)| *kind != ObjectKind::Scenery)
-        .map(|(id, _, _)| *id)
-        .collect();
-    let candidates: Vec<usize> = if movers.is_empty() {
-        objects.iter().map(|(id, _, _)| *id).collect()
-    } else {
-        movers
-    };
-    let reference = candidates
-        .into_iter()
-        .min_by(|&a, &b| min_distance[a].total_cmp(&min_distance[b]));
-    Ok((None, reference))
 }

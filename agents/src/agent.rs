@@ -1,0 +1,143 @@
+//! [`EscapeAgent`]: the decision half of the closed loop, in one place.
+//!
+//! One camera frame goes through exactly this path, in the scenario runner's closed-loop tails,
+//! in its escape-deadline replays and in every Gymnasium step:
+//!
+//! 1. every detector of the agent steps on the frame ([`Detector::step`]);
+//! 2. the looming side is estimated from this frame and the previous one
+//!    ([`LoomingSideEstimator`], the x centroid of the temporal contrast);
+//! 3. the escape controller reads the **driving** detector's trigger signal (the first detector;
+//!    θ̂ or the output, per [`EscapeConfig::trigger`]) and returns the velocity command to apply
+//!    during the next camera period.
+//!
+//! The runner and the environment are orchestration around this type: they own the simulator,
+//! the ground truth and the scoring, and never restate this step.
+//!
+//! An agent can also be driven by a trigger value that does not come from a detector (the
+//! ground-truth reference rows of the runner: `oracle`, `ideal_theta`) through
+//! [`EscapeAgent::decide`]; the looming side and the controller are the same.
+
+use loomlab_detector::{Detector, DetectorError, Frame, Signals};
+
+use crate::{AgentError, ControllerEvent, EscapeConfig, EscapeController, LoomingSideEstimator, VelocityCommand};
+
+/// What one [`EscapeAgent::step`] produced.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AgentStep {
+    /// Every detector's signals on this frame, in the agent's detector order.
+    pub signals: Vec<Signals>,
+    /// The driving detector's trigger-signal value (NaN when it gives none).
+    pub trigger_value: f64,
+    /// The looming object's image x in [-1, 1] from this frame and the previous one (`None`:
+    /// first frame, no usable change or no frame).
+    pub looming_side: Option<f32>,
+    /// The command to apply during the next camera period.
+    pub command: VelocityCommand,
+    /// What the escape controller did.
+    pub event: ControllerEvent,
+}
+
+/// Detectors, looming-side estimator and escape controller: frame in, velocity command out (see
+/// the module docs).
+pub struct EscapeAgent {
+    detectors: Vec<Box<dyn Detector>>,
+    side: LoomingSideEstimator,
+    controller: EscapeController,
+}
+
+impl std::fmt::Debug for EscapeAgent {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("EscapeAgent")
+            .field("detectors", &self.detectors.iter().map(|d| d.id()).collect::<Vec<_>>())
+            .field("controller", self.controller.config())
+            .finish()
+    }
+}
+
+impl EscapeAgent {
+    /// An agent whose first detector drives the controller (`detectors` may be empty when the
+    /// agent is only driven through [`decide`](Self::decide)).
+    pub fn new(detectors: Vec<Box<dyn Detector>>, controller: EscapeConfig) -> Result<Self, AgentError> {
+        Ok(Self {
+            detectors,
+            side: LoomingSideEstimator::default(),
+            controller: EscapeController::new(controller)?,
+        })
+    }
+
+    /// Starts a new episode: detectors, looming side and controller back to their initial state.
+    pub fn reset(&mut self) {
+        for d in &mut self.detectors {
+            d.reset();
+        }
+        self.side.reset();
+        self.controller.reset();
+    }
+
+    /// Replaces the detector at `index` (e.g. rebuilt with other parameters).
+    ///
+    /// # Panics
+    /// If `index` is out of range.
+    pub fn replace_detector(&mut self, index: usize, detector: Box<dyn Detector>) {
+        self.detectors[index] = detector;
+    }
+
+    /// Replaces the controller configuration (validated) and resets the controller.
+    pub fn set_controller(&mut self, config: EscapeConfig) -> Result<(), AgentError> {
+        self.controller = EscapeController::new(config)?;
+        Ok(())
+    }
+
+    /// The escape controller.
+    pub fn controller(&self) -> &EscapeController {
+        &self.controller
+    }
+
+    /// Number of detectors.
+    pub fn detector_count(&self) -> usize {
+        self.detectors.len()
+    }
+
+    /// One closed-loop decision at episode time `t_s` on `frame`, with `cruise` the command the
+    /// robot follows when nothing threatens it.
+    pub fn step(&mut self, t_s: f64, frame: &Frame, cruise: VelocityCommand) -> Result<AgentStep, DetectorError> {
+        let mut signals = Vec::with_capacity(self.detectors.len());
+        for d in &mut self.detectors {
+            signals.push(d.step(frame)?);
+        }
+        let trigger_value = signals
+            .first()
+            .and_then(|s| self.controller.config().trigger.value(s))
+            .unwrap_or(f64::NAN);
+        let mut step = self.decide(t_s, Some(frame), trigger_value, cruise);
+        step.signals = signals;
+        Ok(step)
+    }
+
+    /// The decision from a given trigger value (detectors are not stepped; `signals` is empty).
+    /// `frame` feeds the looming-side estimate; `None` (physics-only replays) leaves the side
+    /// unknown for this step and forgets the previous frame.
+    pub fn decide(
+        &mut self,
+        t_s: f64,
+        frame: Option<&Frame>,
+        trigger_value: f64,
+        cruise: VelocityCommand,
+    ) -> AgentStep {
+        let looming_side = match frame {
+            Some(f) => self.side.update(f),
+            None => {
+                self.side.reset();
+                None
+            }
+        };
+        let (command, event) = self.controller.step(t_s, trigger_value, looming_side, cruise);
+        AgentStep {
+            signals: Vec::new(),
+            trigger_value,
+            looming_side,
+            command,
+            event,
+        }
+    }
+}

@@ -1,0 +1,141 @@
+//! Open-loop ground truth of an episode: is it a threat, when is the contact, which object is the
+//! reference object. Computed once here for the runner and the Gymnasium environment alike.
+//!
+//! The open-loop pass runs the episode's world with the robot following its cruise command (no
+//! escape). It ends at the first contact of any object with the robot's body or after the
+//! episode's duration:
+//! - a contact makes the episode a **threat**; the contact time `t_contact_s` is
+//!   [`Contact::time_s`] (the exact time of impact) and the touching object is the **reference
+//!   object**;
+//! - without contact the reference object is the moving object (projectile or vehicle; any
+//!   object if there is none) that came closest to the camera.
+//!
+//! Per frame the reference object's true time to contact and angular size are what the scoring
+//! reads at the alarm.
+
+use loomlab_sim::{Contact, ObjectKind, Sim, SimError, StepOutput};
+
+use crate::schema::EpisodeSpec;
+
+/// The first contact of the open-loop pass.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FirstContact {
+    /// Open-loop frame index (0-based: the k-th step's output) during which it happened.
+    pub frame: usize,
+    /// Contact time (s, [`Contact::time_s`]).
+    pub t_s: f64,
+    /// The touching object's id.
+    pub object_id: usize,
+}
+
+/// Open-loop ground truth (see the module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct EpisodeTruth {
+    /// The first contact, if the episode is a threat.
+    pub contact: Option<FirstContact>,
+    /// The reference object's id.
+    pub reference: Option<usize>,
+}
+
+impl EpisodeTruth {
+    /// Whether the episode is a threat.
+    pub fn threat(&self) -> bool {
+        self.contact.is_some()
+    }
+
+    /// The contact time of a threat (s).
+    pub fn t_contact_s(&self) -> Option<f64> {
+        self.contact.as_ref().map(|c| c.t_s)
+    }
+}
+
+/// Collects ground truth step by step during an open-loop pass.
+#[derive(Debug, Clone)]
+pub struct TruthRecorder {
+    objects: Vec<(usize, String, ObjectKind)>,
+    min_distance_m: Vec<f64>,
+    frames: usize,
+    contact: Option<FirstContact>,
+}
+
+impl TruthRecorder {
+    /// A recorder for the objects of `sim` ([`Sim::objects`]).
+    pub fn new(sim: &Sim) -> Self {
+        let objects = sim.objects();
+        Self {
+            min_distance_m: vec![f64::INFINITY; objects.len()],
+            objects,
+            frames: 0,
+            contact: None,
+        }
+    }
+
+    /// Records one open-loop step; returns the first contact when this step made one (the pass
+    /// ends there).
+    pub fn record(&mut self, out: &StepOutput) -> Option<&FirstContact> {
+        for t in &out.truth {
+            if let Some(d) = self.min_distance_m.get_mut(t.id) {
+                *d = d.min(f64::from(t.distance_m));
+            }
+        }
+        let frame = self.frames;
+        self.frames += 1;
+        if self.contact.is_none()
+            && let Some(c) = out.contacts.first()
+        {
+            self.contact = Some(first_contact(frame, c));
+            return self.contact.as_ref();
+        }
+        None
+    }
+
+    /// The episode's ground truth from the steps recorded.
+    pub fn finish(self) -> EpisodeTruth {
+        let reference = match &self.contact {
+            Some(c) => Some(c.object_id),
+            None => {
+                let movers: Vec<usize> = self
+                    .objects
+                    .iter()
+                    .filter(|(_, _, kind)| *kind != ObjectKind::Scenery)
+                    .map(|(id, _, _)| *id)
+                    .collect();
+                let candidates = if movers.is_empty() {
+                    self.objects.iter().map(|(id, _, _)| *id).collect()
+                } else {
+                    movers
+                };
+                candidates
+                    .into_iter()
+                    .min_by(|&a, &b| self.min_distance_m[a].total_cmp(&self.min_distance_m[b]))
+            }
+        };
+        EpisodeTruth {
+            contact: self.contact,
+            reference,
+        }
+    }
+}
+
+fn first_contact(frame: usize, c: &Contact) -> FirstContact {
+    FirstContact {
+        frame,
+        t_s: c.time_s(),
+        object_id: c.object_id,
+    }
+}
+
+/// The open-loop ground truth of episode `spec` with simulator seed `seed`, physics only (no
+/// rendering): what the runner's rendered open-loop pass finds, without the frames.
+pub fn open_loop_truth(spec: &EpisodeSpec, seed: u64) -> Result<EpisodeTruth, SimError> {
+    let mut sim = Sim::new_physics_only(&spec.world, seed)?;
+    let mut recorder = TruthRecorder::new(&sim);
+    for _ in 0..spec.frames() {
+        let cmd = spec.cruise.command_at(sim.time());
+        let out = sim.step(&cmd.to_sim())?;
+        if recorder.record(&out).is_some() {
+            break;
+        }
+    }
+    Ok(recorder.finish())
+}
