@@ -1,5 +1,7 @@
 //! Frames per second of the Hopfield detector, fast and reference implementations, at
-//! n = 64, 128 and 256 (`cargo bench -p loomlab-detector --bench hopfield`).
+//! n = 64, 128 and 256 (`cargo bench -p loomlab-detector --bench hopfield`), and of the fast
+//! implementation with the adapted front end and winner readout (`fast_adapted/<n>`; it should
+//! cost less than 10 % over `fast/<n>`).
 //!
 //! Input: the last 24 frames of the paper's Fig. 3a stimulus (striped disk over a drifting
 //! horizontal grating, the hardest case for retrieval: several iterations, spurious winners),
@@ -51,6 +53,17 @@ fn bench(c: &mut Criterion) {
                 })
             });
         }
+        group.sample_size(50);
+        group.warm_up_time(Duration::from_secs(1));
+        group.measurement_time(Duration::from_secs(3));
+        let mut det = Hopfield::new(HopfieldConfig::adapted_for_size(n)).expect("valid config");
+        let mut k = 0;
+        group.bench_with_input(BenchmarkId::new("fast_adapted", n), &n, |b, _| {
+            b.iter(|| {
+                k = (k + 1) % frames.len();
+                black_box(det.step_hopfield(black_box(&frames[k])).expect("frame size"))
+            })
+        });
     }
     group.finish();
 }

@@ -8,22 +8,50 @@
 //! beta = 500.0            # inverse temperature β (eq. 5)
 //! delay = 5               # the first memory column is the query of `delay` frames ago
 //! alpha = 0.85            # low-pass memory coefficient α (eq. 10)
-//! tolerance = 0.01        # stop when ‖ξ(τ+1) − ξ(τ)‖ ≤ tolerance …
+//! tolerance = 0.01        # stop when ‖ξ(τ+1) − ξ(τ)‖ ≤ tolerance (≥ 1e-6) …
 //! max_iterations = 5      # … or after this many updates (eq. 5)
 //! fov_deg = 60.0          # camera field of view, for the angular-size readout only
+//! frame_rate_hz = 120.0   # camera frame rate, for the adapted front end only
 //! implementation = "fast" # or "reference" (literal dense matrices, slow)
 //! frame_border = "replicate" # or "zero": padding of the 3×3 S_odd convolution
+//! front_end = "paper"     # or "adapted": temporal high-pass before retrieval
+//! adaptation_tau_s = 0.3  # adapted front end: time constant of the running mean (seconds)
+//! readout = "paper"       # angular size from √z; or "winner": from the winning template
+//! readout_alpha = 0.0     # winner readout: low-pass coefficient (0 = none)
 //! mask = { radius_frac = 0.9, blur_sigma_px = 20.0 }   # or mask = "none" / mask = false
+//! # mask = { radius_frac = 0.9, blur_sigma_frac = 0.078 } # blur proportional to n
 //!
 //! [template]
 //! kind = "striped_disk"   # or "uniform_disk"
 //! cycles = 2.0            # stripes: square-wave cycles per disk diameter
 //! phase = 0.25            # stripes: phase in cycles (0.25: disk centre in a bright stripe)
 //! offset_px = 0.5         # template centre this many pixels below the frame centre
+//! schedule = "paper"      # or "footnote": 7-pixel first disk, 1-pixel steps
 //! scale_start = 0.1       # first disk diameter, fraction of n
-//! # scale_step = 0.005859375  # default 3/(2n)
+//! # scale_start_px = 7.0  # … or in pixels (instead of scale_start)
+//! # scale_step = 0.005859375  # default 3/(2n) ("paper") or 1/n ("footnote")
 //! scale_end = 1.0         # last diameter ≤ scale_end·n
 //! ```
+//!
+//! # Front ends
+//! - `front_end = "paper"` (default): the query is the processed camera frame, exactly as in
+//!   the paper.
+//! - `front_end = "adapted"`: the processed frame first passes a first-order temporal
+//!   high-pass: a per-pixel running mean M is subtracted, G(t) = F(t) − M(t−1), and updated,
+//!   M(t) = M(t−1) + w·G(t), with the per-frame weight w = 1 − exp(−1/(τ·f)) for the time
+//!   constant τ = `adaptation_tau_s` (seconds, default 0.3) and the frame rate
+//!   f = `frame_rate_hz` (default 120, the simulator's camera default), so the filter has
+//!   the same time constant at any frame rate. Static structure (ground texture, backdrops)
+//!   fades from the query within about τ, and what moves or grows stays. See
+//!   [`super::processing`] for start-up and blank frames.
+//!
+//! # Angular-size readouts
+//! - `readout = "paper"` (default): θ̂ from √(z_on·z_off) read as a template index.
+//! - `readout = "winner"`: θ̂ from the template that wins the retrieval this frame, per
+//!   channel, optionally low-passed with `readout_alpha` (see [`super`]).
+//!
+//! [`HopfieldConfig::adapted`] gives the adapted front end with the winner readout and the
+//! settings tuned for cluttered scenes.
 
 use std::fmt;
 use std::str::FromStr;
@@ -92,21 +120,43 @@ pub enum FrameBorder {
 }
 
 /// The region-of-interest mask R_oi (paper §2.2.1): a white disk of radius
-/// `radius_frac·n/2` centred in the frame, blurred with a Gaussian of `blur_sigma_px`.
+/// `radius_frac·n/2` centred in the frame, blurred with a Gaussian of standard deviation
+/// `blur_sigma_px` pixels, or `blur_sigma_frac·n` pixels when that is given.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MaskConfig {
     /// Disk radius as a fraction of n/2 (paper: 0.9, chosen from 0.5, 0.75, 0.9).
     pub radius_frac: f64,
-    /// Standard deviation of the Gaussian blur in pixels (paper: 20; 0 = sharp disk).
+    /// Standard deviation of the Gaussian blur in pixels (paper: 20; 0 = sharp disk). An
+    /// absolute width: at n = 256 it softens the disk edge, at n ≤ 64 it blurs the whole disk
+    /// (use `blur_sigma_frac` to scale it with n).
     pub blur_sigma_px: f64,
+    /// Standard deviation of the blur as a fraction of n, replacing `blur_sigma_px` (which
+    /// must then keep its default). `0.078125` = 20/256: the paper's blur at n = 256, scaled to
+    /// any n. Default: not set (absolute `blur_sigma_px`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub blur_sigma_frac: Option<f64>,
 }
+
+/// The paper's mask blur in pixels.
+pub const PAPER_BLUR_SIGMA_PX: f64 = 20.0;
 
 impl Default for MaskConfig {
     fn default() -> Self {
         Self {
             radius_frac: 0.9,
-            blur_sigma_px: 20.0,
+            blur_sigma_px: PAPER_BLUR_SIGMA_PX,
+            blur_sigma_frac: None,
+        }
+    }
+}
+
+impl MaskConfig {
+    /// The blur's standard deviation in pixels for frames of side n.
+    pub fn blur_sigma_for(&self, n: usize) -> f64 {
+        match self.blur_sigma_frac {
+            Some(frac) => frac * n as f64,
+            None => self.blur_sigma_px,
         }
     }
 }
@@ -124,6 +174,32 @@ pub enum TemplateKind {
     /// A uniform white disk (luminance 1) on black.
     UniformDisk,
 }
+
+/// Which template sizes the pattern memory holds (paper §2.2.3 and its footnote).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ScaleSchedule {
+    /// Disk diameters s·n with s = `scale_start` (0.1), increasing by Δs = 3/(2n) up to
+    /// `scale_end` (1): N = 1 + ⌊3n/5⌋ templates. The paper's main schedule. Default.
+    #[default]
+    Paper,
+    /// The alternative the paper reports as equally good for most videos: a first disk of
+    /// seven pixels (s = 7/n) and steps of one pixel (Δs = 1/n), N = 1 + ⌊(scale_end·n − 7)⌋
+    /// templates (n − 6 with scale_end = 1). Small objects get templates of their own size at
+    /// any n, at the price of about 5/3 as many columns. `scale_start_px` and `scale_step`
+    /// override the seven pixels and the one-pixel step; `scale_start` must stay unset.
+    Footnote,
+}
+
+/// First disk diameter of the footnote schedule, in pixels.
+pub const FOOTNOTE_START_PX: f64 = 7.0;
+
+/// The smallest template disk diameter accepted, in pixels: a narrower disk covers at most a
+/// single pixel row, whose Laplacian is a point blob rather than the outline of a disk.
+pub const MIN_TEMPLATE_DIAMETER_PX: f64 = 2.0;
+
+/// Default of [`TemplateConfig::scale_start`] (the paper's 0.1).
+pub const PAPER_SCALE_START: f64 = 0.1;
 
 /// Template images and their scale schedule (paper §2.2.3).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
@@ -153,11 +229,18 @@ pub struct TemplateConfig {
     /// disk add up (0.5, 1, 1.5 and 2 px give the same rise within a frame or two; 0.5 keeps
     /// retrieving the largest template one frame longer when the disk overfills the frame).
     pub offset_px: f64,
-    /// Scale s of the first (smallest) template: disk diameter s·n pixels (paper: 0.1).
+    /// Sizes of the templates: the paper's schedule or its footnote's. Default paper.
+    pub schedule: ScaleSchedule,
+    /// Scale s of the first (smallest) template: disk diameter s·n pixels (paper: 0.1). Only
+    /// with the paper schedule and without `scale_start_px`.
     pub scale_start: f64,
-    /// Scale increment Δs; `None` = the paper's 3/(2n).
+    /// Diameter of the first template in pixels, instead of the fraction `scale_start`
+    /// (≥ 2 pixels; the footnote schedule's default is 7). Default: not set.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scale_start_px: Option<f64>,
+    /// Scale increment Δs; `None` = the schedule's: 3/(2n) (paper) or 1/n (footnote).
     pub scale_step: Option<f64>,
-    /// Largest scale: N = 1 + ⌊(scale_end − scale_start)/Δs⌋ templates (paper: 1, giving
+    /// Largest scale: N = 1 + ⌊(scale_end − s_1)/Δs⌋ templates (paper: 1, giving
     /// N = 1 + ⌊3n/5⌋).
     pub scale_end: f64,
 }
@@ -169,7 +252,9 @@ impl Default for TemplateConfig {
             cycles: 2.0,
             phase: 0.25,
             offset_px: 0.5,
-            scale_start: 0.1,
+            schedule: ScaleSchedule::Paper,
+            scale_start: PAPER_SCALE_START,
+            scale_start_px: None,
             scale_step: None,
             scale_end: 1.0,
         }
@@ -177,26 +262,75 @@ impl Default for TemplateConfig {
 }
 
 impl TemplateConfig {
-    /// Δs for frames of side n: `scale_step` or the paper's 3/(2n).
+    /// Scale s_1 of the first template for frames of side n: `scale_start_px`/n if given,
+    /// else 7/n (footnote) or `scale_start` (paper).
+    pub fn scale_start_for(&self, n: usize) -> f64 {
+        match (self.scale_start_px, self.schedule) {
+            (Some(px), _) => px / n as f64,
+            (None, ScaleSchedule::Footnote) => FOOTNOTE_START_PX / n as f64,
+            (None, ScaleSchedule::Paper) => self.scale_start,
+        }
+    }
+
+    /// Δs for frames of side n: `scale_step`, or the schedule's 3/(2n) (paper) or 1/n
+    /// (footnote).
     pub fn scale_step_for(&self, n: usize) -> f64 {
-        self.scale_step.unwrap_or(3.0 / (2.0 * n as f64))
+        self.scale_step.unwrap_or(match self.schedule {
+            ScaleSchedule::Paper => 3.0 / (2.0 * n as f64),
+            ScaleSchedule::Footnote => 1.0 / n as f64,
+        })
     }
 
     /// Number N of templates for frames of side n (paper: 1 + ⌊3n/5⌋).
     pub fn template_count(&self, n: usize) -> usize {
-        let steps = (self.scale_end - self.scale_start) / self.scale_step_for(n);
+        let steps = (self.scale_end - self.scale_start_for(n)) / self.scale_step_for(n);
         // The epsilon makes exact multiples (n divisible by 5 with the paper's schedule) count.
         1 + (steps + 1e-9).floor().max(0.0) as usize
     }
 
-    /// Scale s_i of template i (1-based, as in the paper): s_start + (i − 1)·Δs.
+    /// Scale s_i of template i (1-based, as in the paper): s_1 + (i − 1)·Δs.
     pub fn scale(&self, n: usize, i: usize) -> f64 {
-        self.scale_start + (i as f64 - 1.0) * self.scale_step_for(n)
+        self.scale_start_for(n) + (i as f64 - 1.0) * self.scale_step_for(n)
     }
 }
 
 /// Largest template count accepted (guards against absurd schedules eating memory).
 pub const MAX_TEMPLATES: usize = 4096;
+
+/// Largest memory the reference implementation may allocate for its two dense pattern
+/// memories (2·n²·(N+1) f64), in bytes: 8 GiB.
+pub const MAX_REFERENCE_BYTES: f64 = 8.0 * 1024.0 * 1024.0 * 1024.0;
+
+/// Smallest accepted convergence `tolerance`. The fast implementation never forms ξ(τ): it
+/// evaluates ‖ξ(τ+1) − ξ(τ)‖² in pattern space as a difference of dot products of order 1,
+/// whose rounding error (≈ 1e-15) is ≈ 3e-8 in the distance. Below 1e-6 its stop decision,
+/// and with it the iteration count, would be decided by rounding and could differ from the
+/// reference implementation's.
+pub const MIN_TOLERANCE: f64 = 1e-6;
+
+/// How the camera frame becomes the query (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FrontEnd {
+    /// The processed frame itself, as in the paper. Default.
+    #[default]
+    Paper,
+    /// The processed frame minus its per-pixel running mean (temporal high-pass with time
+    /// constant `adaptation_tau_s`): static clutter fades out of the query.
+    Adapted,
+}
+
+/// How θ̂ (`angular_size_deg`) is read out (see [`super`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Readout {
+    /// From the low-passed activity: √(z_on·z_off) read as a template index. Default.
+    #[default]
+    Paper,
+    /// From the template that wins this frame's retrieval (per channel; the larger of ON and
+    /// OFF), optionally low-passed with `readout_alpha`.
+    Winner,
+}
 
 /// All parameters of the Hopfield detector. `Default` = the paper's values for 256×256 frames.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
@@ -210,7 +344,7 @@ pub struct HopfieldConfig {
     pub delay: usize,
     /// Low-pass memory coefficient α of eq. 10 (paper: 0.85).
     pub alpha: f64,
-    /// Convergence tolerance on ‖ξ(τ+1) − ξ(τ)‖₂ (paper: 0.01).
+    /// Convergence tolerance on ‖ξ(τ+1) − ξ(τ)‖₂ (paper: 0.01; at least [`MIN_TOLERANCE`]).
     pub tolerance: f64,
     /// Maximum number of updates ξ ← X·softmax(β Xᵀξ) per frame and channel (paper: 5).
     pub max_iterations: usize,
@@ -222,10 +356,25 @@ pub struct HopfieldConfig {
     /// Template image and scale schedule.
     pub template: TemplateConfig,
     /// Horizontal = vertical field of view of the camera in degrees, used only to turn the
-    /// winning template size into an angular size (default 60).
+    /// winning template size into an angular size (default 60). Owned by the camera.
     pub fov_deg: f64,
+    /// Camera frame rate in frames per second, used only by the adapted front end to turn
+    /// `adaptation_tau_s` into a per-frame weight (default 120, the simulator's and the
+    /// stimuli's default). Owned by the camera, like `fov_deg`.
+    pub frame_rate_hz: f64,
     /// Which implementation runs (default fast).
     pub implementation: Implementation,
+    /// Query front end: the paper's processed frame, or its temporal high-pass. Default paper.
+    pub front_end: FrontEnd,
+    /// Time constant τ of the adapted front end's running mean, in seconds (default 0.3:
+    /// weight 0.1 per frame at 30 frames/s, 0.027 at 120). Ignored by the paper front end.
+    pub adaptation_tau_s: f64,
+    /// Angular-size readout. Default paper.
+    pub readout: Readout,
+    /// Low-pass coefficient of the winner readout, in [0, 1): θ̂ scale ← a·old + (1 − a)·new
+    /// each frame with evidence; 0 (default) = the raw per-frame winner. Ignored by the paper
+    /// readout.
+    pub readout_alpha: f64,
 }
 
 impl Default for HopfieldConfig {
@@ -241,7 +390,12 @@ impl Default for HopfieldConfig {
             frame_border: FrameBorder::Replicate,
             template: TemplateConfig::default(),
             fov_deg: 60.0,
+            frame_rate_hz: 120.0,
             implementation: Implementation::Fast,
+            front_end: FrontEnd::Paper,
+            adaptation_tau_s: 0.3,
+            readout: Readout::Paper,
+            readout_alpha: 0.0,
         }
     }
 }
@@ -258,6 +412,24 @@ impl HopfieldConfig {
     /// The paper's parameters for frames of side `n`.
     pub fn for_size(n: usize) -> Self {
         Self { n, ..Self::default() }
+    }
+
+    /// The settings for cluttered scenes at n = 256 (see [`HopfieldConfig::adapted_for_size`]).
+    pub fn adapted() -> Self {
+        Self::adapted_for_size(256)
+    }
+
+    /// The paper's parameters for frames of side `n`, except the front end and readout:
+    /// `front_end = "adapted"` (τ = 0.3 s), `readout = "winner"` with `readout_alpha = 0.5`.
+    /// Set `frame_rate_hz` and `fov_deg` to the camera's.
+    pub fn adapted_for_size(n: usize) -> Self {
+        Self {
+            n,
+            front_end: FrontEnd::Adapted,
+            readout: Readout::Winner,
+            readout_alpha: ADAPTED_READOUT_ALPHA,
+            ..Self::default()
+        }
     }
 
     /// Same parameters, other implementation.
@@ -287,6 +459,12 @@ impl HopfieldConfig {
         self.template_count() + 1
     }
 
+    /// Per-frame update weight of the adapted front end's running mean:
+    /// w = 1 − exp(−1/(τ·f)) with τ = `adaptation_tau_s`, f = `frame_rate_hz`.
+    pub fn adaptation_weight(&self) -> f64 {
+        -(-1.0 / (self.adaptation_tau_s * self.frame_rate_hz)).exp_m1()
+    }
+
     /// Checks every parameter; the error names the key, the value and the valid range.
     pub fn validate(&self) -> Result<(), DetectorError> {
         let n = self.n;
@@ -314,11 +492,15 @@ impl HopfieldConfig {
                 "low-pass memory must be in [0, 1) (paper: 0.85)",
             ));
         }
-        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
+        if !(self.tolerance.is_finite() && self.tolerance >= MIN_TOLERANCE) {
             return Err(invalid(
                 "tolerance",
                 self.tolerance,
-                "must be a finite number ≥ 0 (paper: 0.01)",
+                format!(
+                    "must be a finite number ≥ {MIN_TOLERANCE:e} (paper: 0.01): the fast implementation measures \
+                     ‖ξ(τ+1) − ξ(τ)‖ in pattern space, where rounding leaves ≈ 3e-8 of noise, so smaller \
+                     tolerances (and 0) would stop or not stop by chance"
+                ),
             ));
         }
         if self.max_iterations == 0 || self.max_iterations > 1000 {
@@ -343,7 +525,77 @@ impl HopfieldConfig {
                     "blur must be in [0, 1000] pixels (paper: 20)",
                 ));
             }
+            if let Some(frac) = m.blur_sigma_frac {
+                if !(frac.is_finite() && (0.0..=1.0).contains(&frac)) {
+                    return Err(invalid(
+                        "mask.blur_sigma_frac",
+                        frac,
+                        "blur must be in [0, 1] times n (0.078125 = the paper's 20 px at n = 256)",
+                    ));
+                }
+                if m.blur_sigma_px != PAPER_BLUR_SIGMA_PX {
+                    return Err(invalid(
+                        "mask.blur_sigma_frac",
+                        frac,
+                        format!(
+                            "give the blur either in pixels (blur_sigma_px = {}) or as a fraction of n \
+                             (blur_sigma_frac), not both",
+                            m.blur_sigma_px
+                        ),
+                    ));
+                }
+            }
         }
+        self.validate_template()?;
+        if !(self.fov_deg.is_finite() && self.fov_deg > 0.0 && self.fov_deg < 180.0) {
+            return Err(invalid(
+                "fov_deg",
+                self.fov_deg,
+                "field of view must be in (0, 180) degrees",
+            ));
+        }
+        if !(self.frame_rate_hz.is_finite() && self.frame_rate_hz > 0.0 && self.frame_rate_hz <= 100_000.0) {
+            return Err(invalid(
+                "frame_rate_hz",
+                self.frame_rate_hz,
+                "camera frame rate must be in (0, 100000] frames per second (default 120)",
+            ));
+        }
+        if !(self.adaptation_tau_s.is_finite() && self.adaptation_tau_s > 0.0 && self.adaptation_tau_s <= 3600.0) {
+            return Err(invalid(
+                "adaptation_tau_s",
+                self.adaptation_tau_s,
+                "time constant of the adapted front end must be in (0, 3600] seconds (default 0.3)",
+            ));
+        }
+        if !(self.readout_alpha.is_finite() && (0.0..1.0).contains(&self.readout_alpha)) {
+            return Err(invalid(
+                "readout_alpha",
+                self.readout_alpha,
+                "low-pass of the winner readout must be in [0, 1) (0 = unfiltered)",
+            ));
+        }
+        if self.implementation == Implementation::Reference {
+            let bytes = 2.0 * (n * n) as f64 * self.memory_columns() as f64 * 8.0;
+            if bytes > MAX_REFERENCE_BYTES {
+                return Err(invalid(
+                    "implementation",
+                    "reference",
+                    format!(
+                        "the dense pattern memories would take {:.1} GiB (2·n²·(N+1) f64 with n = {n}, N = {}), \
+                         more than {} GiB; use implementation = \"fast\" or fewer templates",
+                        bytes / 1024f64.powi(3),
+                        self.template_count(),
+                        MAX_REFERENCE_BYTES / 1024f64.powi(3)
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn validate_template(&self) -> Result<(), DetectorError> {
+        let n = self.n;
         let t = &self.template;
         if !(t.cycles.is_finite() && t.cycles > 0.0 && t.cycles <= n as f64) {
             return Err(invalid(
@@ -366,12 +618,57 @@ impl HopfieldConfig {
                 "must be finite and within ±n/4 pixels (default 0.5)",
             ));
         }
-        if !(t.scale_start.is_finite() && t.scale_start * n as f64 >= 2.0) {
+        let start_changed = t.scale_start != PAPER_SCALE_START;
+        if let Some(px) = t.scale_start_px {
+            if start_changed {
+                return Err(invalid(
+                    "template.scale_start_px",
+                    px,
+                    format!(
+                        "give the first template size either as a fraction of n (scale_start = {}) or in \
+                         pixels (scale_start_px), not both",
+                        t.scale_start
+                    ),
+                ));
+            }
+            if !(px.is_finite() && px >= MIN_TEMPLATE_DIAMETER_PX && px <= n as f64) {
+                return Err(invalid(
+                    "template.scale_start_px",
+                    px,
+                    format!("the first disk must be 2..=n = {n} pixels wide (a narrower one has no disk outline)"),
+                ));
+            }
+        } else if t.schedule == ScaleSchedule::Footnote && start_changed {
+            return Err(invalid(
+                "template.scale_start",
+                t.scale_start,
+                "the footnote schedule starts at 7 pixels; set template.scale_start_px to change that \
+                 (scale_start belongs to the paper schedule)",
+            ));
+        }
+        let start = t.scale_start_for(n);
+        if !(start.is_finite() && start * n as f64 >= MIN_TEMPLATE_DIAMETER_PX) {
+            if t.schedule == ScaleSchedule::Paper && t.scale_start_px.is_none() && !start_changed {
+                // The paper's default schedule at a small n: say why n is too small.
+                return Err(invalid(
+                    "n",
+                    n,
+                    format!(
+                        "too small for the paper's template schedule: its smallest template disk is \
+                         scale_start·n = 0.1·{n} = {:.1} pixels wide, and a disk narrower than 2 pixels is at \
+                         most one pixel row, with no disk outline to match, so the paper's schedule needs \
+                         n ≥ 20; for smaller frames (down to 16) set template.scale_start_px ≥ 2 or \
+                         template.schedule = \"footnote\"",
+                        start * n as f64
+                    ),
+                ));
+            }
             return Err(invalid(
                 "template.scale_start",
                 t.scale_start,
                 format!(
-                    "the smallest disk must be at least 2 pixels wide: scale_start ≥ 2/n = {}",
+                    "the smallest disk must be at least 2 pixels wide: scale_start ≥ 2/n = {} \
+                     (or give scale_start_px ≥ 2)",
                     2.0 / n as f64
                 ),
             ));
@@ -382,14 +679,14 @@ impl HopfieldConfig {
             return Err(invalid(
                 "template.scale_step",
                 step,
-                "must be a positive number (paper: 3/(2n))",
+                "must be a positive number (default 3/(2n) for the paper schedule, 1/n for the footnote's)",
             ));
         }
-        if !(t.scale_end.is_finite() && t.scale_end >= t.scale_start && t.scale_end <= 4.0) {
+        if !(t.scale_end.is_finite() && t.scale_end >= start && t.scale_end <= 4.0) {
             return Err(invalid(
                 "template.scale_end",
                 t.scale_end,
-                format!("must be in [scale_start = {}, 4] (paper: 1)", t.scale_start),
+                format!("must be in [first scale = {start}, 4] (paper: 1)"),
             ));
         }
         let count = self.template_count();
@@ -400,16 +697,12 @@ impl HopfieldConfig {
                 format!("gives {count} templates, more than {MAX_TEMPLATES}; use a larger step"),
             ));
         }
-        if !(self.fov_deg.is_finite() && self.fov_deg > 0.0 && self.fov_deg < 180.0) {
-            return Err(invalid(
-                "fov_deg",
-                self.fov_deg,
-                "field of view must be in (0, 180) degrees",
-            ));
-        }
         Ok(())
     }
 }
+
+/// `readout_alpha` of [`HopfieldConfig::adapted`].
+pub const ADAPTED_READOUT_ALPHA: f64 = 0.5;
 
 /// `mask` in TOML: a table, or `"none"` / `false` for no mask (`true` = the paper's mask).
 #[derive(Deserialize)]
@@ -427,7 +720,7 @@ fn deserialize_mask<'de, D: Deserializer<'de>>(d: D) -> Result<Option<MaskConfig
         MaskSetting::Word(w) if w == "none" => Ok(None),
         MaskSetting::Word(w) if w == "paper" || w == "default" => Ok(Some(MaskConfig::default())),
         MaskSetting::Word(w) => Err(serde::de::Error::custom(format!(
-            "mask = \"{w}\": expected \"none\", \"paper\", true/false or a table {{ radius_frac, blur_sigma_px }}"
+            "mask = \"{w}\": expected \"none\", \"paper\", true/false or a table {{ radius_frac, blur_sigma_px or blur_sigma_frac }}"
         ))),
         MaskSetting::Table(m) => Ok(Some(m)),
     }
@@ -453,7 +746,8 @@ mod tests {
             c.mask,
             Some(MaskConfig {
                 radius_frac: 0.9,
-                blur_sigma_px: 20.0
+                blur_sigma_px: 20.0,
+                ..Default::default()
             })
         );
         assert_eq!(c.implementation, Implementation::Fast);
@@ -483,7 +777,8 @@ mod tests {
             c.mask,
             Some(MaskConfig {
                 radius_frac: 0.5,
-                blur_sigma_px: 20.0
+                blur_sigma_px: 20.0,
+                ..Default::default()
             })
         );
         assert_eq!(c.template.kind, TemplateKind::UniformDisk);
@@ -548,6 +843,7 @@ mod tests {
                     mask: Some(MaskConfig {
                         radius_frac: 0.0,
                         blur_sigma_px: 1.0,
+                        ..Default::default()
                     }),
                     ..Default::default()
                 },
@@ -558,6 +854,7 @@ mod tests {
                     mask: Some(MaskConfig {
                         radius_frac: 0.9,
                         blur_sigma_px: -1.0,
+                        ..Default::default()
                     }),
                     ..Default::default()
                 },

@@ -1,5 +1,5 @@
 //! The fast implementation: the same numbers as [`super::reference`] (to rounding, ~1e-12)
-//! with far less work, through exact identities (design §2):
+//! with far less work, through exact identities:
 //!
 //! 1. **One product serves both channels.** OFF's static columns are −ON's, so
 //!    OFFᵀξ = [ξ_dᵀξ, −Tᵀξ] with T = [x_1 … x_N]: s = Tᵀξ is computed once per frame.
@@ -14,12 +14,13 @@
 //!    row runs, so with the row prefix sums of L·ξ (one pass over the frame) each template
 //!    costs one subtraction per run (≈ s·n runs).
 //!
-//! Per frame: the separable S_odd convolution with the mask, centring and normalisation, the
+//! Per frame: the separable S_odd convolution with the mask (fused with the running-mean
+//! subtraction of the adapted front end), centring and normalisation, the
 //! Laplacian with prefix sums, ~Σ s_i·n run lookups, one d-long dot product ξ(t−delay)ᵀξ(t),
 //! and a few (N+1)² products — all in f64.
 
-use super::config::HopfieldConfig;
-use super::processing::{FrameProcessor, LANES, normalisation};
+use super::config::{FrontEnd, HopfieldConfig};
+use super::processing::{Adaptation, FrameProcessor, LANES, camera_frame_is_blank, normalisation, undo_running_mean};
 use super::templates::TemplateBank;
 use super::{Retrieval, softmax_in_place};
 
@@ -53,6 +54,10 @@ pub struct FastHopfield {
     ring_norm2: Vec<f64>,
     head: usize,
     filled: usize,
+    /// The adapted front end's running mean (`None` for the paper front end).
+    adaptation: Option<Adaptation>,
+    /// The last frame was blank (its query is the zero vector in `query`).
+    last_blank: bool,
     work: Work,
 }
 
@@ -92,6 +97,11 @@ impl FastHopfield {
             ring_norm2: vec![0.0; cfg.delay],
             head: 0,
             filled: 0,
+            adaptation: match cfg.front_end {
+                FrontEnd::Paper => None,
+                FrontEnd::Adapted => Some(Adaptation::new(cfg.adaptation_weight())),
+            },
+            last_blank: false,
             work: Work {
                 a: vec![0.0; m],
                 a_next: vec![0.0; m],
@@ -109,9 +119,10 @@ impl FastHopfield {
 
     /// The query ξ(t) of the last processed frame (row-major; zero for a blank frame).
     pub fn last_query(&self) -> &[f64] {
-        // After a frame the query buffer was swapped into the ring at the newest slot.
+        // After a frame with evidence the query buffer was swapped into the ring at the newest
+        // slot; after a blank one it holds the zero vector.
         let len = self.ring_query.len();
-        if len == 0 {
+        if len == 0 || self.last_blank {
             return &self.query;
         }
         &self.ring_query[(self.head + len - 1) % len]
@@ -123,14 +134,44 @@ impl FastHopfield {
         self.filled = 0;
         self.ring_query.clear();
         self.ring_s.clear();
+        self.last_blank = false;
+        if let Some(a) = &mut self.adaptation {
+            a.reset();
+        }
+    }
+
+    /// Forms the processed frame (paper) or its high-pass (adapted) in `self.query` and
+    /// returns its mean and 1/norm, or `None` if there is no evidence this frame.
+    fn front_end(&mut self, frame: &[f32]) -> Option<(f64, f64)> {
+        let Some(adapt) = &mut self.adaptation else {
+            let (sum, sumsq) = self.processor.processed(frame, &mut self.query);
+            return normalisation(&self.query, sum, sumsq);
+        };
+        if adapt.running_mean.is_empty() {
+            // Start-up: M = the first non-blank F, so G = 0 (no evidence).
+            let (_, sumsq) = self.processor.processed(frame, &mut self.query);
+            if !camera_frame_is_blank(sumsq) {
+                adapt.running_mean = self.query.clone();
+            }
+            return None;
+        }
+        let weight = adapt.weight;
+        let sums = self
+            .processor
+            .processed_adapted(frame, &mut self.query, &mut adapt.running_mean, weight);
+        if camera_frame_is_blank(sums.raw_sumsq) {
+            // A dropped camera frame: M stays as it was.
+            undo_running_mean(&mut adapt.running_mean, &self.query, weight);
+            return None;
+        }
+        normalisation(&self.query, sums.sum, sums.sumsq)
     }
 
     /// Processes one frame of n·n pixels (checked by the caller).
     pub fn retrieve(&mut self, frame: &[f32]) -> Retrieval {
         let n = self.n;
         let full = self.filled == self.delay;
-        let (sum, sumsq) = self.processor.processed(frame, &mut self.query);
-        let normalised = normalisation(&self.query, sum, sumsq);
+        let normalised = self.front_end(frame);
         // ξ(t), ‖ξ(t)‖², ξ(t − delay)ᵀξ(t) and the prefix sums of L·ξ(t), in one pass.
         let (qq, dq_old) = match normalised {
             Some((mean, inv)) => {
@@ -189,6 +230,11 @@ impl FastHopfield {
         };
 
         // Store ξ(t), s(t) in the ring (swapping buffers, no copies once the ring is full).
+        // A blank query is not stored: the ring keeps the last `delay` queries with evidence.
+        self.last_blank = normalised.is_none();
+        if self.last_blank {
+            return retrieval;
+        }
         if self.ring_query.len() < self.delay {
             self.ring_query.push(self.query.clone());
             self.ring_s.push(self.s.clone());

@@ -1,8 +1,10 @@
-//! Keil's modern-Hopfield looming detector (paper §2.2, design §2).
+//! Keil's modern-Hopfield looming detector (paper §2.2), with an optional temporal high-pass
+//! front end and a second angular-size readout for cluttered scenes.
 //!
 //! Per frame t:
 //! 1. **Frame processing** ([`processing`]): F(t) = R_oi ⊙ [F̃(t) ∗ S_odd] (eq. 3–4), then the
-//!    query ξ(t) = zero-mean unit vector of F(t) (§2.2.2).
+//!    query ξ(t) = zero-mean unit vector of F(t) (§2.2.2) — or, with the adapted front end,
+//!    of F(t) minus its per-pixel running mean (see [`processing`]).
 //! 2. **Pattern memory** ([`templates`]): ON = [ξ(t−delay), x_1, …, x_N] and
 //!    OFF = [ξ(t−delay), −x_1, …, −x_N], with x_i the zero-mean unit vectors of the Laplacians
 //!    of N = 1 + ⌊3n/5⌋ striped disks of diameters s·n, s = 0.1, 0.1 + 3/(2n), … (eq. 7):
@@ -40,21 +42,36 @@
 //!   the delayed column as retrieved (p = e_1, ẑ = 1, winner 0, 0 iterations), the low-pass
 //!   states z_on, z_off are *held* (no evidence, no change: an object that fills the whole view
 //!   in the last frames of an approach keeps its high activity instead of dropping to the floor;
-//!   a detector that has seen only blank frames stays at the floor), and the zero vector is
-//!   stored as its query, so `delay` frames later the delayed column scores 0 against any query
-//!   (any template correlating positively then wins). Never NaN.
+//!   a detector that has seen only blank frames stays at the floor), and the frame is *not*
+//!   stored as a delayed memory column: the delayed column is the query of the `delay`-th
+//!   latest frame with evidence (or the current query while fewer were seen, as at start-up).
+//!   Storing it (as a zero column) would make the delayed column lose to every template
+//!   `delay` frames later, a spurious response to a single dropped frame. Never NaN. With the
+//!   adapted front end a high-pass with no structure (a static scene) is no evidence in the
+//!   same way, and a blank camera frame is skipped before the high-pass.
 //! - **Frame border** of the S_odd convolution: replicate (configurable), see [`processing`].
 //!
-//! # Angular-size readout
+//! # Angular-size readouts
 //! The activity is a (soft) template index, and template i is a disk of diameter s_i·n
 //! pixels, i.e. of visual angle θ = 2·atan(s_i·tan(fov/2)) for a pinhole camera with
-//! f = (n/2)/tan(fov/2). The readout uses the geometric mean of the ON and OFF activities,
-//! a = √z ∈ [1, N+1], as a continuous column index; the template index is i = a − 1 ∈ [0, N]
-//! and its scale s = s_start + (i − 1)·Δs for i ≥ 1, s = s_start·i for i < 1 (linear down to
-//! 0 at the floor a = 1), giving θ̂ = 2·atan(s·tan(fov/2)) in degrees ([`angular_size_deg`]).
-//! When only one channel responds (the other stays at 1) this reads the size of a smaller
-//! template than the one retrieved — it is the design's choice, kept for comparability.
+//! f = (n/2)/tan(fov/2).
 //!
+//! - **Paper** (`readout = "paper"`, default, [`angular_size_deg`]): the geometric mean of the
+//!   ON and OFF activities, a = √z ∈ [1, N+1], read as a continuous column index; the template
+//!   index is i = a − 1 ∈ [0, N] and its scale s = s_1 + (i − 1)·Δs for i ≥ 1, s = s_1·i for
+//!   i < 1 (linear down to 0 at the floor a = 1). It inherits the low-pass (α = 0.85: a lag of
+//!   about five frames) and, while only one channel responds (the other stays at 1), reads the
+//!   size of a much smaller template than the one retrieved.
+//! - **Winner** (`readout = "winner"`, [`winner_scale`]): each frame with evidence, each
+//!   channel's winning column gives a scale — s_w for template w, 0 when the delayed frame wins
+//!   (the channel does not respond) — and the larger of the two is taken; that scale is
+//!   low-passed with `readout_alpha` (0 = none; frames without evidence hold it) and turned
+//!   into θ̂ = 2·atan(s·tan(fov/2)). It follows the retrieved template without the lag of z
+//!   and reads 0 while neither channel responds; its smallest non-zero value is the smallest
+//!   template's angle (with the paper's schedule 2·atan(0.1·tan(fov/2)), 6.6° at 60°).
+//!
+//! z (the detector's `output`) is the same for both readouts.
+
 //! # Template phase and centre (why the defaults)
 //! Measured with the stimulus renderer (n = 64, 128, 256; the paper's approach: 0.5 m disk,
 //! 50 km/h, 10 m → 0.1 m, 120 frames/s, 60° field of view), see
@@ -80,7 +97,10 @@ pub mod processing;
 pub mod reference;
 pub mod templates;
 
-pub use config::{FrameBorder, HopfieldConfig, Implementation, MaskConfig, TemplateConfig, TemplateKind};
+pub use config::{
+    FrameBorder, FrontEnd, HopfieldConfig, Implementation, MaskConfig, Readout, ScaleSchedule, TemplateConfig,
+    TemplateKind,
+};
 pub use fast::FastHopfield;
 pub use reference::ReferenceHopfield;
 pub use templates::TemplateBank;
@@ -162,12 +182,26 @@ pub fn angular_size_deg(z: f64, cfg: &HopfieldConfig) -> f64 {
     let a = if z.is_finite() { z.max(1.0).sqrt() } else { 1.0 };
     let i = a - 1.0;
     let t = &cfg.template;
+    let start = t.scale_start_for(cfg.n);
     let s = if i >= 1.0 {
-        t.scale_start + (i - 1.0) * t.scale_step_for(cfg.n)
+        start + (i - 1.0) * t.scale_step_for(cfg.n)
     } else {
-        t.scale_start * i
+        start * i
     };
+    scale_to_deg(s, cfg)
+}
+
+/// Visual angle in degrees of a disk of scale s (diameter s·n pixels) seen through the
+/// camera: 2·atan(s·tan(fov/2)).
+pub fn scale_to_deg(s: f64, cfg: &HopfieldConfig) -> f64 {
     2.0 * (s * (0.5 * cfg.fov_deg).to_radians().tan()).atan().to_degrees()
+}
+
+/// The winner readout's scale for one frame: the larger of the ON and OFF winners' template
+/// scales, a winner of 0 (the delayed frame) counting as scale 0.
+pub fn winner_scale(winner_on: usize, winner_off: usize, cfg: &HopfieldConfig) -> f64 {
+    let scale = |w: usize| if w == 0 { 0.0 } else { cfg.template.scale(cfg.n, w) };
+    scale(winner_on).max(scale(winner_off))
 }
 
 /// Everything the Hopfield detector reports for one frame.
@@ -187,7 +221,8 @@ pub struct HopfieldSignals {
     pub winner_on: usize,
     /// Winning OFF memory column.
     pub winner_off: usize,
-    /// Angular size θ̂ in degrees read from √z ([`angular_size_deg`]).
+    /// Angular size θ̂ in degrees from the configured readout: from √z
+    /// ([`angular_size_deg`]) or from the winning templates ([`winner_scale`]).
     pub angular_size_deg: f64,
     /// Updates made by the ON channel this frame.
     pub iterations_on: usize,
@@ -215,6 +250,8 @@ pub struct Hopfield {
     engine: Engine,
     z_on: f64,
     z_off: f64,
+    /// The winner readout's (low-passed) scale.
+    readout_scale: f64,
 }
 
 impl Hopfield {
@@ -230,6 +267,7 @@ impl Hopfield {
             engine,
             z_on: 1.0,
             z_off: 1.0,
+            readout_scale: 0.0,
         })
     }
 
@@ -282,8 +320,21 @@ impl Hopfield {
         if r.iterations_on > 0 {
             self.z_on = (alpha * self.z_on + (1.0 - alpha) * r.z_hat_on).clamp(1.0, top);
             self.z_off = (alpha * self.z_off + (1.0 - alpha) * r.z_hat_off).clamp(1.0, top);
+            if self.config.readout == Readout::Winner {
+                let a = self.config.readout_alpha;
+                let s = winner_scale(r.winner_on, r.winner_off, &self.config);
+                self.readout_scale = if a == 0.0 {
+                    s
+                } else {
+                    a * self.readout_scale + (1.0 - a) * s
+                };
+            }
         }
         let z = self.z_on * self.z_off;
+        let angular_size_deg = match self.config.readout {
+            Readout::Paper => angular_size_deg(z, &self.config),
+            Readout::Winner => scale_to_deg(self.readout_scale, &self.config),
+        };
         Ok(HopfieldSignals {
             z_on: self.z_on,
             z_off: self.z_off,
@@ -292,7 +343,7 @@ impl Hopfield {
             z_hat_off: r.z_hat_off,
             winner_on: r.winner_on,
             winner_off: r.winner_off,
-            angular_size_deg: angular_size_deg(z, &self.config),
+            angular_size_deg,
             iterations_on: r.iterations_on,
             iterations_off: r.iterations_off,
         })
@@ -307,6 +358,7 @@ impl Detector for Hopfield {
     fn reset(&mut self) {
         self.z_on = 1.0;
         self.z_off = 1.0;
+        self.readout_scale = 0.0;
         match &mut self.engine {
             Engine::Reference(e) => e.reset(),
             Engine::Fast(e) => e.reset(),

@@ -15,11 +15,31 @@
 //!   no edges inside the mask) carries no evidence: normalising it would divide zero by zero.
 //!   Both implementations then report the delayed column as retrieved (ẑ = 1, the floor) and
 //!   store the zero vector as that frame's query (see `hopfield/mod.rs`).
+//! - A blank processed frame is not stored as a delayed memory column either: the memory
+//!   keeps the queries of the last `delay` frames *with evidence*, so a dropped (black,
+//!   saturated or uniform) frame neither wins nor loses against anything `delay` frames later.
+//!
+//! # Adapted front end
+//! With `front_end = "adapted"` the query is built from G(t) = F(t) − M(t−1) instead of F(t),
+//! where M is a per-pixel running mean of the processed frames, M(t) = M(t−1) + w·G(t),
+//! w = [`HopfieldConfig::adaptation_weight`]. Processing (convolution, border padding and
+//! mask) is linear and the same every frame, so high-passing the processed frame is the same
+//! as processing the high-passed camera image; doing it after the convolution lets the camera
+//! frame's own edges decide whether it is blank:
+//! - a camera frame whose F(t) has no edges (‖F‖ ≤ [`MIN_QUERY_NORM`]: black, saturated
+//!   or uniform, e.g. a dropped frame) is skipped entirely — no activity, nothing stored, and M
+//!   is not updated (otherwise the frame would come out as the negative of the whole scene);
+//! - M starts as the first non-blank F, so the first high-passed frame is exactly zero;
+//! - a G(t) with no structure (a static scene: exactly zero) is blank as well: no activity and
+//!   not stored, but M is updated. A static scene therefore never leaves the rest state.
+//!
 //! - Element order of the vectors: the paper maps V_ij to v_{i+(j−1)n} (column-major); the
 //!   reference implementation does exactly that, the fast one uses row-major order. Every
 //!   quantity the detector uses is a dot product between vectors with the same ordering, so
 //!   the results are identical.
 
+#[cfg(doc)]
+use super::config::HopfieldConfig;
 use super::config::{FrameBorder, MaskConfig};
 
 /// The modified Sobel–Feldman kernel S_odd of eq. 3 (rows top to bottom).
@@ -41,14 +61,15 @@ pub(crate) fn pixel(v: f32) -> f64 {
     if v.is_finite() { v as f64 } else { 0.0 }
 }
 
-/// The region-of-interest mask R_oi as an n×n row-major image; all ones for `None`.
+/// The region-of-interest mask R_oi as an n×n row-major image; all ones for `None`. The blur
+/// is [`MaskConfig::blur_sigma_for`] pixels (absolute, or proportional to n).
 pub fn roi_mask(n: usize, mask: Option<&MaskConfig>) -> Vec<f64> {
     let Some(m) = mask else {
         return vec![1.0; n * n];
     };
     let rho = m.radius_frac * n as f64 / 2.0;
     let centre = n as f64 / 2.0;
-    let sigma = m.blur_sigma_px;
+    let sigma = m.blur_sigma_for(n);
     let k = if sigma > 0.0 { (4.0 * sigma).ceil() as usize } else { 0 };
     // Gaussian weights, normalised.
     let mut w: Vec<f64> = (0..=2 * k)
@@ -199,6 +220,96 @@ pub(crate) fn normalisation(f: &[f64], sum: f64, sumsq: f64) -> Option<(f64, f64
     }
 }
 
+/// Results of one sweep of [`FrameProcessor::processed`] (`sum`, `sumsq` of F) or
+/// [`FrameProcessor::processed_adapted`] (of G, and Σ F² for [`camera_frame_is_blank`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AdaptedSums {
+    /// Σ F² of the processed camera frame (adapted sweep only).
+    pub raw_sumsq: f64,
+    /// Σ G (Σ F for the paper sweep).
+    pub sum: f64,
+    /// Σ G² (Σ F² for the paper sweep).
+    pub sumsq: f64,
+}
+
+/// The adapted front end's test for a blank (dropped) camera frame, given Σ F² of its
+/// processed frame: ‖F‖ ≤ [`MIN_QUERY_NORM`], no edges inside the mask. A black, saturated or
+/// uniform frame gives F ≡ 0 exactly (with the default replicate border). (The paper front
+/// end's test uses the centred norm; the two differ only for a constant nonzero F, which
+/// needs a luminance ramp and no mask.)
+pub fn camera_frame_is_blank(raw_sumsq: f64) -> bool {
+    !(raw_sumsq.sqrt() > MIN_QUERY_NORM)
+}
+
+/// The adapted front end's running-mean update M ← M + w·G.
+pub(crate) fn update_running_mean(running_mean: &mut [f64], g: &[f64], weight: f64) {
+    for (m, g) in running_mean.iter_mut().zip(g) {
+        *m += weight * g;
+    }
+}
+
+/// Undoes [`update_running_mean`] (M ← M − w·G) after a camera frame turned out blank; exact
+/// up to one rounding per pixel, far below [`MIN_QUERY_NORM`].
+pub(crate) fn undo_running_mean(running_mean: &mut [f64], g: &[f64], weight: f64) {
+    for (m, g) in running_mean.iter_mut().zip(g) {
+        *m -= weight * g;
+    }
+}
+
+/// The adapted front end's state, shared by both implementations: the running mean M of the
+/// processed frames (row-major; empty until the first non-blank frame) and its weight.
+#[derive(Debug, Clone)]
+pub struct Adaptation {
+    /// Update weight w per frame.
+    pub weight: f64,
+    /// M, row-major n×n, or empty before the first non-blank frame.
+    pub running_mean: Vec<f64>,
+}
+
+/// What the adapted front end makes of one processed frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AdaptedFrame {
+    /// The camera frame itself is blank: skip it (M unchanged).
+    Dropped,
+    /// A query (possibly blank) was formed from G; M was updated.
+    Query,
+}
+
+impl Adaptation {
+    /// A fresh state with update weight `weight`.
+    pub fn new(weight: f64) -> Self {
+        Self {
+            weight,
+            running_mean: Vec::new(),
+        }
+    }
+
+    /// Forgets the running mean.
+    pub fn reset(&mut self) {
+        self.running_mean.clear();
+    }
+
+    /// The literal high-pass, for the reference implementation: turns the processed frame `f`
+    /// (row-major, any order as long as it is the same every frame) into G = F − M in place and
+    /// updates M. A blank F is dropped: `f` is left as it is and M is not touched.
+    pub fn high_pass(&mut self, f: &mut [f64]) -> AdaptedFrame {
+        let sumsq = f.iter().map(|v| v * v).sum::<f64>();
+        if camera_frame_is_blank(sumsq) {
+            return AdaptedFrame::Dropped;
+        }
+        if self.running_mean.is_empty() {
+            self.running_mean = f.to_vec();
+            f.fill(0.0);
+            return AdaptedFrame::Query;
+        }
+        for (v, m) in f.iter_mut().zip(&self.running_mean) {
+            *v -= m;
+        }
+        update_running_mean(&mut self.running_mean, f, self.weight);
+        AdaptedFrame::Query
+    }
+}
+
 impl FrameProcessor {
     /// Builds the processor (computes the mask once).
     pub fn new(n: usize, mask: Option<&MaskConfig>, border: FrameBorder) -> Self {
@@ -242,6 +353,32 @@ impl FrameProcessor {
     /// The processed frame F(t) = R_oi ⊙ (F̃ ∗ S_odd) into `out` (row-major), returning
     /// (Σ F, Σ F²).
     pub fn processed(&mut self, frame: &[f32], out: &mut [f64]) -> (f64, f64) {
+        let s = self.processed_impl::<false>(frame, out, &mut [], 0.0);
+        (s.sum, s.sumsq)
+    }
+
+    /// The adapted front end's G(t) = F(t) − M(t−1) into `out` (row-major), the update
+    /// M(t) = M(t−1) + `weight`·G(t) of `running_mean`, Σ G, Σ G² and Σ F², in one sweep.
+    /// If the camera frame turns out blank the caller undoes the update
+    /// (`undo_running_mean`).
+    pub fn processed_adapted(
+        &mut self,
+        frame: &[f32],
+        out: &mut [f64],
+        running_mean: &mut [f64],
+        weight: f64,
+    ) -> AdaptedSums {
+        assert_eq!(running_mean.len(), self.n * self.n);
+        self.processed_impl::<true>(frame, out, running_mean, weight)
+    }
+
+    fn processed_impl<const ADAPT: bool>(
+        &mut self,
+        frame: &[f32],
+        out: &mut [f64],
+        running_mean: &mut [f64],
+        weight: f64,
+    ) -> AdaptedSums {
         let n = self.n;
         assert_eq!(frame.len(), n * n);
         assert_eq!(out.len(), n * n);
@@ -254,6 +391,9 @@ impl FrameProcessor {
         let mut sum = [0.0; LANES];
         let mut sq = [0.0; LANES];
         let (mut sum_rest, mut sq_rest) = (0.0, 0.0);
+        let mut g_sum = [0.0; LANES];
+        let mut g_sq = [0.0; LANES];
+        let (mut g_sum_rest, mut g_sq_rest) = (0.0, 0.0);
         for i in 0..n {
             let (above, below) = ((i + 2) % 3, (i + 1) % 3);
             if i + 1 < n {
@@ -296,8 +436,45 @@ impl FrameProcessor {
                 sum_rest += v;
                 sq_rest += v * v;
             }
+            if ADAPT {
+                // G = F − M and M += w·G on the row just written (still in L1), in a loop of
+                // its own so that neither loop runs out of registers.
+                let r = &mut running_mean[i * n..(i + 1) * n];
+                let o = &mut out[i * n..(i + 1) * n];
+                let mut oc = o.chunks_exact_mut(LANES);
+                let mut rc = r.chunks_exact_mut(LANES);
+                for (oo, rr) in (&mut oc).zip(&mut rc) {
+                    for k in 0..LANES {
+                        let g = oo[k] - rr[k];
+                        oo[k] = g;
+                        rr[k] += weight * g;
+                        g_sum[k] += g;
+                        g_sq[k] += g * g;
+                    }
+                }
+                for (oo, rr) in oc.into_remainder().iter_mut().zip(rc.into_remainder()) {
+                    let g = *oo - *rr;
+                    *oo = g;
+                    *rr += weight * g;
+                    g_sum_rest += g;
+                    g_sq_rest += g * g;
+                }
+            }
         }
-        (sum.iter().sum::<f64>() + sum_rest, sq.iter().sum::<f64>() + sq_rest)
+        let total = |acc: &[f64], rest: f64| acc.iter().sum::<f64>() + rest;
+        if ADAPT {
+            AdaptedSums {
+                raw_sumsq: total(&sq, sq_rest),
+                sum: total(&g_sum, g_sum_rest),
+                sumsq: total(&g_sq, g_sq_rest),
+            }
+        } else {
+            AdaptedSums {
+                raw_sumsq: total(&sq, sq_rest),
+                sum: total(&sum, sum_rest),
+                sumsq: total(&sq, sq_rest),
+            }
+        }
     }
 
     /// Computes ξ(t) row-major into `query` (length n²). Returns the centred norm of F(t), or
@@ -350,6 +527,7 @@ mod tests {
                 Some(MaskConfig {
                     radius_frac: 0.9,
                     blur_sigma_px: 3.0,
+                    ..Default::default()
                 }),
             ] {
                 let n = 32;
@@ -376,6 +554,7 @@ mod tests {
             Some(&MaskConfig {
                 radius_frac: 0.5,
                 blur_sigma_px: 2.0,
+                ..Default::default()
             }),
         );
         let c = n / 2;
@@ -396,6 +575,7 @@ mod tests {
             Some(&MaskConfig {
                 radius_frac: 0.5,
                 blur_sigma_px: 0.0,
+                ..Default::default()
             }),
         );
         assert!(sharp.iter().all(|&v| v == 0.0 || v == 1.0));

@@ -1,10 +1,11 @@
 //! The literal implementation: dense d×(N+1) pattern matrices ON and OFF, every equation of
-//! paper §2.2 as written, in f64. It is the executable specification the fast path
+//! paper §2.2 as written, in f64 (with the adapted front end's high-pass written out as
+//! well). It is the executable specification the fast path
 //! ([`super::fast`]) is tested against; it needs 2·d·(N+1) f64 (≈ 160 MB at n = 256) and runs
 //! at tens of frames per second at n = 256.
 
-use super::config::HopfieldConfig;
-use super::processing::{center_and_normalize, convolve_s_odd, image_to_vector, roi_mask};
+use super::config::{FrontEnd, HopfieldConfig};
+use super::processing::{Adaptation, AdaptedFrame, center_and_normalize, convolve_s_odd, image_to_vector, roi_mask};
 use super::templates::{gray_template, no_edges_error};
 use super::{Retrieval, softmax_in_place};
 
@@ -22,6 +23,8 @@ pub struct ReferenceHopfield {
     /// Past queries, oldest first (at most `delay`).
     history: std::collections::VecDeque<Vec<f64>>,
     last_query: Vec<f64>,
+    /// The adapted front end's running mean (`None` for the paper front end).
+    adaptation: Option<Adaptation>,
 }
 
 impl ReferenceHopfield {
@@ -57,6 +60,10 @@ impl ReferenceHopfield {
             off,
             history: Default::default(),
             last_query: vec![0.0; d],
+            adaptation: match cfg.front_end {
+                FrontEnd::Paper => None,
+                FrontEnd::Adapted => Some(Adaptation::new(cfg.adaptation_weight())),
+            },
         })
     }
 
@@ -84,13 +91,22 @@ impl ReferenceHopfield {
     /// Forgets all past frames.
     pub fn reset(&mut self) {
         self.history.clear();
+        if let Some(a) = &mut self.adaptation {
+            a.reset();
+        }
     }
 
-    /// eq. 4 + §2.2.2: ξ(t) = unit, zero-mean vec(R_oi ⊙ (F̃ ∗ S_odd)); `None` if blank.
-    fn query(&self, frame: &[f32]) -> (Vec<f64>, bool) {
+    /// eq. 4 + §2.2.2: ξ(t) = unit, zero-mean vec(R_oi ⊙ (F̃ ∗ S_odd)) — of its temporal
+    /// high-pass for the adapted front end; `false` if blank (no evidence).
+    fn query(&mut self, frame: &[f32]) -> (Vec<f64>, bool) {
         let n = self.cfg.n;
         let conv = convolve_s_odd(frame, n, self.cfg.frame_border);
-        let processed: Vec<f64> = conv.iter().zip(&self.mask).map(|(c, r)| r * c).collect();
+        let mut processed: Vec<f64> = conv.iter().zip(&self.mask).map(|(c, r)| r * c).collect();
+        if let Some(a) = &mut self.adaptation
+            && a.high_pass(&mut processed) == AdaptedFrame::Dropped
+        {
+            return (vec![0.0; n * n], false);
+        }
         let mut xi = image_to_vector(&processed, n);
         let ok = center_and_normalize(&mut xi).is_some();
         (xi, ok)
@@ -112,10 +128,13 @@ impl ReferenceHopfield {
         } else {
             (Channel::no_evidence(self.columns), Channel::no_evidence(self.columns))
         };
-        if self.history.len() == self.cfg.delay {
-            self.history.pop_front();
+        // Only queries with evidence are remembered (a blank one would be a zero column).
+        if evidence {
+            if self.history.len() == self.cfg.delay {
+                self.history.pop_front();
+            }
+            self.history.push_back(xi.clone());
         }
-        self.history.push_back(xi.clone());
         self.last_query = xi;
         Retrieval::from_channels(&on.p, &off.p, on.iterations, off.iterations)
     }
