@@ -15,7 +15,7 @@
 //! implementation = "fast" # or "reference" (literal dense matrices, slow)
 //! frame_border = "replicate" # or "zero": padding of the 3×3 S_odd convolution
 //! front_end = "paper"     # or "adapted": temporal high-pass before retrieval
-//! adaptation_tau_s = 0.3  # adapted front end: time constant of the running mean (seconds)
+//! adaptation_tau_s = 0.1  # adapted front end: time constant of the running mean (seconds)
 //! readout = "paper"       # angular size from √z; or "winner": from the winning template
 //! readout_alpha = 0.0     # winner readout: low-pass coefficient (0 = none)
 //! mask = { radius_frac = 0.9, blur_sigma_px = 20.0 }   # or mask = "none" / mask = false
@@ -39,7 +39,7 @@
 //! - `front_end = "adapted"`: the processed frame first passes a first-order temporal
 //!   high-pass: a per-pixel running mean M is subtracted, G(t) = F(t) − M(t−1), and updated,
 //!   M(t) = M(t−1) + w·G(t), with the per-frame weight w = 1 − exp(−1/(τ·f)) for the time
-//!   constant τ = `adaptation_tau_s` (seconds, default 0.3) and the frame rate
+//!   constant τ = `adaptation_tau_s` (seconds, default 0.1) and the frame rate
 //!   f = `frame_rate_hz` (default 120, the simulator's camera default), so the filter has
 //!   the same time constant at any frame rate. Static structure (ground texture, backdrops)
 //!   fades from the query within about τ, and what moves or grows stays. See
@@ -366,8 +366,17 @@ pub struct HopfieldConfig {
     pub implementation: Implementation,
     /// Query front end: the paper's processed frame, or its temporal high-pass. Default paper.
     pub front_end: FrontEnd,
-    /// Time constant τ of the adapted front end's running mean, in seconds (default 0.3:
-    /// weight 0.1 per frame at 30 frames/s, 0.027 at 120). Ignored by the paper front end.
+    /// Time constant τ of the adapted front end's running mean, in seconds (default 0.1:
+    /// weight 0.28 per frame at 30 frames/s, 0.08 at 120). Ignored by the paper front end.
+    ///
+    /// Why 0.1 s: when an object expands over static clutter, the clutter it has just covered
+    /// is still in the running mean and shows up in G as a negative copy of the clutter's
+    /// edges, for about τ. With τ = 0.3 s (weight 0.1 per frame at 30 frames/s) that residue
+    /// outweighs the object's rim once the object grows fast, and the delayed frame wins
+    /// again (measured on `detector/tests/hopfield_clutter.rs`: activity only between θ ≈ 9°
+    /// and 15°); with 0.1–0.15 s the templates keep winning up to the end of the approach;
+    /// much shorter (≤ 0.05 s) approaches frame differencing and responds to single-frame
+    /// jitter of small objects.
     pub adaptation_tau_s: f64,
     /// Angular-size readout. Default paper.
     pub readout: Readout,
@@ -393,7 +402,7 @@ impl Default for HopfieldConfig {
             frame_rate_hz: 120.0,
             implementation: Implementation::Fast,
             front_end: FrontEnd::Paper,
-            adaptation_tau_s: 0.3,
+            adaptation_tau_s: 0.1,
             readout: Readout::Paper,
             readout_alpha: 0.0,
         }
@@ -420,7 +429,7 @@ impl HopfieldConfig {
     }
 
     /// The paper's parameters for frames of side `n`, except the front end and readout:
-    /// `front_end = "adapted"` (τ = 0.3 s), `readout = "winner"` with `readout_alpha = 0.5`.
+    /// `front_end = "adapted"` (τ = 0.1 s), `readout = "winner"` with `readout_alpha = 0.5`.
     /// Set `frame_rate_hz` and `fov_deg` to the camera's.
     pub fn adapted_for_size(n: usize) -> Self {
         Self {
@@ -565,7 +574,7 @@ impl HopfieldConfig {
             return Err(invalid(
                 "adaptation_tau_s",
                 self.adaptation_tau_s,
-                "time constant of the adapted front end must be in (0, 3600] seconds (default 0.3)",
+                "time constant of the adapted front end must be in (0, 3600] seconds (default 0.1)",
             ));
         }
         if !(self.readout_alpha.is_finite() && (0.0..1.0).contains(&self.readout_alpha)) {
