@@ -666,8 +666,8 @@ impl HopfieldConfig {
                         "too small for the paper's template schedule: its smallest template disk is \
                          scale_start·n = 0.1·{n} = {:.1} pixels wide, and a disk narrower than 2 pixels is at \
                          most one pixel row, with no disk outline to match, so the paper's schedule needs \
-                         n ≥ 20; for smaller frames (down to 16) set template.scale_start_px ≥ 2 or \
-                         template.schedule = \"footnote\"",
+                         n ≥ 20; for smaller frames (down to 16) set template.schedule = \"footnote\" \
+                         (7-pixel first disk) or template.scale_start_px (e.g. 4)",
                         start * n as f64
                     ),
                 ));
@@ -924,5 +924,260 @@ mod tests {
         }
         assert_eq!("fast".parse::<Implementation>().unwrap(), Implementation::Fast);
         assert!("slow".parse::<Implementation>().is_err());
+    }
+
+    #[test]
+    fn new_keys_parse_with_paper_defaults() {
+        let c = HopfieldConfig::default();
+        assert_eq!(
+            (
+                c.front_end,
+                c.readout,
+                c.readout_alpha,
+                c.frame_rate_hz,
+                c.adaptation_tau_s
+            ),
+            (FrontEnd::Paper, Readout::Paper, 0.0, 120.0, 0.1)
+        );
+        assert_eq!(
+            (c.template.schedule, c.template.scale_start_px),
+            (ScaleSchedule::Paper, None)
+        );
+        assert_eq!(c.mask.unwrap().blur_sigma_frac, None);
+        let c = HopfieldConfig::from_toml_str(
+            "n = 128\nfront_end = \"adapted\"\nadaptation_tau_s = 0.2\nframe_rate_hz = 30\n\
+             readout = \"winner\"\nreadout_alpha = 0.5\nmask = { blur_sigma_frac = 0.078125 }\n\
+             [template]\nschedule = \"footnote\"\nscale_start_px = 9.0\n",
+        )
+        .unwrap();
+        assert_eq!(
+            (
+                c.front_end,
+                c.readout,
+                c.readout_alpha,
+                c.frame_rate_hz,
+                c.adaptation_tau_s
+            ),
+            (FrontEnd::Adapted, Readout::Winner, 0.5, 30.0, 0.2)
+        );
+        assert_eq!(c.mask.unwrap().blur_sigma_for(128), 10.0);
+        assert_eq!(c.template.schedule, ScaleSchedule::Footnote);
+        assert_eq!(c.template.scale_start_for(128), 9.0 / 128.0);
+        assert_eq!(c.template_count(), 1 + 128 - 9);
+        assert!(HopfieldConfig::from_toml_str("front_end = \"lowpass\"").is_err());
+        assert!(HopfieldConfig::from_toml_str("readout = \"max\"").is_err());
+        assert!(HopfieldConfig::from_toml_str("[template]\nschedule = \"other\"").is_err());
+        // Round trip through TOML.
+        for c in [HopfieldConfig::default(), HopfieldConfig::adapted(), c] {
+            let text = toml::to_string(&c).unwrap();
+            assert_eq!(HopfieldConfig::from_toml_str(&text).unwrap(), c, "{text}");
+        }
+        let a = HopfieldConfig::adapted_for_size(64);
+        assert_eq!((a.n, a.front_end, a.readout), (64, FrontEnd::Adapted, Readout::Winner));
+        assert_eq!(
+            HopfieldConfig {
+                front_end: FrontEnd::Paper,
+                readout: Readout::Paper,
+                readout_alpha: 0.0,
+                ..a
+            },
+            HopfieldConfig::for_size(64)
+        );
+    }
+
+    #[test]
+    fn footnote_schedule_starts_at_seven_pixels_in_one_pixel_steps() {
+        for n in [16, 20, 64, 128, 256, 4096] {
+            let t = TemplateConfig {
+                schedule: ScaleSchedule::Footnote,
+                ..Default::default()
+            };
+            assert_eq!(t.template_count(n), n - 6, "n = {n}");
+            assert!((t.scale(n, 1) * n as f64 - 7.0).abs() < 1e-9);
+            assert!((t.scale(n, 5) * n as f64 - 11.0).abs() < 1e-9);
+            let c = HopfieldConfig {
+                n,
+                template: t,
+                ..Default::default()
+            };
+            c.validate().unwrap();
+            assert!(c.template_count() <= MAX_TEMPLATES);
+        }
+        // Pixels instead of a fraction, with the paper's step.
+        let t = TemplateConfig {
+            scale_start_px: Some(25.6),
+            ..Default::default()
+        };
+        assert_eq!(t.template_count(256), TemplateConfig::default().template_count(256));
+    }
+
+    #[test]
+    fn small_frames_explain_the_minimum() {
+        for n in 16..20 {
+            match HopfieldConfig::for_size(n).validate() {
+                Err(DetectorError::InvalidParameter { name, reason, .. }) => {
+                    assert_eq!(name, "n");
+                    assert!(reason.contains("n ≥ 20") && reason.contains("2 pixels"), "{reason}");
+                    assert!(
+                        reason.contains("scale_start_px") && reason.contains("footnote"),
+                        "{reason}"
+                    );
+                }
+                other => panic!("n = {n}: {other:?}"),
+            }
+            // The way out the message offers works.
+            for template in [
+                TemplateConfig {
+                    schedule: ScaleSchedule::Footnote,
+                    ..Default::default()
+                },
+                TemplateConfig {
+                    scale_start_px: Some(4.0),
+                    ..Default::default()
+                },
+            ] {
+                let c = HopfieldConfig {
+                    template,
+                    ..HopfieldConfig::for_size(n)
+                };
+                c.validate().unwrap();
+                crate::hopfield::Hopfield::new(c).unwrap();
+            }
+        }
+        HopfieldConfig::for_size(20).validate().unwrap();
+        let e = HopfieldConfig::for_size(15).validate().unwrap_err().to_string();
+        assert!(e.contains("16..=4096"), "{e}");
+    }
+
+    #[test]
+    fn new_invalid_values_name_the_key() {
+        let d = HopfieldConfig::default();
+        let bad = [
+            ("tolerance", HopfieldConfig { tolerance: 0.0, ..d }),
+            ("tolerance", HopfieldConfig { tolerance: 1e-7, ..d }),
+            (
+                "frame_rate_hz",
+                HopfieldConfig {
+                    frame_rate_hz: 0.0,
+                    ..d
+                },
+            ),
+            (
+                "frame_rate_hz",
+                HopfieldConfig {
+                    frame_rate_hz: f64::INFINITY,
+                    ..d
+                },
+            ),
+            (
+                "adaptation_tau_s",
+                HopfieldConfig {
+                    adaptation_tau_s: 0.0,
+                    ..d
+                },
+            ),
+            (
+                "adaptation_tau_s",
+                HopfieldConfig {
+                    adaptation_tau_s: f64::NAN,
+                    ..d
+                },
+            ),
+            (
+                "readout_alpha",
+                HopfieldConfig {
+                    readout_alpha: 1.0,
+                    ..d
+                },
+            ),
+            (
+                "readout_alpha",
+                HopfieldConfig {
+                    readout_alpha: -0.1,
+                    ..d
+                },
+            ),
+            (
+                "mask.blur_sigma_frac",
+                HopfieldConfig {
+                    mask: Some(MaskConfig {
+                        blur_sigma_frac: Some(2.0),
+                        ..Default::default()
+                    }),
+                    ..d
+                },
+            ),
+            (
+                "mask.blur_sigma_frac",
+                HopfieldConfig {
+                    mask: Some(MaskConfig {
+                        blur_sigma_px: 5.0,
+                        blur_sigma_frac: Some(0.05),
+                        ..Default::default()
+                    }),
+                    ..d
+                },
+            ),
+            (
+                "template.scale_start_px",
+                HopfieldConfig {
+                    template: TemplateConfig {
+                        scale_start_px: Some(1.5),
+                        ..Default::default()
+                    },
+                    ..d
+                },
+            ),
+            (
+                "template.scale_start_px",
+                HopfieldConfig {
+                    template: TemplateConfig {
+                        scale_start_px: Some(7.0),
+                        scale_start: 0.2,
+                        ..Default::default()
+                    },
+                    ..d
+                },
+            ),
+            (
+                "template.scale_start",
+                HopfieldConfig {
+                    template: TemplateConfig {
+                        schedule: ScaleSchedule::Footnote,
+                        scale_start: 0.2,
+                        ..Default::default()
+                    },
+                    ..d
+                },
+            ),
+            (
+                "implementation",
+                HopfieldConfig {
+                    n: 2048,
+                    implementation: Implementation::Reference,
+                    ..d
+                },
+            ),
+        ];
+        for (key, cfg) in bad {
+            match cfg.validate() {
+                Err(e @ DetectorError::InvalidParameter { name, .. }) => {
+                    assert_eq!(name, key, "{e}");
+                    assert!(e.to_string().contains(key), "{e}");
+                }
+                other => panic!("{key}: expected InvalidParameter, got {other:?}"),
+            }
+        }
+        let e = HopfieldConfig { tolerance: 1e-9, ..d }
+            .validate()
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("1e-6") && e.contains("pattern space"), "{e}");
+        HopfieldConfig {
+            tolerance: MIN_TOLERANCE,
+            ..d
+        }
+        .validate()
+        .unwrap();
     }
 }

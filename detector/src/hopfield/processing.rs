@@ -603,4 +603,30 @@ mod tests {
         let img = [1.0, 2.0, 3.0, 4.0]; // [[1, 2], [3, 4]]
         assert_eq!(image_to_vector(&img, 2), vec![1.0, 3.0, 2.0, 4.0]);
     }
+
+    #[test]
+    fn mask_blur_can_scale_with_n() {
+        for n in [32, 64, 256] {
+            let frac = MaskConfig {
+                blur_sigma_frac: Some(0.078125),
+                ..Default::default()
+            };
+            let px = MaskConfig {
+                blur_sigma_px: 0.078125 * n as f64,
+                ..Default::default()
+            };
+            assert_eq!(roi_mask(n, Some(&frac)), roi_mask(n, Some(&px)), "n = {n}");
+        }
+        // At n = 256 the fraction reproduces the paper's 20 px.
+        assert_eq!(
+            roi_mask(
+                256,
+                Some(&MaskConfig {
+                    blur_sigma_frac: Some(20.0 / 256.0),
+                    ..Default::default()
+                })
+            ),
+            roi_mask(256, Some(&MaskConfig::default()))
+        );
+    }
 }

@@ -177,7 +177,7 @@ pub fn no_edges_error(scale: f64) -> crate::DetectorError {
         name: "template",
         value: format!("scale {scale}"),
         reason: "the template image has no edges (empty disk or a single stripe colour); \
-                 change template.scale_start, template.cycles or template.phase"
+                 change template.scale_start (or scale_start_px), template.cycles or template.phase"
             .into(),
     }
 }

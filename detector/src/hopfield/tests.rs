@@ -396,3 +396,215 @@ fn edgeless_templates_are_rejected_by_both_implementations() {
         }
     }
 }
+
+/// The adapted front end and the winner readout, in every combination with the paper ones.
+fn front_end_readout_variants(n: usize) -> Vec<HopfieldConfig> {
+    let mut out = Vec::new();
+    for front_end in [FrontEnd::Paper, FrontEnd::Adapted] {
+        for (readout, readout_alpha) in [(Readout::Paper, 0.0), (Readout::Winner, 0.0), (Readout::Winner, 0.5)] {
+            out.push(HopfieldConfig {
+                front_end,
+                readout,
+                readout_alpha,
+                frame_rate_hz: 30.0,
+                ..HopfieldConfig::for_size(n)
+            });
+        }
+    }
+    out
+}
+
+fn assert_same(f: &[HopfieldSignals], r: &[HopfieldSignals], ctx: &str) {
+    for (t, (f, r)) in f.iter().zip(r).enumerate() {
+        let ctx = format!("{ctx} frame {t}: fast {f:?} reference {r:?}");
+        for (a, b) in [
+            (f.z_on, r.z_on),
+            (f.z_off, r.z_off),
+            (f.z, r.z),
+            (f.z_hat_on, r.z_hat_on),
+            (f.z_hat_off, r.z_hat_off),
+            (f.angular_size_deg, r.angular_size_deg),
+        ] {
+            assert!(rel(a, b) <= 1e-6, "{ctx}");
+        }
+        assert_eq!(
+            (f.winner_on, f.winner_off, f.iterations_on, f.iterations_off),
+            (r.winner_on, r.winner_off, r.iterations_on, r.iterations_off),
+            "{ctx}"
+        );
+    }
+}
+
+#[test]
+fn fast_equals_reference_for_both_front_ends_and_readouts() {
+    for n in [32, 45] {
+        for (name, frames) in videos(n) {
+            for cfg in front_end_readout_variants(n) {
+                let fast = run(cfg, &frames);
+                let reference = run(cfg.with_implementation(Implementation::Reference), &frames);
+                let ctx = format!(
+                    "n={n} {name} {:?}/{:?} a={}",
+                    cfg.front_end, cfg.readout, cfg.readout_alpha
+                );
+                assert_same(&fast, &reference, &ctx);
+            }
+        }
+    }
+}
+
+#[test]
+fn fast_equals_reference_adapted_with_other_parameters() {
+    let n = 40;
+    let frames: Vec<Frame> = videos(n).into_iter().flat_map(|(_, v)| v).collect();
+    let adapted = HopfieldConfig {
+        readout_alpha: 0.3,
+        ..HopfieldConfig::adapted_for_size(n)
+    };
+    let variants = [
+        HopfieldConfig {
+            mask: None,
+            adaptation_tau_s: 0.02,
+            ..adapted
+        },
+        HopfieldConfig {
+            mask: Some(MaskConfig {
+                blur_sigma_frac: Some(0.078125),
+                ..Default::default()
+            }),
+            frame_border: FrameBorder::Zero,
+            delay: 3,
+            ..adapted
+        },
+        HopfieldConfig {
+            template: TemplateConfig {
+                schedule: ScaleSchedule::Footnote,
+                ..Default::default()
+            },
+            beta: 50.0,
+            tolerance: 1e-5,
+            max_iterations: 8,
+            ..adapted
+        },
+    ];
+    for cfg in variants {
+        let fast = run(cfg, &frames);
+        let reference = run(cfg.with_implementation(Implementation::Reference), &frames);
+        assert_same(&fast, &reference, &format!("{cfg:?}"));
+    }
+}
+
+#[test]
+fn adapted_front_end_starts_silent_and_ignores_static_scenes() {
+    let n = 32;
+    for implementation in [Implementation::Fast, Implementation::Reference] {
+        let cfg = HopfieldConfig::adapted_for_size(n).with_implementation(implementation);
+        for scene in [noise(n, 5), disk(n, 7.0, 1.0, 2.0, 1.0, 0.2), videos(n)[4].1[0].clone()] {
+            // The first frame's high-pass is exactly zero, and so is every frame's after it.
+            for s in run(cfg, &vec![scene; 12]) {
+                assert_eq!((s.z_on, s.z_off, s.z, s.angular_size_deg), (1.0, 1.0, 1.0, 0.0));
+                assert_eq!((s.iterations_on, s.iterations_off, s.winner_on), (0, 0, 0));
+            }
+        }
+        // Motion after a still start: activity only from the second moving frame on (the first
+        // frame with evidence is compared with itself, as at start-up).
+        let frames = &videos(n)[0].1;
+        let mut still = vec![frames[0].clone(); 4];
+        still.extend(frames[1..].iter().cloned());
+        let s = run(cfg, &still);
+        assert!(s[..4].iter().all(|s| s.iterations_on == 0), "{implementation}");
+        assert_eq!((s[4].z_hat_on, s[4].z_hat_off), (1.0, 1.0), "{implementation}");
+        assert!(s[4].iterations_on > 0);
+    }
+}
+
+#[test]
+fn adapted_front_end_is_frame_rate_independent() {
+    // w = 1 − exp(−1/(τ·f)): after one second the old mean has the same weight at any rate.
+    for fps in [15.0, 30.0, 120.0, 1000.0] {
+        let cfg = HopfieldConfig {
+            frame_rate_hz: fps,
+            adaptation_tau_s: 0.25,
+            ..HopfieldConfig::adapted()
+        };
+        let w = cfg.adaptation_weight();
+        assert!(((1.0 - w).powf(fps) - (-4.0f64).exp()).abs() < 1e-12, "{fps}: {w}");
+    }
+    let cfg = HopfieldConfig {
+        frame_rate_hz: 30.0,
+        adaptation_tau_s: 0.3,
+        ..HopfieldConfig::adapted()
+    };
+    assert!((cfg.adaptation_weight() - 0.1052).abs() < 1e-4);
+}
+
+#[test]
+fn winner_readout_reads_the_larger_winning_template() {
+    let n = 64;
+    let frames = &videos(n)[0].1;
+    let cfg = HopfieldConfig {
+        readout: Readout::Winner,
+        ..HopfieldConfig::for_size(n)
+    };
+    let paper = run(HopfieldConfig::for_size(n), frames);
+    let winner = run(cfg, frames);
+    let mut responded = 0;
+    for (p, w) in paper.iter().zip(&winner) {
+        // Same retrieval and z; only θ̂ differs.
+        assert_eq!((p.z, p.winner_on, p.winner_off), (w.z, w.winner_on, w.winner_off));
+        let scale = |k: usize| if k == 0 { 0.0 } else { cfg.template.scale(n, k) };
+        let want = scale_to_deg(scale(w.winner_on).max(scale(w.winner_off)), &cfg);
+        assert!((w.angular_size_deg - want).abs() < 1e-12, "{w:?}");
+        if w.winner_on.max(w.winner_off) > 0 {
+            responded += 1;
+            // The paper readout reads a smaller size than the retrieved templates.
+            assert!(w.angular_size_deg >= p.angular_size_deg, "{w:?} {p:?}");
+        }
+    }
+    assert!(responded >= 3, "{responded}");
+    // A low-pass on the readout: a first-order filter of the per-frame winner scale.
+    let a = 0.6;
+    let filtered = run(
+        HopfieldConfig {
+            readout_alpha: a,
+            ..cfg
+        },
+        frames,
+    );
+    let mut s = 0.0;
+    for (raw, f) in winner.iter().zip(&filtered) {
+        let scale = |k: usize| if k == 0 { 0.0 } else { cfg.template.scale(n, k) };
+        if raw.iterations_on > 0 {
+            s = a * s + (1.0 - a) * scale(raw.winner_on).max(scale(raw.winner_off));
+        }
+        assert!((f.angular_size_deg - scale_to_deg(s, &cfg)).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn blank_frames_are_not_stored_as_delayed_columns() {
+    // A static scene with a blank and a saturated frame: no activity, no θ̂, in either front end,
+    // implementation and readout (stored as a zero column, the blank frame made every template
+    // win `delay` frames later).
+    for n in [32, 64] {
+        let scene = noise(n, 11);
+        let mut frames = vec![scene.clone(); 7];
+        frames.push(Frame::uniform(n, 0.0));
+        frames.extend(vec![scene.clone(); 7]);
+        frames.push(Frame::uniform(n, 1.0));
+        frames.extend(vec![scene.clone(); 7]);
+        for base in front_end_readout_variants(n) {
+            for implementation in [Implementation::Fast, Implementation::Reference] {
+                let cfg = base.with_implementation(implementation);
+                for (t, s) in run(cfg, &frames).iter().enumerate() {
+                    assert_eq!(
+                        (s.z, s.angular_size_deg),
+                        (1.0, 0.0),
+                        "n={n} {implementation} {:?}/{:?} frame {t}",
+                        cfg.front_end,
+                        cfg.readout
+                    );
+                }
+            }
+        }
+    }
+}
