@@ -238,7 +238,8 @@ pub struct AdaptedSums {
 /// end's test uses the centred norm; the two differ only for a constant nonzero F, which
 /// needs a luminance ramp and no mask.)
 pub fn camera_frame_is_blank(raw_sumsq: f64) -> bool {
-    !(raw_sumsq.sqrt() > MIN_QUERY_NORM)
+    let norm = raw_sumsq.sqrt();
+    !(norm.is_finite() && norm > MIN_QUERY_NORM)
 }
 
 /// The adapted front end's running-mean update M ← M + w·G.
