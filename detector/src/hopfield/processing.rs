@@ -13,11 +13,11 @@
 //!   black plane (so pixels near the border see the true disk, not a padded one).
 //! - A processed frame whose centred norm is ≤ [`MIN_QUERY_NORM`] (a blank or constant frame,
 //!   no edges inside the mask) carries no evidence: normalising it would divide zero by zero.
-//!   Both implementations then report the delayed column as retrieved (ẑ = 1, the floor) and
-//!   store the zero vector as that frame's query (see `hopfield/mod.rs`).
-//! - A blank processed frame is not stored as a delayed memory column either: the memory
-//!   keeps the queries of the last `delay` frames *with evidence*, so a dropped (black,
-//!   saturated or uniform) frame neither wins nor loses against anything `delay` frames later.
+//!   Both implementations then report the delayed column as retrieved (ẑ = 1, the floor), its
+//!   query is the zero vector, and it is *not* stored as a delayed memory column: the memory
+//!   keeps the queries of the last `delay` frames with evidence, so a dropped (black,
+//!   saturated or uniform) frame neither wins nor loses against anything `delay` frames later
+//!   (see `hopfield/mod.rs`).
 //!
 //! # Adapted front end
 //! With `front_end = "adapted"` the query is built from G(t) = F(t) − M(t−1) instead of F(t),
