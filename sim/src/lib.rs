@@ -1,5 +1,5 @@
 //! loomlab-sim: a rapier3d world rendered offscreen by wgpu from a robot's camera, with exact ground
-//! truth (design §5).
+//! truth (docs/design.md §5).
 //!
 //! # Conventions
 //! - World: right-handed, metres, seconds, **z up**, ground plane z = 0. The robot starts at the origin

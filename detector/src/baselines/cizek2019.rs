@@ -2,14 +2,14 @@
 //!
 //! Keil 2025 implemented Čížek & Faigl's Eqs. 7–11 (photoreceptor … summation layer),
 //! dropped their fixed threshold (their Eq. 12) and added two adaptive thresholds
-//! (Keil 2025 Eqs. `EqCizekFaigl19a–c`, exact; baselines.md §4). Čížek & Faigl's own text
+//! (Keil 2025 Eqs. `EqCizekFaigl19a–c`, exact; docs/detectors.md#cizek2019). Čížek & Faigl's own text
 //! could not be read, so **the presynaptic chain is the standard LGMD1 P→E→I→S form**
-//! (Yue & Rind 2006; kernel from Fu's `LGMDSingle.cs`), baselines.md §4.2. **Unverified:**
+//! (Yue & Rind 2006; kernel from Fu's `LGMDSingle.cs`), docs/detectors.md, cizek2019 §1–§2. **Unverified:**
 //! the value of `W_I` (0.6 assumed), signed vs absolute P/S (signed by default;
 //! [`Cizek2019Config::absolute_summation`] gives the other reading), border handling
 //! (clamp-to-edge).
 //!
-//! Per frame t ≥ 1 (baselines.md §4.4):
+//! Per frame t ≥ 1 (docs/detectors.md, cizek2019 §2):
 //! 1. photoreceptors `P_t = F_t − F_{t−1}` (Č&F Eq. 7), excitation `E_t = P_t`;
 //! 2. lateral inhibition `I_t = w_I ⋆ P_{t−1}` (3×3, centre 0, nearest 1/4, diagonal 1/8,
 //!    clamp-to-edge; `P_0 := 0`);
@@ -19,8 +19,8 @@
 //! 6. output gate `T_l = LP[ẑ, α_l]` (Eq. `EqCizekFaigl19c`); `z = ẑ` if `ẑ > 0.95·T_l`, else 0
 //!    (Eq. `EqCizekFaigl19b`).
 //!
-//! Both lowpasses update first, then compare (baselines.md §2.3). Frame 0 only stores the
-//! frame and reports 0 (§2.2).
+//! Both lowpasses update first, then compare (docs/detectors.md, common §3). Frame 0 only stores the
+//! frame and reports 0 (common §2).
 
 use serde::Deserialize;
 
@@ -29,14 +29,14 @@ use super::lowpass::LowPass;
 use super::stencil::{SymKernel, corr3_rows};
 use crate::{Detector, DetectorError, Frame, Signals};
 
-/// The 3×3 lateral-inhibition kernel `w_I` (baselines.md §4.2; sum 1.5, centre 0).
+/// The 3×3 lateral-inhibition kernel `w_I` (docs/detectors.md, cizek2019 §2; sum 1.5, centre 0).
 const INHIBITION_KERNEL: SymKernel = SymKernel {
     centre: 0.0,
     near: 0.25,
     diag: 0.125,
 };
 
-/// Parameters of [`Cizek2019`]. Defaults: baselines.md §4.3.
+/// Parameters of [`Cizek2019`]. Defaults: docs/detectors.md, cizek2019 §3.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Cizek2019Config {
@@ -53,7 +53,7 @@ pub struct Cizek2019Config {
     pub gate_factor: f64,
     /// `false` (default): signed S, the literal reading (thresholding also deletes every
     /// negative S). `true`: `S ← |S|` before thresholding (symmetric dark/light responses),
-    /// baselines.md §8 #5.
+    /// docs/detectors.md, cizek2019 §6.
     pub absolute_summation: bool,
 }
 

@@ -1,5 +1,5 @@
 //! Helpers shared by the baseline models: frame history / temporal contrast
-//! (baselines.md §2.2) and parameter validation with uniform error messages.
+//! (docs/detectors.md, common §2) and parameter validation with uniform error messages.
 
 use crate::{DetectorError, Frame};
 
@@ -7,7 +7,7 @@ use crate::{DetectorError, Frame};
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum FrameStep {
     /// First frame since construction/reset: it was stored, the model reports
-    /// `z(0) = 0` and must not touch any other state (baselines.md §2.2).
+    /// `z(0) = 0` and must not touch any other state (docs/detectors.md, common §2).
     /// Carries the side length n that this frame fixed.
     First(usize),
     /// A later frame of the fixed size n; call [`PreviousFrame::contrast_into`].

@@ -3,17 +3,17 @@
 //!
 //! One LGMD2 instance follows the authors' reference code (`fuqinbing/LGMD2-open-source`,
 //! `lgmd2OpenSource.cs`, the supplement of the T-Cyb paper), layer by layer as restated in
-//! baselines.md §5.3; every constant is from that code (§5.4). The paper text itself was
-//! not read, so minor paper/code differences cannot be excluded (§8 #12).
+//! docs/detectors.md, fu2020 §2; every constant is from that code (fu2020 §3). The paper text itself was
+//! not read, so minor paper/code differences cannot be excluded (fu2020 §1).
 //!
-//! Keil's wrapper (Keil 2025 subsection "FuHuPe20", baselines.md §5.1):
+//! Keil's wrapper (Keil 2025 subsection "FuHuPe20"; docs/detectors.md, fu2020 §2):
 //! * temporal contrast in 8-bit units `P_t = 255·(F_t − F_{t−1})` (float, not rounded);
 //! * instance OFF (the original, dark-selective LGMD2) is fed `+P_t`, its spike count is
 //!   `z_off`; instance ON, an independent copy, is fed `−P_t`, its spike count is `z_on`;
 //! * output `z = LP[z_on·z_off + ε(z_on + z_off), α]` (Eq. `EqSigmaPi`), ε = 0.05, α = 0.75;
 //! * the model frame rate is fixed at 120 Hz whatever the video's rate.
 //!
-//! One instance per frame (input `P`, baselines.md §5.3): photoreceptor mediation
+//! One instance per frame (input `P`, docs/detectors.md, fu2020 §2): photoreceptor mediation
 //! `pm = LP(mean|P|)` → adaptive inhibition biases `W_i,on = max(pm/T_pm, 1)`,
 //! `W_i,off = max(pm/T_pm, 0.5)`; ON/OFF half-wave rectifiers with residual term
 //! (`ON = 1[P ≥ c]·P + d·ON_prev`, `OFF = 1[P < c]·|P| + d·OFF_prev`, the asymmetry of the code
@@ -23,8 +23,8 @@
 //! `S` and `ω = Δ_C + max|C_e|/C_w`, kept where `C_de·G ≥ T_de`; membrane potential
 //! `mp = ΣG`, `smp = 1/(1 + exp(−mp/(N·C_sig)))`; spike-frequency adaptation; spikes
 //! `⌊exp(C_spi·(sfa − T_sp))⌋` (Keil's "equation 27"). The onset artefact of the code
-//! (`smp_prev` starts at 0, so motion in the first frames can spike) is kept on purpose (§5.5).
-//! Frame 0 only stores the frame and reports 0 (§2.2).
+//! (`smp_prev` starts at 0, so motion in the first frames can spike) is kept on purpose
+//! (docs/detectors.md, fu2020 §6). Frame 0 only stores the frame and reports 0 (common §2).
 
 use serde::Deserialize;
 
@@ -33,7 +33,7 @@ use super::lowpass::LowPass;
 use super::stencil::{SymKernel, corr3_classes_rows, corr3_rows, max_abs};
 use crate::{Detector, DetectorError, Frame, Signals};
 
-/// Parameters of [`Fu2020`]. Defaults: baselines.md §5.4 (all from `lgmd2OpenSource.cs`,
+/// Parameters of [`Fu2020`]. Defaults: docs/detectors.md, fu2020 §3 (all from `lgmd2OpenSource.cs`,
 /// ε and α from Keil 2025). Triples are ordered (centre, nearest, diagonal).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -41,7 +41,7 @@ pub struct Fu2020Config {
     /// Model frame rate in Hz (fixed by Keil at 120 whatever the video's rate).
     pub fps_model: f64,
     /// `true`: frame interval `⌊1000/fps_model⌋` ms, the integer division of the C# code
-    /// (8 ms at 120 Hz); `false` (default, recommended by baselines.md §5.4): `1000/fps_model`.
+    /// (8 ms at 120 Hz); `false` (default, recommended in docs/detectors.md, fu2020 §6): `1000/fps_model`.
     pub integer_frame_interval: bool,
     /// ON-pathway inhibition delays τ_on (centre, nearest, diagonal), ms: 15, 30, 45.
     pub tau_on: [f64; 3],
@@ -132,7 +132,7 @@ impl Default for Fu2020Config {
     }
 }
 
-/// Per-frame coefficients derived from the time constants (baselines.md §2.5):
+/// Per-frame coefficients derived from the time constants (docs/detectors.md, common §5):
 /// lowpass gain `a(τ) = Δt/(Δt + τ)`, highpass factor `h(τ) = τ/(τ + Δt)`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Fu2020Coefficients {
@@ -302,7 +302,7 @@ impl Fu2020Config {
         )
     }
 
-    /// The per-frame coefficients for this configuration (baselines.md §2.5, §5.4).
+    /// The per-frame coefficients for this configuration (docs/detectors.md, common §5 and fu2020 §3).
     pub fn coefficients(&self) -> Fu2020Coefficients {
         let dt = if self.integer_frame_interval {
             (1000.0 / self.fps_model).floor()
@@ -328,7 +328,7 @@ struct InstanceOutput {
     collision: bool,
 }
 
-/// State of one LGMD2 instance (baselines.md §5.2).
+/// State of one LGMD2 instance (docs/detectors.md, fu2020 §2).
 #[derive(Debug, Clone, Default)]
 struct Lgmd2 {
     on: Vec<f64>,
@@ -399,7 +399,7 @@ impl Lgmd2 {
         self.spike_run = 0;
     }
 
-    /// One frame of baselines.md §5.3 with input `sign·p`.
+    /// One frame of docs/detectors.md, fu2020 §2, with input `sign·p`.
     fn step(
         &mut self,
         p: &[f64],

@@ -1,23 +1,23 @@
 //! "Advanced" — Keil, Roca-Moreno & Rodríguez-Vázquez (2004), detector id `keil2004`.
 //!
 //! **Front end RECONSTRUCTED.** The 2004 model equations could not be retrieved; this is
-//! reconstruction R-A of baselines.md §3.3, built from what Keil 2025 says about the model
+//! reconstruction R-A of docs/detectors.md, keil2004 §2, built from what Keil 2025 says about the model
 //! (ON/OFF temporal-contrast channels, self-limiting diffusion layers whose persistent
 //! inhibition curtails the excitation that feeds them, half-wave rectified channel
 //! activities that can be exactly zero). Only the output stage is exact: Keil 2025
-//! Eq. `EqSigmaPi` with ε = 0.001, α = 0.5 (baselines.md §2.6). Label results as
+//! Eq. `EqSigmaPi` with ε = 0.001, α = 0.5 (docs/detectors.md, common §6). Label results as
 //! "Advanced (reconstructed)".
 //!
-//! Per frame t ≥ 1 (baselines.md §3.4), for each channel c ∈ {on, off}:
+//! Per frame t ≥ 1 (docs/detectors.md, keil2004 §2), for each channel c ∈ {on, off}:
 //! 1. excitation `e_on = [P_t]^+`, `e_off = [−P_t]^+` with `P_t = F_t − F_{t−1}`;
 //! 2. curtailed excitation `x_c = [e_c − V_c(t−1)]^+`;
 //! 3. lateral spread: `U ← x_c`, then `K` Jacobi steps `U ← U + κ·Δ₅U` (5-point Laplacian,
 //!    clamp-to-edge = zero-flux borders);
 //! 4. persistent inhibition `V_c(t) = a_V·V_c(t−1) + b·U`;
-//! 5. channel activity `z_c = mean_ij x_c` (mean pooling, baselines.md §8 #2);
+//! 5. channel activity `z_c = mean_ij x_c` (mean pooling, docs/detectors.md, keil2004 §6);
 //!
 //! and the output `z = LP[z_on·z_off + ε(z_on + z_off), α]` (Eq. `EqSigmaPi`).
-//! Frame 0 only stores the frame and reports 0 (§2.2).
+//! Frame 0 only stores the frame and reports 0 (docs/detectors.md, common §2).
 
 use serde::Deserialize;
 
@@ -26,7 +26,7 @@ use super::lowpass::LowPass;
 use super::stencil::diffuse_step;
 use crate::{Detector, DetectorError, Frame, Signals};
 
-/// Parameters of [`Keil2004`]. Defaults: baselines.md §3.3 table.
+/// Parameters of [`Keil2004`]. Defaults: docs/detectors.md, keil2004 §3.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Keil2004Config {

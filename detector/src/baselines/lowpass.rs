@@ -1,8 +1,8 @@
-//! Keil's lowpass operator `LP[x, α]` (paper Eq. `EqLowpass`, baselines.md §2.3).
+//! Keil's lowpass operator `LP[x, α]` (paper Eq. `EqLowpass`; docs/detectors.md, common §3).
 
 /// Scalar leaky integrator `out(t+1) = α·out(t) + (1−α)·in(t)` (paper Eq. `EqLowpass`).
 ///
-/// Convention of baselines.md §2.3: the state starts at 0 and each call of
+/// Convention of docs/detectors.md, common §3: the state starts at 0 and each call of
 /// [`LowPass::update`] first updates, then returns the updated value, so Keil's
 /// `out(t+1)` is reported at frame `t` (no extra frame of latency).
 #[derive(Debug, Clone, Copy, PartialEq)]

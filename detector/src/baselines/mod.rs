@@ -1,15 +1,15 @@
 //! The temporal-contrast ("SOC-based") baseline looming detectors that Keil 2025 compares
 //! the Hopfield detector with (paper subsection "Benchmark Models"; full specification in
-//! `reference/baselines.md`).
+//! `docs/detectors.md`).
 //!
 //! | id | model | status |
 //! |---|---|---|
 //! | `soc` | [`Soc`]: sum of absolute temporal contrast (paper Fig. `FigApproachCurves`) | exact |
-//! | `keil2004` | [`Keil2004`]: "Advanced", Keil, Roca-Moreno & Rodríguez-Vázquez 2004 | output stage exact, **front end reconstructed** (baselines.md §3.3) |
-//! | `cizek2019` | [`Cizek2019`]: "CizFai19", Čížek & Faigl 2019 + Keil's adaptive thresholds | thresholds exact, presynaptic chain in standard LGMD1 form, `W_I` assumed (§4) |
-//! | `fu2020` | [`Fu2020`]: "FuHuPe20", LGMD2 of Fu et al. 2020, ON/OFF instances combined | from the authors' reference code (§5) |
+//! | `keil2004` | [`Keil2004`]: "Advanced", Keil, Roca-Moreno & Rodríguez-Vázquez 2004 | output stage exact, **front end reconstructed** (docs/detectors.md, keil2004 §1) |
+//! | `cizek2019` | [`Cizek2019`]: "CizFai19", Čížek & Faigl 2019 + Keil's adaptive thresholds | thresholds exact, presynaptic chain in standard LGMD1 form, `W_I` assumed (docs/detectors.md, cizek2019 §1) |
+//! | `fu2020` | [`Fu2020`]: "FuHuPe20", LGMD2 of Fu et al. 2020, ON/OFF instances combined | from the authors' reference code (docs/detectors.md, fu2020 §1) |
 //!
-//! Common conventions (baselines.md §2): frames in [0, 1], computations in f64; the first
+//! Common conventions (docs/detectors.md#common): frames in [0, 1], computations in f64; the first
 //! frame after construction or [`Detector::reset`] fixes the frame size n and only stores the
 //! frame (output 0); a later frame of another size is [`DetectorError::FrameSize`]; 3×3
 //! operations clamp at the borders; lowpasses update first, then are read.

@@ -3,7 +3,7 @@
 //! Keil 2025, caption of Fig. `FigApproachCurves`: `SOC(t) = Σ_ij |F_ij(t) − F_ij(t−1)|`.
 //! It is the common input of the three "SOC-based" baselines and tracks the angular
 //! velocity of an approaching object when there is no background motion.
-//! Frame 0 has no previous frame and reports 0 (baselines.md §2.2).
+//! Frame 0 has no previous frame and reports 0 (docs/detectors.md, common §2).
 
 use serde::Deserialize;
 

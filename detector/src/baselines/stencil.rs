@@ -1,4 +1,4 @@
-//! 3×3 neighbourhood operations with clamp-to-edge borders (baselines.md §2.4).
+//! 3×3 neighbourhood operations with clamp-to-edge borders (docs/detectors.md, common §4).
 //!
 //! All operations are correlations `(K ⋆ A)(i,j) = Σ K[di,dj]·A(i+di, j+dj)` where an
 //! out-of-range index is replaced by the nearest valid one. Sums are accumulated in

@@ -1,4 +1,4 @@
-//! The paper's artificial approach videos (paper §3.1–3.2, design §4), rendered analytically
+//! The paper's artificial approach videos (paper §3.1–3.2; file format: docs/design.md §4), rendered analytically
 //! on the CPU together with the true angular size of the object in every frame.
 //!
 //! A stimulus TOML file ([`StimulusSpec`]) describes an object (disk or square, textured)
@@ -41,10 +41,10 @@
 //! vertical object coordinate in diameters. With `phase = 0` a stripe edge runs through the
 //! object's centre; that edge stays put while the disk grows (every other edge moves
 //! outwards), so an edge-based detector sees a static structure at the centre and the delayed
-//! frame keeps matching (design §2: z stays at 1 for such a disk). `phase = 0.25` puts the
-//! centre in the middle of a bright stripe: every edge moves as the object grows, like the
-//! paper's Fig. 3 insets (two bright and two dark stripes on a disk of 2 cycles, symmetric
-//! about the centre). The same phase convention applies to checker, circular and starburst.
+//! frame keeps matching (docs/detectors.md, hopfield §2: z stays at 1 for such a disk).
+//! `phase = 0.25` puts the centre in the middle of a bright stripe: every edge moves as the
+//! object grows, like the paper's Fig. 3 insets (two bright and two dark stripes on a disk of
+//! 2 cycles, symmetric about the centre). The same phase convention applies to checker, circular and starburst.
 //!
 //! # Randomness
 //! Everything random (the object's noise texture, noise backgrounds, dropout) comes from
@@ -55,7 +55,7 @@
 //! Noise distributions: the object's `noise` texture is a static grid of `noise_cells`² cells
 //! fixed to the object, each uniform in [dark, bright) (`noise = "uniform"`, default) or either
 //! dark or bright (`noise = "binary"`); a noise background is per-pixel uniform U[0, 1) (or
-//! binary 0/1) white noise. Contrast matters (design §4, paper Fig. 7b): a uniform-[0, 1] patch
+//! binary 0/1) white noise. Contrast matters (docs/design.md §4, paper Fig. 7b): a uniform-[0, 1] patch
 //! over uniform-[0, 1] dynamic noise leaves the sum of temporal contrast flat (the patch pixels
 //! differ from frame to frame no more than the noise they cover), whereas a binary patch makes
 //! it rise.

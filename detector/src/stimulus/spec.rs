@@ -1,10 +1,10 @@
 //! The stimulus file schema ([`StimulusSpec`]): TOML parsing, defaults, validation and the
 //! approach geometry (distance, true angular size and image size per frame).
 //!
-//! Every section and key is optional; missing keys take the defaults of design §4, which
-//! are the paper's values (a 0.5 m object approaching at 50 km/h from 10 m to 0.1 m,
-//! filmed at 120 frames/s by a 256×256 camera with a 60° field of view). Unknown keys are
-//! errors. `stimuli/README.md` documents every key with its unit.
+//! Every section and key is optional; missing keys take the defaults below (summarised in
+//! docs/design.md §4), which are the paper's values (a 0.5 m object approaching at 50 km/h
+//! from 10 m to 0.1 m, filmed at 120 frames/s by a 256×256 camera with a 60° field of view).
+//! Unknown keys are errors. `stimuli/README.md` documents every key with its unit.
 
 use std::path::{Path, PathBuf};
 
@@ -17,7 +17,7 @@ pub const MAX_SIZE: usize = 8192;
 /// Largest accepted number of frames of one stimulus.
 pub const MAX_FRAMES: usize = 1_000_000;
 
-/// One artificial approach video, as described by a stimulus TOML file (design §4).
+/// One artificial approach video, as described by a stimulus TOML file (docs/design.md §4).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct StimulusSpec {

@@ -1,4 +1,4 @@
-//! `cizek2019` ("CizFai19"): tests of baselines.md §4.5 at n = 128.
+//! `cizek2019` ("CizFai19"): tests of docs/detectors.md, cizek2019 §5, at n = 128.
 
 use loomlab_detector::baselines::{Cizek2019, Cizek2019Config};
 use loomlab_detector::{Detector, Frame};
@@ -9,7 +9,7 @@ use crate::{argmax, aux, max, outputs, run};
 const N: usize = 128;
 
 fn configs() -> Vec<Cizek2019Config> {
-    // §4.5: the tests hold for W_I ∈ {0.3, 0.4, 0.6, 1.0} and both sign variants.
+    // cizek2019 §5: the tests hold for W_I ∈ {0.3, 0.4, 0.6, 1.0} and both sign variants.
     let mut v = Vec::new();
     for w_i in [0.3, 0.4, 0.6, 1.0] {
         for absolute_summation in [false, true] {
@@ -27,7 +27,7 @@ fn z_of(cfg: Cizek2019Config, id: Id) -> Vec<f64> {
     outputs(&run(&mut Cizek2019::new(cfg).unwrap(), &get(id, N)))
 }
 
-/// §4.5.1: static scenes give z = ẑ = 0 and T_s → 0.
+/// cizek2019 §5 item 1: static scenes give z = ẑ = 0 and T_s → 0.
 #[test]
 fn cizek2019_static_scenes_give_exactly_zero() {
     for id in [Id::Uniform, Id::S0] {
@@ -43,7 +43,7 @@ fn cizek2019_static_scenes_give_exactly_zero() {
     }
 }
 
-/// §4.5.2: approaches of either polarity and the checker disk peak at the end.
+/// cizek2019 §5 item 2: approaches of either polarity and the checker disk peak at the end.
 #[test]
 fn cizek2019_approach_either_polarity_peaks_at_the_end() {
     for cfg in configs() {
@@ -64,7 +64,7 @@ fn cizek2019_approach_either_polarity_peaks_at_the_end() {
     }
 }
 
-/// §4.5.3: receding disks respond only at the start.
+/// cizek2019 §5 item 3: receding disks respond only at the start.
 #[test]
 fn cizek2019_receding_responds_only_at_the_start() {
     for cfg in configs() {
@@ -77,7 +77,7 @@ fn cizek2019_receding_responds_only_at_the_start() {
     }
 }
 
-/// §4.5.4: a translating disk gives < 5 % of the approach maximum.
+/// cizek2019 §5 item 4: a translating disk gives < 5 % of the approach maximum.
 #[test]
 fn cizek2019_translation_is_weak() {
     for cfg in configs() {
@@ -89,7 +89,7 @@ fn cizek2019_translation_is_weak() {
     }
 }
 
-/// §4.5.5: a drifting grating passes at most the onset frame.
+/// cizek2019 §5 item 5: a drifting grating passes at most the onset frame.
 #[test]
 fn cizek2019_uniform_background_motion_is_gated_out() {
     for cfg in configs() {
@@ -98,7 +98,7 @@ fn cizek2019_uniform_background_motion_is_gated_out() {
     }
 }
 
-/// §4.5.6: approach over the drifting grating peaks in the last two frames.
+/// cizek2019 §5 item 6: approach over the drifting grating peaks in the last two frames.
 #[test]
 fn cizek2019_detects_approach_over_drifting_grating() {
     for cfg in configs() {
@@ -107,7 +107,7 @@ fn cizek2019_detects_approach_over_drifting_grating() {
     }
 }
 
-/// §4.3: scaling the luminance by k scales z by k; the zero pattern is unchanged.
+/// cizek2019 §3: scaling the luminance by k scales z by k; the zero pattern is unchanged.
 #[test]
 fn cizek2019_output_scales_linearly_with_luminance() {
     let frames = get(Id::S2, 64);

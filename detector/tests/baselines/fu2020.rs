@@ -1,4 +1,4 @@
-//! `fu2020` ("FuHuPe20", two LGMD2 instances): tests of baselines.md §5.6 at n = 128.
+//! `fu2020` ("FuHuPe20", two LGMD2 instances): tests of docs/detectors.md, fu2020 §5, at n = 128.
 
 use loomlab_detector::Detector;
 use loomlab_detector::baselines::{Fu2020, Fu2020Config};
@@ -22,7 +22,7 @@ fn run_fu(id: Id) -> Run {
         on: aux(&s, "z_on"),
         off: aux(&s, "z_off"),
     };
-    // §5.6.8 invariant on every stimulus: spikes ∈ {0, 1, 2}, 0 ≤ z ≤ 4.2.
+    // Invariant of fu2020 §5 item 8, on every stimulus: spikes ∈ {0, 1, 2}, 0 ≤ z ≤ 4.2.
     for v in r.on.iter().chain(&r.off) {
         assert!([0.0, 1.0, 2.0].contains(v), "{id:?}: spike count {v}");
     }
@@ -66,7 +66,7 @@ fn fu2020_coefficients_match_the_spec_table() {
     assert!(close(c.a_pm, 0.081633) && close(c.h_sfa, 0.990099));
 }
 
-/// §5.6.1: static scenes — no spikes, z = 0.
+/// fu2020 §5 item 1: static scenes — no spikes, z = 0.
 #[test]
 fn fu2020_static_scenes_give_no_spikes() {
     for id in [Id::Uniform, Id::S0] {
@@ -75,7 +75,7 @@ fn fu2020_static_scenes_give_no_spikes() {
     }
 }
 
-/// §5.6.2: dark disk on white (S1) — only the OFF instance spikes, late.
+/// fu2020 §5 item 2: dark disk on white (S1) — only the OFF instance spikes, late.
 #[test]
 fn fu2020_dark_approach_drives_only_the_off_instance() {
     let r = run_fu(Id::S1);
@@ -91,13 +91,13 @@ fn fu2020_dark_approach_drives_only_the_off_instance() {
     assert!(first as f64 >= 0.7 * t as f64, "first spike {first}");
     assert!(r.off[3 * t / 4..].iter().any(|&v| v >= 1.0));
     assert!(max(&r.z) <= 0.1);
-    // Prototype at n = 128 (§5.6.2): first spike t = 68, then exactly these counts, max z 0.085.
+    // Prototype at n = 128 (fu2020 §5 item 2): first spike t = 68, then exactly these counts, max z 0.085.
     assert_eq!(first, 68);
     assert_eq!(spike_string(&r.off[68..]), "111112222211111110");
     assert!((max(&r.z) - 0.085).abs() < 0.001, "max z {}", max(&r.z));
 }
 
-/// §5.6.3: light disk on black (S1') — mirror image.
+/// fu2020 §5 item 3: light disk on black (S1') — mirror image.
 #[test]
 fn fu2020_light_approach_drives_only_the_on_instance() {
     let r = run_fu(Id::S1Light);
@@ -114,7 +114,7 @@ fn fu2020_light_approach_drives_only_the_on_instance() {
     assert!(max(&r.z) <= 0.1);
 }
 
-/// §5.6.4: checkerboard disk (S2) — both instances spike in the final phase, product term active.
+/// fu2020 §5 item 4: checkerboard disk (S2) — both instances spike in the final phase, product term active.
 #[test]
 fn fu2020_checker_approach_drives_both_instances() {
     let r = run_fu(Id::S2);
@@ -139,7 +139,7 @@ fn fu2020_checker_approach_drives_both_instances() {
     );
 }
 
-/// §5.6.5: receding checkerboard disk (S3) — spikes only at the start.
+/// fu2020 §5 item 5: receding checkerboard disk (S3) — spikes only at the start.
 #[test]
 fn fu2020_receding_disk_spikes_only_at_the_start() {
     let r = run_fu(Id::S3);
@@ -149,7 +149,7 @@ fn fu2020_receding_disk_spikes_only_at_the_start() {
     assert!(r.z[40..].iter().all(|&z| z < 1e-3));
 }
 
-/// §5.6.6: drifting grating (S6) — only the onset artefact spikes.
+/// fu2020 §5 item 6: drifting grating (S6) — only the onset artefact spikes.
 #[test]
 fn fu2020_drifting_grating_is_suppressed_after_onset() {
     let r = run_fu(Id::S6);
@@ -162,7 +162,7 @@ fn fu2020_drifting_grating_is_suppressed_after_onset() {
     assert!(r.z[30..].iter().all(|&z| z < 0.01));
 }
 
-/// §5.6.7: translating checkerboard disk (S5) — SFA silences it.
+/// fu2020 §5 item 7: translating checkerboard disk (S5) — SFA silences it.
 #[test]
 fn fu2020_translation_is_silenced_by_sfa() {
     let r = run_fu(Id::S5);
@@ -173,8 +173,8 @@ fn fu2020_translation_is_silenced_by_sfa() {
     assert_eq!(last, Some(19));
 }
 
-/// §5.6.7 at n = 256: the relatively smaller disk never spikes; §5.6.2 at 256: the first
-/// OFF spike comes at most one frame earlier than at 128, and z_on stays 0.
+/// fu2020 §5 item 7 at n = 256: the relatively smaller disk never spikes; fu2020 §5 item 2 at
+/// 256: the first OFF spike comes at most one frame earlier than at 128, and z_on stays 0.
 #[test]
 fn fu2020_at_256() {
     let mut m = Fu2020::new(Fu2020Config::default()).unwrap();
@@ -189,7 +189,7 @@ fn fu2020_at_256() {
     assert!(aux(&s, "z_on").iter().all(|&v| v == 0.0));
 }
 
-/// §5.4: the C# integer frame interval changes at most isolated frames (none of the tests).
+/// fu2020 §3 and §6: the C# integer frame interval changes at most isolated frames (none of the tests).
 #[test]
 fn fu2020_integer_frame_interval_gives_nearly_the_same_spikes() {
     let frames = get(Id::S2, N);

@@ -1,5 +1,5 @@
-//! Golden vectors of baselines.md §7 (GOLD-1, n = 32, all defaults; CizFai19 with W_I = 0.6).
-//! Values from the spec's f64 prototype, printed to 7 significant digits: an f64 port
+//! Golden vectors of docs/detectors.md, test-stimuli §3 (GOLD-1, n = 32, all defaults; CizFai19 with W_I = 0.6).
+//! Values from the independent f64 prototype described there, printed to 7 significant digits: an f64 port
 //! must match to ~1e−6 relative, spike counts exactly.
 
 use loomlab_detector::Detector;

@@ -1,4 +1,4 @@
-//! `keil2004` ("Advanced", reconstruction R-A): tests of baselines.md §3.5 at n = 128.
+//! `keil2004` ("Advanced", reconstruction R-A): tests of docs/detectors.md, keil2004 §5, at n = 128.
 
 use loomlab_detector::Detector;
 use loomlab_detector::baselines::{Keil2004, Keil2004Config};
@@ -16,7 +16,7 @@ fn z_of(id: Id) -> Vec<f64> {
     outputs(&run(&mut model(), &get(id, N)))
 }
 
-/// §3.5.1: exactly silent on any static scene.
+/// keil2004 §5 item 1: exactly silent on any static scene.
 #[test]
 fn keil2004_static_scenes_give_exactly_zero() {
     for id in [Id::Uniform, Id::S0] {
@@ -26,7 +26,7 @@ fn keil2004_static_scenes_give_exactly_zero() {
     }
 }
 
-/// §3.5.2: approaching checkerboard disk (S2) — late, strong peak.
+/// keil2004 §5 item 2: approaching checkerboard disk (S2) — late, strong peak.
 #[test]
 fn keil2004_approach_peaks_at_the_end() {
     let z = z_of(Id::S2);
@@ -39,14 +39,14 @@ fn keil2004_approach_peaks_at_the_end() {
     );
     assert!(argmax(&z) >= t - 5, "argmax {}", argmax(&z));
     assert!(max(&z) >= 100.0 * early);
-    // Prototype values (§3.5.2): max 2.15e−2, early max 3e−7.
+    // Prototype values (keil2004 §5 item 2): max 2.15e−2, early max 3e−7.
     assert!((max(&z) / 2.15e-2 - 1.0).abs() < 0.01, "max {}", max(&z));
     assert!((2e-7..4e-7).contains(&early), "early {early}");
     // Rising over the final phase.
     assert!(z[t - 5] > z[t - 15] && z[t - 15] > z[t - 25]);
 }
 
-/// §3.5.3: receding checkerboard disk (S3) — response only at the start.
+/// keil2004 §5 item 3: receding checkerboard disk (S3) — response only at the start.
 #[test]
 fn keil2004_receding_disk_responds_only_at_the_start() {
     let z = z_of(Id::S3);
@@ -61,7 +61,7 @@ fn keil2004_receding_disk_responds_only_at_the_start() {
     assert!(late <= 1e-3 * max(&z));
 }
 
-/// §3.5.4: a uniform dark disk on white has no ON contrast; only the ε term responds.
+/// keil2004 §5 item 4: a uniform dark disk on white has no ON contrast; only the ε term responds.
 #[test]
 fn keil2004_single_polarity_uses_only_the_epsilon_term() {
     let s = run(&mut model(), &get(Id::S1, N));
@@ -76,11 +76,11 @@ fn keil2004_single_polarity_uses_only_the_epsilon_term() {
         s2 / max(&z)
     );
     assert!(max(&z) * 50.0 <= s2);
-    // Prototype (§3.5.4): 2.1e−4.
+    // Prototype (keil2004 §5 item 4): 2.1e−4.
     assert!((max(&z) / 2.1e-4 - 1.0).abs() < 0.02, "max {}", max(&z));
 }
 
-/// §3.5.5: onset burst to a drifting grating (S6), then adaptation.
+/// keil2004 §5 item 5: onset burst to a drifting grating (S6), then adaptation.
 #[test]
 fn keil2004_adapts_to_background_motion() {
     let z = z_of(Id::S6);
@@ -91,7 +91,7 @@ fn keil2004_adapts_to_background_motion() {
     assert!((z[40] / max(&z) - 0.23).abs() < 0.01);
 }
 
-/// §3.5.6: approach over the drifting grating (S7) still rises strongly at the end.
+/// keil2004 §5 item 6: approach over the drifting grating (S7) still rises strongly at the end.
 #[test]
 fn keil2004_detects_approach_over_drifting_grating() {
     let z = z_of(Id::S7);
@@ -103,7 +103,7 @@ fn keil2004_detects_approach_over_drifting_grating() {
     assert!((ratio - 39.0).abs() < 1.5);
 }
 
-/// §3.3: the lateral (diffusion) part reduces the response to a translating disk.
+/// keil2004 §5 (last paragraph) and §6: the lateral (diffusion) part reduces the response to a translating disk.
 #[test]
 fn keil2004_diffusion_reduces_translation_response() {
     let frames = get(Id::S5, N);

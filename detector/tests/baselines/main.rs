@@ -1,7 +1,7 @@
 //! Tests of the baseline looming detectors (`soc`, `keil2004`, `cizek2019`, `fu2020`)
-//! against the behaviours and golden numbers of `reference/baselines.md`.
+//! against the behaviours and golden numbers of `docs/detectors.md`.
 //!
-//! Stimuli are the reference stimuli of baselines.md §6, rendered in [`stimuli`].
+//! Stimuli are the reference stimuli of docs/detectors.md, test-stimuli §2, rendered in [`stimuli`].
 //! Thresholds are the spec's; measured values are printed (`--nocapture`) for the report.
 
 mod cizek2019;

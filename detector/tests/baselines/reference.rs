@@ -1,5 +1,5 @@
-//! Literal per-pixel ports of the pseudo-code of baselines.md §3.4 (keil2004), §4.4
-//! (cizek2019) and §5.3 / `lgmd2OpenSource.cs` (fu2020): clamped indices, no buffers
+//! Literal per-pixel ports of the per-frame algorithms of docs/detectors.md, keil2004 §2,
+//! cizek2019 §2 and fu2020 §2 / `lgmd2OpenSource.cs`: clamped indices, no buffers
 //! reused, no fused passes. The optimised models must agree with them bit for bit, which
 //! shows that the row-slice stencils and fused loops do not change any result.
 

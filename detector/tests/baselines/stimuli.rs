@@ -1,5 +1,5 @@
-//! The reference test stimuli of baselines.md §6 (S0–S7) and the golden stimulus GOLD-1
-//! of §7, rendered analytically here so that these tests do not depend on the crate's
+//! The reference test stimuli of docs/detectors.md, test-stimuli §2 (S0–S7) and the golden stimulus
+//! GOLD-1 of test-stimuli §3, rendered analytically here so that these tests do not depend on the crate's
 //! stimulus module.
 
 use std::collections::HashMap;
@@ -10,7 +10,7 @@ use loomlab_detector::Frame;
 /// Frames of one stimulus.
 pub type Video = Arc<Vec<Frame>>;
 
-/// Approach geometry of §6: disk radius 0.25 m, 50 km/h, 10 m → 0.1 m, 120 Hz.
+/// Approach geometry of docs/detectors.md, test-stimuli §1: disk radius 0.25 m, 50 km/h, 10 m → 0.1 m, 120 Hz.
 pub const FPS: f64 = 120.0;
 const L: f64 = 0.25;
 const S0: f64 = 10.0;
@@ -57,7 +57,7 @@ pub fn grating(n: usize, i: usize, k: usize) -> f64 {
 }
 
 /// One frame: a disk of radius `r` centred at `(cx, cy)` (x = column, y = row) over a
-/// background, 4×4 supersampled (§6).
+/// background, 4×4 supersampled (test-stimuli §1).
 pub fn disk_frame(n: usize, cx: f64, cy: f64, r: f64, texture: Texture, bg: Background, k: usize) -> Frame {
     let mut data = vec![0f32; n * n];
     for i in 0..n {
@@ -99,7 +99,7 @@ fn approach(n: usize, texture: Texture, bg: Background) -> Vec<Frame> {
         .collect()
 }
 
-/// Stimulus ids of §6.
+/// Stimulus ids of docs/detectors.md, test-stimuli §2.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Id {
     /// Static random image, 30 frames.
@@ -201,7 +201,7 @@ pub fn get(id: Id, n: usize) -> Video {
     cache.lock().unwrap().entry((id, n)).or_insert(v).clone()
 }
 
-/// GOLD-1 of §7: n = 32, 16 frames, four-quadrant checker disk on 0.5, exact (no AA).
+/// GOLD-1 of docs/detectors.md, test-stimuli §3: n = 32, 16 frames, four-quadrant checker disk on 0.5, exact (no AA).
 pub fn gold1() -> Vec<Frame> {
     const R: [i64; 16] = [4, 5, 6, 7, 8, 10, 12, 14, 17, 20, 24, 29, 35, 42, 50, 60];
     let n = 32usize;
