@@ -1,8 +1,8 @@
-//! [`EscapeEpisode`]: one closed-loop episode stepped by an external agent.
+//! [`EscapeEnv`]: one closed-loop episode stepped by an external agent.
 
 use std::sync::Arc;
 
-use loomlab_agents::{ContinuousAction, DiscreteAction, EscapeAgent, TriggerSignal, VelocityCommand};
+use loomlab_agents::{ContinuousAction, DiscreteAction, EscapeAgent, EscapeController, TriggerSignal, VelocityCommand};
 use loomlab_detector::{DetectorSet, Frame};
 use loomlab_sim::{GpuContext, RobotState, Sim, StepOutput};
 use serde::{Deserialize, Serialize};
@@ -11,7 +11,7 @@ use super::reward::StepFacts;
 use super::{ActionKind, EnvError, EnvOptions, EnvScenario, EpisodeRng, RewardTerms, shared_gpu_context};
 use loomlab_scenarios::metrics::{DetectorEpisode, GroundTruth, TraceSample, score_detector_episode};
 use loomlab_scenarios::schema::{EpisodeSpec, Scenario};
-use loomlab_scenarios::truth::open_loop_truth;
+use loomlab_scenarios::truth::{open_loop_truth, threat_deadline};
 
 /// Number of entries of [`Observation::robot`].
 pub const ROBOT_DIM: usize = 7;
@@ -61,8 +61,8 @@ impl Action {
 /// ±[`SIGNAL_LIMIT`] (observations must be finite numbers within finite bounds).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Observation {
-    /// Per detector (in [`EscapeEpisode::detector_labels`] order): `[output, aux…]`, names in
-    /// [`EscapeEpisode::signal_names`].
+    /// Per detector (in [`EscapeEnv::detector_labels`] order): `[output, aux…]`, names in
+    /// [`EscapeEnv::signal_names`].
     pub signals: Vec<Vec<f32>>,
     /// The angular-size estimate θ̂ in degrees of the first detector that gives one (`hopfield`),
     /// 0 when none of the chosen detectors does.
@@ -130,7 +130,7 @@ pub struct StepInfo {
     pub outcome: Option<EpisodeSummary>,
 }
 
-/// The result of [`EscapeEpisode::step`] (Gymnasium's `(obs, reward, terminated, truncated, info)`).
+/// The result of [`EscapeEnv::step`] (Gymnasium's `(obs, reward, terminated, truncated, info)`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct StepResult {
     /// The observation after the step.
@@ -154,7 +154,7 @@ pub enum EpisodeStart {
         /// Seed-stream state before the episode's draws.
         rng_state: u64,
     },
-    /// A given scenario episode and simulator seed ([`EscapeEpisode::reset_to_episode`]).
+    /// A given scenario episode and simulator seed ([`EscapeEnv::reset_to_episode`]).
     Fixed {
         /// Scenario episode index.
         index: usize,
@@ -193,6 +193,8 @@ struct Running {
     actions: Vec<Action>,
     /// Open-loop contact time of the threat (s); `None`: no threat.
     t_contact_s: Option<f64>,
+    /// Escape deadline of the threat (s); `None`: no threat, or unavoidable.
+    t_deadline_s: Option<f64>,
     reference: Option<usize>,
     start: RobotState,
     last_robot: RobotState,
@@ -205,8 +207,9 @@ struct Running {
     last_cruise: VelocityCommand,
 }
 
-/// One closed-loop episode at a time, stepped by an external agent (the engine of the Python
-/// `loomlab.EscapeEnv`; usable from Rust as it is).
+/// One closed-loop episode at a time, stepped by an external agent: the environment of the Python
+/// `loomlab.EscapeEnv` (which wraps the native class of the same name, `loomlab._native.EscapeEnv`),
+/// usable from Rust as it is.
 ///
 /// The scenario is expanded once ([`loomlab_scenarios::schema`]: sweeps × random draws × repeats; scenarios with
 /// a `[random]` table are re-expanded with a fresh seed at every reset). Each
@@ -216,7 +219,7 @@ struct Running {
 /// renders, steps the detectors and returns observation, reward, termination and ground truth; the
 /// last step scores the episode with [`loomlab_scenarios::metrics`]. Same seed and actions ⇒ same results (on
 /// the same GPU adapter).
-pub struct EscapeEpisode {
+pub struct EscapeEnv {
     scenario: EnvScenario,
     options: EnvOptions,
     base: Scenario,
@@ -231,9 +234,9 @@ pub struct EscapeEpisode {
     running: Option<Running>,
 }
 
-impl std::fmt::Debug for EscapeEpisode {
+impl std::fmt::Debug for EscapeEnv {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("EscapeEpisode")
+        f.debug_struct("EscapeEnv")
             .field("scenario", &self.base.name)
             .field("n", &self.n)
             .field("detectors", &self.detector_labels())
@@ -267,7 +270,7 @@ fn deviation(a: VelocityCommand, b: VelocityCommand) -> [f64; 3] {
     ]
 }
 
-impl EscapeEpisode {
+impl EscapeEnv {
     /// Builds the environment: expands the scenario, validates the options, builds the detectors and
     /// finds a GPU adapter (shared by every environment of the process).
     pub fn new(scenario: EnvScenario, options: EnvOptions) -> Result<Self, EnvError> {
@@ -465,6 +468,9 @@ impl EscapeEpisode {
             }
             None => Sim::with_context(&spec.world, sim_seed, Arc::clone(&self.ctx))?,
         };
+        let mut sim = sim;
+        let escape = EscapeController::new(spec.controller.clone())?;
+        let t_deadline_s = threat_deadline(&spec, sim_seed, &truth, &escape, &mut sim)?.and_then(|d| d.t_s);
         for (i, (slot, d)) in self.detectors.iter_mut().zip(&spec.detectors).enumerate() {
             if slot.params != d.params {
                 self.agent.replace_detector(i, d.build(self.n as usize)?);
@@ -479,7 +485,6 @@ impl EscapeEpisode {
         ctrl.threshold = self.detectors[0].threshold;
         self.agent.set_controller(ctrl)?;
         self.agent.reset();
-        let mut sim = sim;
         let first = sim.observe()?;
         let start = first.robot;
         let cruise = spec.cruise.command_at(0.0);
@@ -490,6 +495,7 @@ impl EscapeEpisode {
             frames,
             actions: Vec::new(),
             t_contact_s: truth.t_contact_s(),
+            t_deadline_s,
             reference: truth.reference,
             start,
             last_robot: start,
@@ -669,6 +675,7 @@ impl EscapeEpisode {
             let truth = GroundTruth {
                 threat: r.t_contact_s.is_some(),
                 t_contact_s: r.t_contact_s,
+                t_deadline_s: r.t_deadline_s,
                 collision: r.collision,
             };
             let mut scored = Vec::with_capacity(nd);

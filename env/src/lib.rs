@@ -1,9 +1,9 @@
 //! A step-by-step closed-loop episode API for external agents (the engine of the Python Gymnasium
 //! environment `loomlab/Escape-v0`, usable from Rust as it is).
 //!
-//! - [`EscapeEpisode`]: one environment. `reset(seed)` → [`Observation`], `step(action)` →
+//! - [`EscapeEnv`]: one environment. `reset(seed)` → [`Observation`], `step(action)` →
 //!   [`StepResult`] `{ obs, reward, terminated, truncated, info }`.
-//! - [`VecEscape`]: N environments stepped on Rust threads (rayon) with next-step auto-reset.
+//! - [`EscapeVectorEnv`]: N environments stepped on Rust threads (rayon) with next-step auto-reset.
 //! - [`EnvScenario`]: a scenario file in the suite schema ([`loomlab_scenarios::schema`]: world, cruise command,
 //!   detectors with thresholds, escape controller, episode length, sweeps and random ranges);
 //!   [`EnvOptions`]: what an environment adds (chosen detectors, frame size, observed frame, action
@@ -30,7 +30,7 @@
 //! [`EpisodeRng`]); each reset draws a simulator seed and one of the scenario's expanded episodes
 //! from it (scenarios with `[random]` ranges are re-expanded with a fresh seed each time), so a
 //! seed and a sequence of actions reproduce an episode exactly (same frames on the same GPU
-//! adapter). `reset(None)` continues the stream. [`EscapeEpisode::reset_to_episode`] starts a given
+//! adapter). `reset(None)` continues the stream. [`EscapeEnv::reset_to_episode`] starts a given
 //! scenario episode with its own seed, as `loomlab run` runs it.
 //!
 //! # Escape controller baseline
@@ -51,14 +51,14 @@ use std::sync::{Arc, OnceLock};
 use loomlab_sim::GpuContext;
 
 pub use episode::{
-    Action, EpisodeSnapshot, EpisodeStart, EpisodeSummary, EscapeEpisode, Observation, ROBOT_DIM, ROBOT_FIELDS,
+    Action, EpisodeSnapshot, EpisodeStart, EpisodeSummary, EscapeEnv, Observation, ROBOT_DIM, ROBOT_FIELDS,
     ROBOT_LIMIT, SIGNAL_LIMIT, StepInfo, StepResult,
 };
 pub use error::{EnvError, ErrorKind};
 pub use options::{ActionKind, EnvOptions, MAX_FRAME_SIZE};
 pub use reward::{DODGE_TOLERANCE, RewardConfig, RewardTerms};
 pub use scenario::EnvScenario;
-pub use vector::VecEscape;
+pub use vector::EscapeVectorEnv;
 
 /// The process-wide GPU context shared by every environment (created on first use; the error,
 /// e.g. no adapter, is remembered and reported again).

@@ -1,4 +1,4 @@
-//! The reward of the step-by-step environment ([`super::EscapeEpisode`]).
+//! The reward of the step-by-step environment ([`super::EscapeEnv`]).
 //!
 //! Per step of length `dt` (one camera period) the reward is the sum of
 //! - `+ survival_per_s · dt` while the robot is untouched (also on the last step of an episode

@@ -43,7 +43,7 @@ fn options(kind: ActionKind) -> EnvOptions {
     }
 }
 
-fn run(env: &mut EscapeEpisode, seed: u64, action: impl Fn(usize) -> Action) -> Vec<StepResult> {
+fn run(env: &mut EscapeEnv, seed: u64, action: impl Fn(usize) -> Action) -> Vec<StepResult> {
     env.reset(Some(seed)).unwrap();
     let mut out = Vec::new();
     for i in 0.. {
@@ -59,7 +59,7 @@ fn run(env: &mut EscapeEpisode, seed: u64, action: impl Fn(usize) -> Action) -> 
 
 #[test]
 fn cruising_into_a_ball_is_a_threat_a_collision_and_scored() {
-    let mut env = EscapeEpisode::new(scenario(), options(ActionKind::Discrete)).unwrap();
+    let mut env = EscapeEnv::new(scenario(), options(ActionKind::Discrete)).unwrap();
     let (obs, info) = env.reset(Some(3)).unwrap();
     assert!(info.threat);
     let tc = info.t_contact_s.unwrap();
@@ -101,7 +101,7 @@ fn cruising_into_a_ball_is_a_threat_a_collision_and_scored() {
 
 #[test]
 fn dodging_left_evades_and_is_scored_as_evaded() {
-    let mut env = EscapeEpisode::new(scenario(), options(ActionKind::Discrete)).unwrap();
+    let mut env = EscapeEnv::new(scenario(), options(ActionKind::Discrete)).unwrap();
     let left = DiscreteAction::DodgeLeft.index() as i64;
     let steps = run(&mut env, 5, |_| Action::Discrete(left));
     let last = steps.last().unwrap();
@@ -118,8 +118,8 @@ fn dodging_left_evades_and_is_scored_as_evaded() {
 #[test]
 fn same_seed_and_actions_repeat_exactly_and_snapshots_replay() {
     let act = |i: usize| Action::Continuous([0.3, if i % 7 == 0 { 0.5 } else { -0.2 }, (i as f32 * 0.37).sin()]);
-    let mut a = EscapeEpisode::new(scenario(), options(ActionKind::Continuous)).unwrap();
-    let mut b = EscapeEpisode::new(scenario(), options(ActionKind::Continuous)).unwrap();
+    let mut a = EscapeEnv::new(scenario(), options(ActionKind::Continuous)).unwrap();
+    let mut b = EscapeEnv::new(scenario(), options(ActionKind::Continuous)).unwrap();
     let ra = run(&mut a, 11, act);
     let rb = run(&mut b, 11, act);
     assert_eq!(ra, rb);
@@ -130,7 +130,7 @@ fn same_seed_and_actions_repeat_exactly_and_snapshots_replay() {
         a.step(act(i)).unwrap();
     }
     let snap = a.snapshot();
-    let mut c = EscapeEpisode::new(scenario(), options(ActionKind::Continuous)).unwrap();
+    let mut c = EscapeEnv::new(scenario(), options(ActionKind::Continuous)).unwrap();
     c.restore(&snap).unwrap();
     for i in 20..40 {
         assert_eq!(a.step(act(i)).unwrap(), c.step(act(i)).unwrap());
@@ -141,7 +141,7 @@ fn same_seed_and_actions_repeat_exactly_and_snapshots_replay() {
 
 #[test]
 fn bad_actions_are_action_errors_and_change_nothing() {
-    let mut env = EscapeEpisode::new(scenario(), options(ActionKind::Continuous)).unwrap();
+    let mut env = EscapeEnv::new(scenario(), options(ActionKind::Continuous)).unwrap();
     assert_eq!(
         env.step(Action::Continuous([0.0; 3])).unwrap_err().kind(),
         ErrorKind::Other
@@ -156,7 +156,7 @@ fn bad_actions_are_action_errors_and_change_nothing() {
         assert_eq!(e.kind(), ErrorKind::Action, "{e}");
     }
     assert!(env.snapshot().actions.is_empty());
-    let mut d = EscapeEpisode::new(scenario(), options(ActionKind::Discrete)).unwrap();
+    let mut d = EscapeEnv::new(scenario(), options(ActionKind::Discrete)).unwrap();
     d.reset(Some(1)).unwrap();
     let e = d.step(Action::Discrete(4)).unwrap_err();
     assert_eq!(e.kind(), ErrorKind::Action);
@@ -169,7 +169,7 @@ fn options_are_validated_with_the_key() {
         frame_size: Some(4),
         ..Default::default()
     };
-    let e = EscapeEpisode::new(scenario(), bad).unwrap_err();
+    let e = EscapeEnv::new(scenario(), bad).unwrap_err();
     assert_eq!(e.kind(), ErrorKind::Scenario);
     assert!(e.to_string().contains("frame_size"), "{e}");
     let e = EnvOptions::from_json(r#"{"frame_sise": 64}"#).unwrap_err().to_string();
@@ -178,7 +178,7 @@ fn options_are_validated_with_the_key() {
         detectors: Some(vec!["hopfeld".into()]),
         ..Default::default()
     };
-    let e = EscapeEpisode::new(scenario(), unknown).unwrap_err();
+    let e = EscapeEnv::new(scenario(), unknown).unwrap_err();
     assert_eq!(e.kind(), ErrorKind::Detector);
 }
 
@@ -189,9 +189,9 @@ fn vector_env_equals_single_envs_with_next_step_autoreset() {
         ..options(ActionKind::Continuous)
     };
     let n = 3;
-    let mut vec = VecEscape::new(scenario(), opts.clone(), n).unwrap();
-    let mut singles: Vec<EscapeEpisode> = (0..n)
-        .map(|_| EscapeEpisode::new(scenario(), opts.clone()).unwrap())
+    let mut vec = EscapeVectorEnv::new(scenario(), opts.clone(), n).unwrap();
+    let mut singles: Vec<EscapeEnv> = (0..n)
+        .map(|_| EscapeEnv::new(scenario(), opts.clone()).unwrap())
         .collect();
     let v0 = vec.reset(Some(100)).unwrap();
     for (i, s) in singles.iter_mut().enumerate() {
@@ -227,33 +227,44 @@ fn vector_env_equals_single_envs_with_next_step_autoreset() {
     assert_eq!(e.kind(), ErrorKind::Action);
 }
 
+/// A sweep of [`HEAD_ON`] over the miss distance: threats hit head-on or off-centre, and a near
+/// miss (no threat).
+const MISS_SWEEP: &str = "\n[sweep]\n\"world.projectiles.0.miss_distance_m\" = [0.0, 0.35, 1.5]\n";
+
+/// The scenario runner, for the whole process: its worker threads keep renderers in thread-local
+/// pools, whose destruction at thread exit panics inside wgpu (noted for the runner's owner), so
+/// episodes are run on its pool threads, which never exit.
+fn runner() -> &'static loomlab_scenarios::Runner {
+    static RUNNER: std::sync::OnceLock<loomlab_scenarios::Runner> = std::sync::OnceLock::new();
+    RUNNER.get_or_init(|| loomlab_scenarios::Runner::with_context(shared_gpu_context().unwrap(), Some(1)).unwrap())
+}
+
+/// Runs scenario episode `index` to its end, choosing each action from the last step's info.
+fn run_episode(env: &mut EscapeEnv, index: usize, policy: impl Fn(&StepInfo) -> Action) -> StepResult {
+    let (_, mut info) = env.reset_to_episode(index, None).unwrap();
+    assert_eq!(info.episode, index);
+    loop {
+        let r = env.step(policy(&info)).unwrap();
+        if r.terminated || r.truncated {
+            return r;
+        }
+        info = r.info;
+    }
+}
+
 #[test]
 fn cruising_reproduces_the_runner_open_loop_scores() {
-    // a sweep over the miss distance: a threat and a near miss
-    let text = format!("{HEAD_ON}\n[sweep]\n\"world.projectiles.0.miss_distance_m\" = [0.0, 1.5]\n");
-    let mut env = EscapeEpisode::new(
-        EnvScenario::from_toml(text.clone(), "sweep.toml"),
+    let text = format!("{HEAD_ON}{MISS_SWEEP}");
+    let mut env = EscapeEnv::new(
+        EnvScenario::from_toml(text, "sweep.toml"),
         options(ActionKind::Discrete),
     )
     .unwrap();
-    assert_eq!(env.episodes().len(), 2);
-    // A runner that lives for the whole process: its worker threads keep renderers in thread-local
-    // pools, whose destruction at thread exit panics inside wgpu (noted for the runner's owner), so
-    // episodes are run on its pool threads, which never exit.
-    static RUNNER: std::sync::OnceLock<loomlab_scenarios::Runner> = std::sync::OnceLock::new();
-    let runner = RUNNER.get_or_init(|| loomlab_scenarios::Runner::with_context(shared_gpu_context().unwrap(), Some(1)).unwrap());
-    for index in 0..2 {
+    assert_eq!(env.episodes().len(), 3);
+    for index in [0, 2] {
         let spec = env.episodes()[index].clone();
-        let run = runner.run(&[&spec], |_, _| Ok(())).unwrap().remove(0);
-        let (_, info) = env.reset_to_episode(index, None).unwrap();
-        assert_eq!(info.episode, index);
-        assert_eq!(info.threat, index == 0);
-        let last = loop {
-            let r = env.step(Action::Discrete(0)).unwrap();
-            if r.terminated || r.truncated {
-                break r;
-            }
-        };
+        let run = runner().run(&[&spec], |_, _| Ok(())).unwrap().remove(0);
+        let last = run_episode(&mut env, index, |_| Action::Discrete(0));
         let out = last.info.outcome.unwrap();
         assert_eq!(out.threat, index == 0);
         for (mine, theirs) in out.detectors.iter().zip(&run.outcome.detectors) {
@@ -268,10 +279,78 @@ fn cruising_reproduces_the_runner_open_loop_scores() {
     }
 }
 
+/// The threshold baseline: feeding the shadow escape controller (`info.controller_continuous` /
+/// `controller_discrete`) back as the action drives the robot as the runner's closed loop of the
+/// first detector does, so the collision outcome (and its time, within a frame) is the runner's.
+/// Every episode of [`MISS_SWEEP`] (3) as it is and with a slower ball (6 m/s from 6 m) and a 1°
+/// threshold, with continuous and with discrete actions. (At n = 32 hopfield's θ̂ crosses its
+/// threshold only a few frames before contact, so these controllers trigger but do not evade: the
+/// post-alarm tails are compared, an evasion is not exercised here.)
+#[test]
+fn threshold_agent_reproduces_the_runner_closed_loop() {
+    let slow = HEAD_ON
+        .replacen("id = \"hopfield\"", "id = \"hopfield\"\nthreshold = 1.0", 1)
+        .replace("launch_distance_m = 8.0", "launch_distance_m = 6.0")
+        .replace("speed_mps = 10.0", "speed_mps = 6.0");
+    let (mut tails, mut hit) = (0, 0);
+    for head_on in [HEAD_ON.to_string(), slow] {
+        let (t, h) = threshold_agent_matches_runner(&format!("{head_on}{MISS_SWEEP}"));
+        tails += t;
+        hit += h;
+    }
+    assert!(tails >= 2, "the runner simulated post-alarm tails ({tails})");
+    assert!(hit >= 1, "some threat hits the robot despite the controller ({hit})");
+}
+
+/// Runs every episode of a scenario with the threshold agent and the runner; returns how many
+/// episodes had a simulated post-alarm tail and how many ended in a collision.
+fn threshold_agent_matches_runner(text: &str) -> (usize, usize) {
+    let sc = EnvScenario::from_toml(text, "sweep.toml");
+    let mut cont = EscapeEnv::new(sc.clone(), options(ActionKind::Continuous)).unwrap();
+    let mut disc = EscapeEnv::new(sc, options(ActionKind::Discrete)).unwrap();
+    let (mut tails, mut hit) = (0, 0);
+    for index in 0..cont.episodes().len() {
+        let spec = cont.episodes()[index].clone();
+        let run = runner().run(&[&spec], |_, _| Ok(())).unwrap().remove(0);
+        let theirs = &run.closed_loop[0];
+        assert_eq!(theirs.label, cont.detector_labels()[0]);
+        tails += usize::from(theirs.simulated);
+        let threat = run.outcome.detectors[0].threat;
+        hit += usize::from(theirs.collision_t_s.is_some());
+        let runs = [
+            run_episode(&mut cont, index, |i| Action::Continuous(i.controller_continuous)),
+            run_episode(&mut disc, index, |i| {
+                Action::Discrete(i.controller_discrete.index() as i64)
+            }),
+        ];
+        for last in runs {
+            let out = last.info.outcome.as_ref().unwrap();
+            assert_eq!(out.threat, threat, "episode {index}");
+            assert_eq!(
+                out.collision,
+                theirs.collision_t_s.is_some(),
+                "episode {index}: env collision {} at {} s, runner {:?} ({theirs:?})",
+                out.collision,
+                last.info.t_s,
+                theirs.collision_t_s
+            );
+            assert_eq!(out.detectors[0].collision, run.outcome.detectors[0].collision);
+            if let Some(tc) = theirs.collision_t_s {
+                assert!(
+                    (last.info.t_s - tc).abs() <= cont.dt() + 1e-9,
+                    "episode {index}: {} vs {tc}",
+                    last.info.t_s
+                );
+            }
+        }
+    }
+    (tails, hit)
+}
+
 #[test]
 fn dodging_without_a_threat_costs_the_unnecessary_dodge_penalty() {
     let text = HEAD_ON.replace("radius_m = 0.2", "radius_m = 0.2\nmiss_distance_m = 2.0");
-    let mut env = EscapeEpisode::new(EnvScenario::from_toml(text, "miss.toml"), options(ActionKind::Discrete)).unwrap();
+    let mut env = EscapeEnv::new(EnvScenario::from_toml(text, "miss.toml"), options(ActionKind::Discrete)).unwrap();
     let (_, info) = env.reset(Some(0)).unwrap();
     assert!(!info.threat && info.t_contact_s.is_none());
     assert!(info.angular_size_deg.is_some(), "the ball is the reference object");

@@ -1,21 +1,22 @@
-//! [`VecEscape`]: N environments stepped in parallel on Rust threads.
+//! [`EscapeVectorEnv`]: N environments stepped in parallel on Rust threads.
 
 use rayon::prelude::*;
 
-use super::{Action, EnvError, EnvOptions, EnvScenario, EscapeEpisode, Observation, StepInfo, StepResult};
+use super::{Action, EnvError, EnvOptions, EnvScenario, EscapeEnv, Observation, StepInfo, StepResult};
 
-/// N [`EscapeEpisode`]s stepped in parallel (rayon), with Gymnasium's **next-step** auto-reset:
+/// N [`EscapeEnv`]s stepped in parallel (rayon), with Gymnasium's **next-step** auto-reset:
 /// after an environment's episode ends (terminated or truncated), its next `step` ignores the action,
 /// resets it (continuing its seed stream) and returns the first observation with reward 0 and
 /// `terminated = truncated = false`. So the results equal those of N single environments driven
-/// the same way (Gymnasium's `SyncVectorEnv` in its default mode).
+/// the same way (Gymnasium's `SyncVectorEnv` in its default mode). The engine of the Python
+/// `loomlab.EscapeVectorEnv` (through the native class of the same name).
 #[derive(Debug)]
-pub struct VecEscape {
-    envs: Vec<EscapeEpisode>,
+pub struct EscapeVectorEnv {
+    envs: Vec<EscapeEnv>,
     autoreset: Vec<bool>,
 }
 
-impl VecEscape {
+impl EscapeVectorEnv {
     /// Builds `num_envs` environments of the same scenario and options (sharing one GPU context).
     pub fn new(scenario: EnvScenario, options: EnvOptions, num_envs: usize) -> Result<Self, EnvError> {
         if num_envs == 0 {
@@ -23,7 +24,7 @@ impl VecEscape {
         }
         let ctx = super::shared_gpu_context()?;
         let envs = (0..num_envs)
-            .map(|_| EscapeEpisode::with_context(scenario.clone(), options.clone(), ctx.clone()))
+            .map(|_| EscapeEnv::with_context(scenario.clone(), options.clone(), ctx.clone()))
             .collect::<Result<Vec<_>, _>>()?;
         Ok(Self {
             autoreset: vec![false; num_envs],
@@ -37,7 +38,7 @@ impl VecEscape {
     }
 
     /// The environments (for their metadata: detector ids, signal names, frame size…).
-    pub fn envs(&self) -> &[EscapeEpisode] {
+    pub fn envs(&self) -> &[EscapeEnv] {
         &self.envs
     }
 
