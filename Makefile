@@ -7,7 +7,7 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # Mesa's Vulkan loader complains on every device creation when XDG_RUNTIME_DIR is unset (CI, containers).
 export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 $$d && echo $$d)
 
-.PHONY: run test deps lint rust-test python-test python-env suite-check sweep bless bench figures fmt
+.PHONY: run test deps lint lint-rust lint-python rust-test python-test python-env python-examples suite-check sweep bless bench figures fmt
 
 ## Run the default scenario suite: prints the results table, writes $(OUT)/report.json and plots.
 run: deps
@@ -20,10 +20,22 @@ deps:
 	  $(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq mesa-vulkan-drivers libvulkan1; \
 	fi
 
-## Formatting and lints (warnings are errors).
-lint:
+## Formatting and lints (warnings are errors): the root workspace, and the Python side (the pyo3
+## crate in python/, its own workspace, ruff, and the stubs checked against the built module).
+lint: lint-rust lint-python
+
+lint-rust:
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
+
+# pyo3's build script needs an interpreter: the venv's (so clippy reuses maturin's build of pyo3).
+PY_CARGO_ENV = PYO3_PYTHON=$(abspath $(VENV))/bin/python CARGO_TARGET_DIR=$${CARGO_TARGET_DIR:-$(CURDIR)/target}
+lint-python: python-env
+	cd python && $(CARGO) fmt -- --check
+	cd python && $(PY_CARGO_ENV) $(CARGO) clippy --all-targets -- -D warnings
+	$(VENV)/bin/ruff check python
+	$(VENV)/bin/ruff format --check python
+	cd python && $(abspath $(VENV))/bin/python -m mypy.stubtest loomlab._native --allowlist stubtest-allowlist.txt
 
 ## All Rust tests (unit, integration, doc).
 rust-test: deps
@@ -38,14 +50,25 @@ python-env: deps
 	  echo "installing python3-venv ..."; rm -rf $(VENV); \
 	  $(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv && \
 	  $(PYTHON) -m venv $(VENV); }
-	$(VENV)/bin/python -m pip install -q --upgrade pip maturin numpy gymnasium pytest "ray[tune]>=2.9"
+	$(VENV)/bin/python -m pip install -q --upgrade pip maturin numpy gymnasium pytest "ray[tune]>=2.9" ruff mypy
 	cd python && VIRTUAL_ENV=$(abspath $(VENV)) CARGO_TARGET_DIR=$${CARGO_TARGET_DIR:-$(CURDIR)/target} \
 	  $(abspath $(VENV))/bin/maturin develop
 
 ## pytest, the sweep tests on a local Ray with 2 CPUs included (the RLlib training test needs torch,
-## which is not installed here: `pip install 'loomlab[rllib]'` to run it).
+## which is not installed here: `pip install 'loomlab[rllib]'` to run it), then every example in
+## python/examples for a few steps. The sweep tests run the `loomlab` binary: built here first.
 python-test: python-env
-	cd python && $(abspath $(VENV))/bin/python -m pytest -q
+	$(CARGO) build --bin loomlab
+	cd python && LOOMLAB_BIN=$(CURDIR)/target/debug/loomlab $(abspath $(VENV))/bin/python -m pytest -q
+	$(MAKE) --no-print-directory python-examples
+
+## Smoke-run every example for a few steps (`--smoke`); those whose optional dependency (torch,
+## stable-baselines3, RLlib) is missing say so and exit 0 after importing everything else.
+python-examples: python-env
+	cd python/examples && for ex in *.py; do \
+	  case $$ex in _*) continue;; esac; \
+	  echo "== $$ex --smoke"; $(abspath $(VENV))/bin/python $$ex --smoke || exit 1; \
+	done
 
 ## A detector-parameter sweep on a local Ray: `make sweep SWEEP=sweeps/baselines_random.toml`.
 SWEEP ?= sweeps/hopfield_threshold_alpha.toml

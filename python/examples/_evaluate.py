@@ -1,11 +1,33 @@
-"""Shared by the example agents: run episodes and print collision and false-alarm rates."""
+"""Shared by the example agents: run episodes and print collision and false-alarm rates, and the
+``--smoke`` mode every example has (``make python-test`` runs each for a few steps)."""
 
 from __future__ import annotations
 
+import argparse
+import sys
 from typing import Callable, Dict, List
 
 import gymnasium as gym
 import numpy as np
+
+SMOKE_STEPS = 20
+"""Steps per episode in ``--smoke`` runs (episodes are truncated there)."""
+
+
+def add_smoke_flag(p: argparse.ArgumentParser) -> None:
+    """Adds ``--smoke``: run for a few steps only (1 episode of at most 20 steps at n = 32)."""
+    p.add_argument(
+        "--smoke",
+        action="store_true",
+        help=f"a quick check: one short episode ({SMOKE_STEPS} steps, n = 32) instead of the full run",
+    )
+
+
+def skip_missing(example: str, needs: str, install: str, error: ImportError) -> None:
+    """Ends a ``--smoke`` run whose optional dependency is missing: says so (never silently) and
+    exits 0, everything before the optional import having run."""
+    print(f"SKIPPED {example}: needs {needs}, not installed ({error}); `{install}` to run it", flush=True)
+    sys.exit(0)
 
 
 def evaluate(env: gym.Env, policy: Callable[[dict, dict], object], episodes: int, seed: int = 0) -> Dict[str, float]:
@@ -46,8 +68,10 @@ def evaluate(env: gym.Env, policy: Callable[[dict, dict], object], episodes: int
         "mean_return": float(np.mean(returns)),
     }
     print(f"episodes {episodes} (threats {threats}), mean return {rates['mean_return']:.3f}")
-    print(f"  agent: collision rate {rates['collision_rate']:.3f}, false-alarm rate "
-          + (f"{rates['false_alarm_rate']:.3f}" if no_threat else "n/a (no episode without a threat)"))
+    print(
+        f"  agent: collision rate {rates['collision_rate']:.3f}, false-alarm rate "
+        + (f"{rates['false_alarm_rate']:.3f}" if no_threat else "n/a (no episode without a threat)")
+    )
     for det_id, c in det.items():
         pos, neg = c["hit"] + c["miss"], c["false_alarm"] + c["correct_rejection"]
         hit = f"{c['hit'] / pos:.3f}" if pos else "n/a"

@@ -1,6 +1,6 @@
 """Environment steps per second from Python: single env and native vector env (N = 8), n = 64 and 128.
 
-    python examples/bench_env.py [--steps 600] [--sizes 64 128] [--num-envs 8]
+    python examples/bench_env.py [--steps 600] [--sizes 64 128] [--num-envs 8] [--smoke]
 
 Steps use the default scenario, continuous zero actions (cruise stops) and no frames in the
 observation; each measurement starts after a warm-up reset. Vector steps/s counts env steps
@@ -48,7 +48,10 @@ def main() -> None:
     p.add_argument("--sizes", type=int, nargs="+", default=[64, 128])
     p.add_argument("--num-envs", type=int, default=8)
     p.add_argument("--frames", action="store_true", help="observe frames too")
+    p.add_argument("--smoke", action="store_true", help="a quick check: 20 steps at n = 32, 2 envs")
     args = p.parse_args()
+    if args.smoke:
+        args.steps, args.sizes, args.num_envs = 20, [32], 2
     env = loomlab.EscapeEnv(frame_size=32)
     print(f"adapter: {env.adapter}")
     print(f"{'n':>5} {'single steps/s':>15} {'vector N=' + str(args.num_envs) + ' steps/s':>22}")

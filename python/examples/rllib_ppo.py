@@ -4,12 +4,18 @@ Needs RLlib and torch: ``pip install 'loomlab[rllib]'``. Starts a local Ray (or 
 in ``RAY_ADDRESS``), registers the environment with :func:`loomlab.rllib.register` and trains for
 a few iterations, printing the mean episode return.
 
-    python examples/rllib_ppo.py [--iterations 5] [--env-runners 1] [--frame-size 64]
+    python examples/rllib_ppo.py [--iterations 5] [--env-runners 1] [--frame-size 64] [--smoke]
+
+``--smoke`` trains one small iteration; without RLlib or torch it says so and exits 0.
 """
 
 from __future__ import annotations
 
 import argparse
+
+from _evaluate import add_smoke_flag, skip_missing
+
+import loomlab  # noqa: F401  (the package itself needs no Ray)
 
 
 def main() -> None:
@@ -19,11 +25,17 @@ def main() -> None:
     p.add_argument("--frame-size", type=int, default=64)
     p.add_argument("--batch", type=int, default=1024, help="train batch size (env steps) per iteration")
     p.add_argument("--seed", type=int, default=0)
+    add_smoke_flag(p)
     args = p.parse_args()
+    if args.smoke:
+        args.iterations, args.env_runners, args.frame_size, args.batch = 1, 0, 32, 64
     try:
         import ray
+        import torch  # noqa: F401  (RLlib's learner; imported here so that its absence is named)
         from ray.rllib.algorithms.ppo import PPOConfig
     except ImportError as e:  # pragma: no cover - optional dependency
+        if args.smoke:
+            skip_missing("rllib_ppo.py", "RLlib and torch", "pip install 'loomlab[rllib]'", e)
         raise SystemExit("this example needs RLlib and torch: pip install 'loomlab[rllib]'") from e
 
     import loomlab.rllib

@@ -18,11 +18,11 @@ fn inf_if_none(v: Option<f64>) -> f64 {
     v.unwrap_or(f64::INFINITY)
 }
 
-/// The observation dict of one environment.
-pub fn obs_dict<'py>(py: Python<'py>, ids: &[String], obs: &Observation, n: usize) -> PyResult<Bound<'py, PyDict>> {
+/// The observation dict of one environment (per-detector signals under the detector labels).
+pub fn obs_dict<'py>(py: Python<'py>, labels: &[String], obs: &Observation, n: usize) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    for (id, s) in ids.iter().zip(&obs.signals) {
-        d.set_item(id, PyArray1::from_slice(py, s))?;
+    for (label, s) in labels.iter().zip(&obs.signals) {
+        d.set_item(label, PyArray1::from_slice(py, s))?;
     }
     d.set_item("theta_hat", PyArray1::from_slice(py, &[obs.theta_hat_deg]))?;
     let alarm: Vec<i8> = obs.alarm.iter().map(|&a| i8::from(a)).collect();
@@ -70,12 +70,7 @@ pub fn outcome_dict<'py>(py: Python<'py>, o: &EpisodeSummary) -> PyResult<Bound<
 }
 
 /// The info dict of one environment.
-pub fn info_dict<'py>(
-    py: Python<'py>,
-    info: &StepInfo,
-    kind: ActionKind,
-    _ids: &[String],
-) -> PyResult<Bound<'py, PyDict>> {
+pub fn info_dict<'py>(py: Python<'py>, info: &StepInfo, kind: ActionKind) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("t_s", info.t_s)?;
     d.set_item("step", info.step)?;
@@ -133,7 +128,7 @@ impl<'py> Batch<'py> {
         let m = results.len();
         let n = meta.frame_size as usize;
         let obs = PyDict::new(py);
-        for (k, id) in meta.detector_ids.iter().enumerate() {
+        for (k, id) in meta.detector_labels.iter().enumerate() {
             let width = meta.signal_names[k].len();
             let mut v = Vec::with_capacity(m * width);
             for r in results {
@@ -143,7 +138,7 @@ impl<'py> Batch<'py> {
         }
         let theta: Vec<f32> = results.iter().map(|r| r.obs.theta_hat_deg).collect();
         obs.set_item("theta_hat", PyArray1::from_vec(py, theta).reshape([m, 1])?)?;
-        let d = meta.detector_ids.len();
+        let d = meta.detector_labels.len();
         let alarm: Vec<i8> = results
             .iter()
             .flat_map(|r| r.obs.alarm.iter().map(|&a| i8::from(a)))

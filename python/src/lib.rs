@@ -1,8 +1,12 @@
 //! `loomlab._native`: the Rust engine of the `loomlab` Python package.
 //!
-//! Thin glue over [`loomlab_env`]: [`Episode`] wraps one
-//! [`EscapeEpisode`](loomlab_env::EscapeEpisode), [`VecEpisode`] a
-//! [`VecEscape`](loomlab_env::VecEscape) whose results come back as batched numpy arrays.
+//! Thin glue over [`loomlab_env`], one name per type on both sides: the Python class
+//! `_native.EscapeEnv` ([`PyEscapeEnv`]) wraps a [`loomlab_env::EscapeEnv`] and
+//! `_native.EscapeVectorEnv` ([`PyEscapeVectorEnv`]) a [`loomlab_env::EscapeVectorEnv`], whose results
+//! come back as batched numpy arrays; the Gymnasium classes `loomlab.EscapeEnv` and
+//! `loomlab.EscapeVectorEnv` wrap them. Defaults and action names are exported
+//! (`REWARD_DEFAULTS`, `ACTION_DEFAULTS`, `DISCRETE_ACTIONS`, `CONTINUOUS_ACTION_NAMES`) so that the
+//! Python side restates none of them.
 //! The GIL is released while Rust steps. Errors map to the exception tree `loomlab.LoomlabError` ⊃
 //! `ScenarioError`, `RenderError`, `DetectorError`, `ActionError`. The Gymnasium classes live in the
 //! pure-Python part of the package (`python/loomlab`).
@@ -16,10 +20,11 @@ use std::sync::{Mutex, MutexGuard};
 
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
-use pyo3::types::{PyList, PyTuple};
+use pyo3::types::{PyDict, PyList, PyTuple};
 
+use loomlab_agents::{ActionConfig, ContinuousAction, DiscreteAction};
 use loomlab_env::{
-    Action, ActionKind, EnvError, EnvOptions, EscapeEpisode, ROBOT_FIELDS, StepResult, VecEscape,
+    Action, ActionKind, EnvError, EnvOptions, EscapeEnv, EscapeVectorEnv, ROBOT_FIELDS, RewardConfig, StepResult,
 };
 
 use crate::errors::to_py;
@@ -36,6 +41,7 @@ fn parse_options(options_json: &str) -> PyResult<EnvOptions> {
 #[derive(Clone)]
 struct Meta {
     scenario_name: String,
+    detector_labels: Vec<String>,
     detector_ids: Vec<String>,
     signal_names: Vec<Vec<String>>,
     thresholds: Vec<f64>,
@@ -48,10 +54,11 @@ struct Meta {
 }
 
 impl Meta {
-    fn of(env: &EscapeEpisode) -> Self {
+    fn of(env: &EscapeEnv) -> Self {
         Self {
             scenario_name: env.scenario_name().to_string(),
-            detector_ids: env.detector_labels().iter().map(|s| s.to_string()).collect(),
+            detector_labels: env.detector_labels().iter().map(|s| s.to_string()).collect(),
+            detector_ids: env.detector_ids().iter().map(|s| s.to_string()).collect(),
             signal_names: env.signal_names().to_vec(),
             thresholds: env.thresholds(),
             frame_size: env.frame_size(),
@@ -73,7 +80,13 @@ macro_rules! meta_getters {
             fn scenario_name(&self) -> String {
                 self.meta.scenario_name.clone()
             }
-            /// Chosen detectors' labels (their ids unless the scenario labels them), in observation order.
+            /// Chosen detectors' labels (their ids unless the scenario labels them), in observation
+            /// order: the per-detector observation keys.
+            #[getter]
+            fn detector_labels(&self) -> Vec<String> {
+                self.meta.detector_labels.clone()
+            }
+            /// Chosen detectors' ids (`hopfield`, `soc`, …), in observation order.
             #[getter]
             fn detector_ids(&self) -> Vec<String> {
                 self.meta.detector_ids.clone()
@@ -127,17 +140,17 @@ macro_rules! meta_getters {
     };
 }
 
-/// One environment (the engine of `loomlab.EscapeEnv`).
-#[pyclass(module = "loomlab._native")]
-struct Episode {
-    inner: Mutex<EscapeEpisode>,
+/// One environment (the engine of the Gymnasium class `loomlab.EscapeEnv`).
+#[pyclass(name = "EscapeEnv", module = "loomlab._native")]
+struct PyEscapeEnv {
+    inner: Mutex<EscapeEnv>,
     meta: Meta,
 }
 
-meta_getters!(Episode);
+meta_getters!(PyEscapeEnv);
 
 #[pymethods]
-impl Episode {
+impl PyEscapeEnv {
     /// Builds an environment from a scenario (a shipped name or a TOML file path; `None`: the default)
     /// or TOML text, and options as JSON.
     #[new]
@@ -152,7 +165,7 @@ impl Episode {
         let env = py
             .detach(|| {
                 let sc = scenarios::load(scenario.as_deref(), scenario_toml.as_deref())?;
-                EscapeEpisode::new(sc, options)
+                EscapeEnv::new(sc, options)
             })
             .map_err(to_py)?;
         Ok(Self {
@@ -166,8 +179,8 @@ impl Episode {
     fn reset<'py>(&self, py: Python<'py>, seed: Option<u64>) -> PyResult<Bound<'py, PyTuple>> {
         let (obs, info) = py.detach(|| lock(&self.inner).reset(seed)).map_err(to_py)?;
         let n = self.meta.frame_size as usize;
-        let o = convert::obs_dict(py, &self.meta.detector_ids, &obs, n)?;
-        let i = convert::info_dict(py, &info, self.meta.action_kind, &self.meta.detector_ids)?;
+        let o = convert::obs_dict(py, &self.meta.detector_labels, &obs, n)?;
+        let i = convert::info_dict(py, &info, self.meta.action_kind)?;
         PyTuple::new(py, [o.into_any(), i.into_any()])
     }
 
@@ -206,20 +219,20 @@ impl Episode {
             None => Ok(None),
             Some((obs, info)) => {
                 let n = self.meta.frame_size as usize;
-                let o = convert::obs_dict(py, &self.meta.detector_ids, &obs, n)?;
-                let i = convert::info_dict(py, &info, self.meta.action_kind, &self.meta.detector_ids)?;
+                let o = convert::obs_dict(py, &self.meta.detector_labels, &obs, n)?;
+                let i = convert::info_dict(py, &info, self.meta.action_kind)?;
                 Ok(Some(PyTuple::new(py, [o.into_any(), i.into_any()])?))
             }
         }
     }
 }
 
-impl Episode {
+impl PyEscapeEnv {
     fn step<'py>(&self, py: Python<'py>, action: Action) -> PyResult<Bound<'py, PyTuple>> {
         let r: StepResult = py.detach(|| lock(&self.inner).step(action)).map_err(to_py)?;
         let n = self.meta.frame_size as usize;
-        let o = convert::obs_dict(py, &self.meta.detector_ids, &r.obs, n)?;
-        let i = convert::info_dict(py, &r.info, self.meta.action_kind, &self.meta.detector_ids)?;
+        let o = convert::obs_dict(py, &self.meta.detector_labels, &r.obs, n)?;
+        let i = convert::info_dict(py, &r.info, self.meta.action_kind)?;
         PyTuple::new(
             py,
             [
@@ -233,19 +246,20 @@ impl Episode {
     }
 }
 
-/// N environments stepped on Rust threads (the engine of `loomlab.EscapeVectorEnv`).
-#[pyclass(module = "loomlab._native")]
-struct VecEpisode {
-    inner: Mutex<VecEscape>,
+/// N environments stepped on Rust threads (the engine of the Gymnasium class
+/// `loomlab.EscapeVectorEnv`).
+#[pyclass(name = "EscapeVectorEnv", module = "loomlab._native")]
+struct PyEscapeVectorEnv {
+    inner: Mutex<EscapeVectorEnv>,
     meta: Meta,
     num_envs: usize,
 }
 
-meta_getters!(VecEpisode);
+meta_getters!(PyEscapeVectorEnv);
 
 #[pymethods]
-impl VecEpisode {
-    /// Builds `num_envs` environments (see `Episode`).
+impl PyEscapeVectorEnv {
+    /// Builds `num_envs` environments (see `EscapeEnv`).
     #[new]
     #[pyo3(signature = (num_envs, scenario=None, scenario_toml=None, options_json="{}"))]
     fn new(
@@ -259,7 +273,7 @@ impl VecEpisode {
         let vec = py
             .detach(|| {
                 let sc = scenarios::load(scenario.as_deref(), scenario_toml.as_deref())?;
-                VecEscape::new(sc, options, num_envs)
+                EscapeVectorEnv::new(sc, options, num_envs)
             })
             .map_err(to_py)?;
         Ok(Self {
@@ -349,7 +363,7 @@ impl VecEpisode {
     }
 }
 
-impl VecEpisode {
+impl PyEscapeVectorEnv {
     fn step<'py>(&self, py: Python<'py>, actions: Vec<Action>) -> PyResult<Bound<'py, PyTuple>> {
         let results = py.detach(|| lock(&self.inner).step(&actions)).map_err(to_py)?;
         let batch = convert::Batch::new(py, &self.meta, &results)?;
@@ -378,7 +392,7 @@ fn scenario_toml(name: &str) -> PyResult<&'static str> {
     scenarios::builtin(name).map_err(to_py)
 }
 
-/// The ids of every detector.
+/// The ids of every detector (`hopfield`, `soc`, `keil2004`, `cizek2019`, `fu2020`).
 #[pyfunction]
 fn detector_ids() -> Vec<&'static str> {
     loomlab_detector::DETECTOR_IDS.to_vec()
@@ -397,11 +411,32 @@ fn _raise(kind: &str) -> PyResult<()> {
     Err(to_py(e))
 }
 
+/// A default config as a `{field: float}` dict (its serde form, so the keys are the option keys).
+fn defaults_dict<'py, T: serde::Serialize>(py: Python<'py>, config: &T) -> PyResult<Bound<'py, PyDict>> {
+    let value = serde_json::to_value(config).map_err(|e| errors::LoomlabError::new_err(e.to_string()))?;
+    let d = PyDict::new(py);
+    for (k, v) in value.as_object().into_iter().flatten() {
+        let v = v
+            .as_f64()
+            .ok_or_else(|| errors::LoomlabError::new_err(format!("default {k} = {v} is not a number")))?;
+        d.set_item(k, v)?;
+    }
+    Ok(d)
+}
+
+/// The serde (snake_case) name of a discrete action: `none`, `dodge_left`, …
+fn snake_name(a: &DiscreteAction) -> PyResult<String> {
+    match serde_json::to_value(a) {
+        Ok(serde_json::Value::String(s)) => Ok(s),
+        other => Err(errors::LoomlabError::new_err(format!("{a:?} has no name: {other:?}"))),
+    }
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
-    m.add_class::<Episode>()?;
-    m.add_class::<VecEpisode>()?;
+    m.add_class::<PyEscapeEnv>()?;
+    m.add_class::<PyEscapeVectorEnv>()?;
     m.add_class::<sweep::SweepPlan>()?;
     m.add_function(wrap_pyfunction!(sweep::run_suite, m)?)?;
     m.add_function(wrap_pyfunction!(scenario_names, m)?)?;
@@ -412,6 +447,11 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ROBOT_FIELDS", PyList::new(py, ROBOT_FIELDS)?)?;
     m.add("SIGNAL_LIMIT", loomlab_env::SIGNAL_LIMIT)?;
     m.add("ROBOT_LIMIT", loomlab_env::ROBOT_LIMIT)?;
+    m.add("REWARD_DEFAULTS", defaults_dict(py, &RewardConfig::default())?)?;
+    m.add("ACTION_DEFAULTS", defaults_dict(py, &ActionConfig::default())?)?;
+    let discrete: Vec<String> = DiscreteAction::ALL.iter().map(snake_name).collect::<PyResult<_>>()?;
+    m.add("DISCRETE_ACTIONS", PyTuple::new(py, discrete)?)?;
+    m.add("CONTINUOUS_ACTION_NAMES", PyTuple::new(py, ContinuousAction::NAMES)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -49,7 +49,9 @@ def test_import_registers_the_ids_and_make_works_without_arguments():
 @pytest.mark.parametrize("observe_frames", [False, True])
 def test_check_env_passes(short_kwargs, observe_frames):
     # made through gymnasium.make so that check_env can also try the other render modes via the spec
-    env = gym.make("loomlab/Escape-v0", observe_frames=observe_frames, render_mode="rgb_array", **short_kwargs).unwrapped
+    env = gym.make(
+        "loomlab/Escape-v0", observe_frames=observe_frames, render_mode="rgb_array", **short_kwargs
+    ).unwrapped
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # check_env's warnings are failures too
         check_env(env, skip_render_check=False)

@@ -6,12 +6,11 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
+from conftest import SHORT_SCENARIO
 from gymnasium.utils.env_checker import check_env
 
 import loomlab.rllib
 from loomlab.rllib import env_creator
-
-from conftest import SHORT_SCENARIO
 
 
 class _Context(dict):

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -17,7 +16,7 @@ from loomlab.sweep import EXIT_INCOMPLETE, run_sweep
 
 DATA = Path(__file__).parent / "data"
 SWEEP = DATA / "small_sweep.toml"
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[2]  # python/tests/test_sweep.py -> the repository root
 LABELS = ["hopfield-000", "hopfield-001", "soc-000", "soc-001"]
 
 
@@ -73,24 +72,46 @@ def test_sweep_on_ray_completes_and_equals_single_process(reference):
         assert _strip(single) == _strip(swept), label
 
 
-def _loomlab_binary():
-    for profile in ("debug", "release"):
-        target = Path(os.environ.get("CARGO_TARGET_DIR", REPO / "target"))
-        exe = target / profile / "loomlab"
-        if exe.is_file():
-            return exe
-    return None
+def _loomlab_binary() -> Path:
+    """The `loomlab` CLI: ``$LOOMLAB_BIN``, else the newest of ``target/{debug,release}/loomlab`` (in
+    ``$CARGO_TARGET_DIR`` or the repository's target folder). A missing binary fails the test (it is
+    part of what the sweep must equal), naming how to build it."""
+    env = os.environ.get("LOOMLAB_BIN")
+    if env:
+        if not Path(env).is_file():
+            pytest.fail(f"LOOMLAB_BIN={env} is not a file; build the CLI with `cargo build --bin loomlab`")
+        return Path(env)
+    target = Path(os.environ.get("CARGO_TARGET_DIR", REPO / "target"))
+    found = [target / profile / "loomlab" for profile in ("debug", "release")]
+    found = [p for p in found if p.is_file()]
+    if not found:
+        pytest.fail(
+            f"the loomlab binary is not built (looked for {target}/debug/loomlab and {target}/release/loomlab): "
+            "run `cargo build --bin loomlab` in the repository root (`make python-test` does), or set LOOMLAB_BIN"
+        )
+    return max(found, key=lambda p: p.stat().st_mtime)
 
 
 def test_sweep_point_equals_loomlab_run_cli(reference, tmp_path):
     exe = _loomlab_binary()
-    if exe is None:
-        pytest.skip("the loomlab binary is not built (cargo build)")
     label = "hopfield-000"
     swept = reference.report(label)
     subprocess.run(
-        [exe, "run", swept["suite"], "--size", "48", "--limit", "8", "--quiet", "--no-plots", "--out", tmp_path,
-         "--detectors-file", reference.out / "points" / label / "detectors.toml"],
+        [
+            exe,
+            "run",
+            swept["suite"],
+            "--size",
+            "48",
+            "--limit",
+            "8",
+            "--quiet",
+            "--no-plots",
+            "--out",
+            tmp_path,
+            "--detectors-file",
+            reference.out / "points" / label / "detectors.toml",
+        ],
         check=True,
     )
     cli = json.loads((tmp_path / "report.json").read_text())

@@ -23,15 +23,25 @@ def test_vector_env_equals_n_single_envs(short_kwargs, action_type):
 
     np.testing.assert_equal(native.reset(seed=7), sync.reset(seed=7))
     native.action_space.seed(1)
-    resets = 0
+    ends = np.zeros(n, dtype=int)  # episode ends per environment
+    outcomes = np.zeros(n, dtype=int)  # info["outcome"] reported per environment
     for _ in range(60):
         actions = native.action_space.sample()
         got = native.step(actions)
         want = sync.step(actions)
         np.testing.assert_equal(got, want)
-        resets += int(np.sum(got[2] | got[3]))
-    assert resets >= n  # every environment ended (and was auto-reset) at least once
-    assert "outcome" in want[4] or resets > 0
+        _, _, terminated, truncated, info = got
+        done = terminated | truncated
+        ends += done
+        if "outcome" in info:
+            # the outcome is reported exactly for the environments whose episode just ended
+            np.testing.assert_array_equal(info["_outcome"], done)
+            outcomes += info["_outcome"]
+        else:
+            assert not done.any()
+    # every environment ended (and was auto-reset) at least once, each with its outcome
+    assert (ends >= 1).all(), f"episode ends per environment: {ends}"
+    np.testing.assert_array_equal(outcomes, ends)
 
 
 def test_make_vec_uses_the_native_vector_env(short_kwargs):

@@ -1,15 +1,17 @@
 """`EscapeEnv`: a Gymnasium environment over loomlab's closed-loop escape simulator.
 
-The simulation, rendering, detectors, ground truth and scoring run in Rust (`loomlab._native`); this
-module declares the Gymnasium spaces and converts actions. See the package README for the
-observation, action and reward definitions.
+The simulation, rendering, detectors, ground truth and scoring run in Rust: this class wraps the
+native class of the same name, ``loomlab._native.EscapeEnv`` (Rust ``loomlab_env::EscapeEnv``), and
+declares the Gymnasium spaces and converts actions. Defaults and action names come from the native
+module (``REWARD_DEFAULTS``, ``ACTION_DEFAULTS``, ``DISCRETE_ACTIONS``, ``CONTINUOUS_ACTION_NAMES``).
+See the package README for the observation, action and reward definitions.
 """
 
 from __future__ import annotations
 
 import json
 import os
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
 
 import gymnasium as gym
@@ -21,11 +23,14 @@ from ._native import ActionError, ScenarioError
 
 __all__ = ["EscapeEnv", "RewardConfig", "ActionConfig", "build_options", "make_spaces"]
 
-DISCRETE_ACTIONS = ("none", "dodge_left", "dodge_right", "stop")
-"""Names of the discrete actions, by index."""
+DISCRETE_ACTIONS: Tuple[str, ...] = tuple(_native.DISCRETE_ACTIONS)
+"""Names of the discrete actions, by index (Rust ``DiscreteAction::ALL``)."""
 
-CONTINUOUS_ACTION_NAMES = ("forward", "yaw_rate", "lateral")
-"""Names of the continuous action components (each in [-1, 1])."""
+CONTINUOUS_ACTION_NAMES: Tuple[str, ...] = tuple(_native.CONTINUOUS_ACTION_NAMES)
+"""Names of the continuous action components (each in [-1, 1]; Rust ``ContinuousAction::NAMES``)."""
+
+_REWARD = _native.REWARD_DEFAULTS
+_ACTION = _native.ACTION_DEFAULTS
 
 
 @dataclass
@@ -35,24 +40,28 @@ class RewardConfig:
     ``survival_per_s*dt`` (no collision) ``+ progress_per_m*Δs`` (metres along the start heading)
     ``- effort_per_s*|u - u_cruise|²*dt`` ``- unnecessary_dodge_per_s*dt`` (dodging in an episode
     without a threat) ``- collision_penalty`` (once, on contact).
+
+    The defaults are Rust's ``RewardConfig::default()`` (``loomlab._native.REWARD_DEFAULTS``).
     """
 
-    collision_penalty: float = 10.0
-    survival_per_s: float = 1.0
-    progress_per_m: float = 0.0
-    effort_per_s: float = 0.05
-    unnecessary_dodge_per_s: float = 1.0
+    collision_penalty: float = _REWARD["collision_penalty"]
+    survival_per_s: float = _REWARD["survival_per_s"]
+    progress_per_m: float = _REWARD["progress_per_m"]
+    effort_per_s: float = _REWARD["effort_per_s"]
+    unnecessary_dodge_per_s: float = _REWARD["unnecessary_dodge_per_s"]
 
 
 @dataclass
 class ActionConfig:
     """Scales of the action mappings: continuous ±1 = ``max_*``; discrete dodges add ``dodge_speed_mps``
-    sideways to the cruise command."""
+    sideways to the cruise command.
 
-    dodge_speed_mps: float = 1.5
-    max_forward_mps: float = 3.0
-    max_yaw_rate_rps: float = 1.5
-    max_lateral_mps: float = 1.5
+    The defaults are Rust's ``ActionConfig::default()`` (``loomlab._native.ACTION_DEFAULTS``)."""
+
+    dodge_speed_mps: float = _ACTION["dodge_speed_mps"]
+    max_forward_mps: float = _ACTION["max_forward_mps"]
+    max_yaw_rate_rps: float = _ACTION["max_yaw_rate_rps"]
+    max_lateral_mps: float = _ACTION["max_lateral_mps"]
 
 
 def _as_dict(x: Any) -> Optional[Dict[str, Any]]:
@@ -101,11 +110,11 @@ def build_options(
 def make_spaces(native: Any) -> Tuple[spaces.Dict, spaces.Space]:
     """The single-environment observation and action spaces of a native environment."""
     obs: Dict[str, spaces.Space] = {}
-    for det_id, names in zip(native.detector_ids, native.signal_names):
+    for label, names in zip(native.detector_labels, native.signal_names):
         lim = _native.SIGNAL_LIMIT
-        obs[det_id] = spaces.Box(-lim, lim, shape=(len(names),), dtype=np.float32)
+        obs[label] = spaces.Box(-lim, lim, shape=(len(names),), dtype=np.float32)
     obs["theta_hat"] = spaces.Box(0.0, 180.0, shape=(1,), dtype=np.float32)
-    obs["alarm"] = spaces.MultiBinary(len(native.detector_ids))
+    obs["alarm"] = spaces.MultiBinary(len(native.detector_labels))
     lim = _native.ROBOT_LIMIT
     obs["robot"] = spaces.Box(-lim, lim, shape=(len(native.robot_fields),), dtype=np.float32)
     if native.observe_frames:
@@ -199,7 +208,7 @@ class EscapeEnv(gym.Env):
             reward=reward,
             max_episode_steps=max_episode_steps,
         )
-        self._native = _native.Episode(self._kwargs["scenario"], scenario_toml, json.dumps(options))
+        self._native = _native.EscapeEnv(self._kwargs["scenario"], scenario_toml, json.dumps(options))
         self.observation_space, self.action_space = make_spaces(self._native)
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=int(round(1.0 / self._native.dt)))
@@ -208,18 +217,24 @@ class EscapeEnv(gym.Env):
     # --- metadata -------------------------------------------------------------------------------
     @property
     def detector_ids(self) -> list:
-        """Chosen detector ids (the per-detector observation keys, the order of ``alarm``)."""
+        """Chosen detector ids (``hopfield``, ``soc``, …), in the order of ``alarm``."""
         return list(self._native.detector_ids)
 
     @property
+    def detector_labels(self) -> list:
+        """Chosen detectors' labels: the per-detector observation keys, in the order of ``alarm``
+        (the ids unless the scenario labels its detectors)."""
+        return list(self._native.detector_labels)
+
+    @property
     def signal_names(self) -> Dict[str, list]:
-        """Names of each detector's signal vector: ``output``, then its auxiliary signals."""
-        return dict(zip(self._native.detector_ids, self._native.signal_names))
+        """Names of each detector's signal vector (by label): ``output``, then its auxiliary signals."""
+        return dict(zip(self._native.detector_labels, self._native.signal_names))
 
     @property
     def thresholds(self) -> Dict[str, float]:
-        """Alarm thresholds by detector id."""
-        return dict(zip(self._native.detector_ids, self._native.thresholds))
+        """Alarm thresholds by detector label."""
+        return dict(zip(self._native.detector_labels, self._native.thresholds))
 
     @property
     def dt(self) -> float:

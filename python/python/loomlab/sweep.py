@@ -290,7 +290,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--out", "-o", type=Path, help="output folder (default: out/sweep/<name>)")
     p.add_argument("--workers", "-w", type=int, help="shards run at once (default: the cluster's CPUs)")
     p.add_argument(
-        "--threads-per-worker", type=int, help="episode threads per shard task (default: 1 on Ray, every CPU with --local)"
+        "--threads-per-worker",
+        type=int,
+        help="episode threads per shard task (default: 1 on Ray, every CPU with --local)",
     )
     p.add_argument("--limit", type=int, help="run only the first N episodes of the suite")
     p.add_argument("--max-shards", type=int, help="run at most N new shards, then stop (resume later)")

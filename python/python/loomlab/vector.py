@@ -1,5 +1,8 @@
 """`EscapeVectorEnv`: N environments stepped on Rust threads, returning batched numpy arrays.
 
+It wraps the native class of the same name, ``loomlab._native.EscapeVectorEnv`` (Rust
+``loomlab_env::EscapeVectorEnv``).
+
 ``gymnasium.make_vec("loomlab/Escape-v0", num_envs=N)`` builds it. Auto-reset is Gymnasium's
 ``NEXT_STEP`` mode (the default of ``SyncVectorEnv``): the step after an environment's episode ended
 resets it, ignoring its action, and reports reward 0 and ``terminated = truncated = False``; so the
@@ -66,7 +69,9 @@ class EscapeVectorEnv(VectorEnv):
             reward=reward,
             max_episode_steps=max_episode_steps,
         )
-        self._native = _native.VecEpisode(int(num_envs), _scenario_arg(scenario), scenario_toml, json.dumps(options))
+        self._native = _native.EscapeVectorEnv(
+            int(num_envs), _scenario_arg(scenario), scenario_toml, json.dumps(options)
+        )
         self.num_envs = int(num_envs)
         self.single_observation_space, self.single_action_space = make_spaces(self._native)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
@@ -77,8 +82,13 @@ class EscapeVectorEnv(VectorEnv):
 
     @property
     def detector_ids(self) -> list:
-        """Chosen detector ids."""
+        """Chosen detector ids (``hopfield``, ``soc``, …), in the order of ``alarm``."""
         return list(self._native.detector_ids)
+
+    @property
+    def detector_labels(self) -> list:
+        """Chosen detectors' labels: the per-detector observation keys, in the order of ``alarm``."""
+        return list(self._native.detector_labels)
 
     def reset(self, *, seed: Optional[int] = None, options: Optional[Dict[str, Any]] = None):
         super().reset(seed=seed)
