@@ -35,6 +35,9 @@ pub struct Series {
     pub y: Vec<f64>,
     /// Draw dashed/thin (e.g. the true angular size or a chance diagonal).
     pub dashed: bool,
+    /// Draw the points as markers, not joined, with this straight line `y = slope·x + intercept`
+    /// in the same colour when given (a scatter with its fit).
+    pub scatter: Option<Option<(f64, f64)>>,
 }
 
 impl Series {
@@ -45,7 +48,14 @@ impl Series {
             x,
             y,
             dashed: false,
+            scatter: None,
         }
+    }
+
+    /// The points as markers, with an optional fitted line `(slope, intercept)` in their colour.
+    pub fn scatter(mut self, fit: Option<(f64, f64)>) -> Self {
+        self.scatter = Some(fit);
+        self
     }
 
     /// The same curve drawn thin and gray-ish as a reference line.
@@ -154,7 +164,16 @@ fn draw_line_chart(area: &DrawingArea<BitMapBackend<'_>, Shift>, chart: &LineCha
             solid += 1;
             palette(solid - 1).stroke_width(2)
         };
-        let anno = if s.dashed {
+        let anno = if let Some(fit) = s.scatter {
+            let color = style.color;
+            if let Some((slope, intercept)) = fit {
+                let line = [xr.0, xr.1].map(|x| (x, slope * x + intercept));
+                ctx.draw_series(LineSeries::new(line, color.stroke_width(1)))
+                    .map_err(|e| e.to_string())?;
+            }
+            ctx.draw_series(pts.into_iter().map(|p| Circle::new(p, 3, color.filled())))
+                .map_err(|e| e.to_string())?
+        } else if s.dashed {
             ctx.draw_series(DashedLineSeries::new(pts, 6, 4, style))
                 .map_err(|e| e.to_string())?
         } else {

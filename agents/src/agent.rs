@@ -14,8 +14,9 @@
 //! the ground truth and the scoring, and never restate this step.
 //!
 //! An agent can also be driven by a trigger value that does not come from a detector (the
-//! ground-truth reference rows of the runner: `oracle`, `ideal_theta`) through
-//! [`EscapeAgent::decide`]; the looming side and the controller are the same.
+//! ground-truth reference rows of the runner) through [`EscapeAgent::step_with_trigger`], and by a
+//! given looming side without any frame (physics-only replays) through [`EscapeAgent::decide`];
+//! the controller is the same.
 
 use loomlab_detector::{Detector, DetectorError, Frame, Signals};
 
@@ -65,6 +66,16 @@ impl EscapeAgent {
         })
     }
 
+    /// An agent from detectors and an already validated controller (reset to its initial state).
+    pub fn from_parts(detectors: Vec<Box<dyn Detector>>, mut controller: EscapeController) -> Self {
+        controller.reset();
+        Self {
+            detectors,
+            side: LoomingSideEstimator::default(),
+            controller,
+        }
+    }
+
     /// Starts a new episode: detectors, looming side and controller back to their initial state.
     pub fn reset(&mut self) {
         for d in &mut self.detectors {
@@ -109,28 +120,28 @@ impl EscapeAgent {
             .first()
             .and_then(|s| self.controller.config().trigger.value(s))
             .unwrap_or(f64::NAN);
-        let mut step = self.decide(t_s, Some(frame), trigger_value, cruise);
+        let mut step = self.step_with_trigger(t_s, frame, trigger_value, cruise);
         step.signals = signals;
         Ok(step)
     }
 
-    /// The decision from a given trigger value (detectors are not stepped; `signals` is empty).
-    /// `frame` feeds the looming-side estimate; `None` (physics-only replays) leaves the side
-    /// unknown for this step and forgets the previous frame.
+    /// The decision on `frame` from a trigger value that does not come from the agent's detectors
+    /// (they are not stepped; `signals` is empty): the looming side still comes from the frames.
+    pub fn step_with_trigger(&mut self, t_s: f64, frame: &Frame, trigger_value: f64, cruise: VelocityCommand) -> AgentStep {
+        let looming_side = self.side.update(frame);
+        self.decide(t_s, looming_side, trigger_value, cruise)
+    }
+
+    /// The controller's decision from a given looming side and trigger value, with no frame (the
+    /// physics-only escape-deadline replays, which take the side from the open-loop frames). The
+    /// looming-side estimator is not updated.
     pub fn decide(
         &mut self,
         t_s: f64,
-        frame: Option<&Frame>,
+        looming_side: Option<f32>,
         trigger_value: f64,
         cruise: VelocityCommand,
     ) -> AgentStep {
-        let looming_side = match frame {
-            Some(f) => self.side.update(f),
-            None => {
-                self.side.reset();
-                None
-            }
-        };
         let (command, event) = self.controller.step(t_s, trigger_value, looming_side, cruise);
         AgentStep {
             signals: Vec::new(),

@@ -61,11 +61,12 @@ pub fn threshold_for_false_alarm_rate(scores: &[f64], target: f64) -> Option<f64
 pub fn calibrate(episodes: &[EpisodeOutcome], target: f64) -> Vec<Calibration> {
     let mut by: BTreeMap<&str, (Vec<f64>, Vec<f64>)> = BTreeMap::new();
     for e in episodes {
-        for d in &e.detectors {
+        // reference rows are not calibrated; positives are the evadable threats (the ROC's)
+        for d in e.detectors.iter().filter(|d| !crate::reference::is_reference(&d.detector)) {
             let entry = by.entry(&d.detector).or_default();
-            if d.threat {
+            if d.evadable() {
                 entry.0.push(d.roc_score());
-            } else {
+            } else if !d.threat {
                 entry.1.push(d.roc_score());
             }
         }

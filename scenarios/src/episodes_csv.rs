@@ -2,11 +2,13 @@
 //! report from a partial run.
 //!
 //! Columns (see [`HEADER`]): `scenario,episode,seed,params,detector,threat,t_contact_s,t_alarm_s,
-//! outcome,collision,ttc_at_alarm_s,angular_size_at_alarm_deg,max_signal,lead_s`. `params` is a
+//! outcome,collision,ttc_at_alarm_s,angular_size_at_alarm_deg,max_signal,lead_s,t_deadline_s,
+//! deadline_lead_s,evadable,l_over_v_s,eye_ttc_at_alarm_s`. `params` is a
 //! compact JSON object of the episode's swept/sampled values (`{"speed_kmh":"50"}`), quoted as CSV
 //! requires; booleans are `true`/`false`; absent values are empty cells; numbers are written in
-//! Rust's shortest round-trip form, so a read gives back exactly what was written. `lead_s` is
-//! derived (`t_c − t_a` for hits) and ignored on reading. Fields are quoted per RFC 4180 when they
+//! Rust's shortest round-trip form, so a read gives back exactly what was written. `lead_s`
+//! (`t_c − t_a` for hits), `deadline_lead_s` (`t_c − t_dl`) and `evadable` (a threat with a
+//! deadline) are derived and ignored on reading. Fields are quoted per RFC 4180 when they
 //! hold a comma, quote or line break.
 //!
 //! Crash safety: [`EpisodesCsvWriter::write_episode`] writes all rows of an episode with one
@@ -22,7 +24,7 @@ use std::path::{Path, PathBuf};
 use crate::metrics::{DetectorEpisode, EpisodeOutcome, Outcome, ScoringError};
 
 /// The column names, in order.
-pub const HEADER: [&str; 14] = [
+pub const HEADER: [&str; 19] = [
     "scenario",
     "episode",
     "seed",
@@ -37,6 +39,11 @@ pub const HEADER: [&str; 14] = [
     "angular_size_at_alarm_deg",
     "max_signal",
     "lead_s",
+    "t_deadline_s",
+    "deadline_lead_s",
+    "evadable",
+    "l_over_v_s",
+    "eye_ttc_at_alarm_s",
 ];
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> ScoringError + '_ {
@@ -84,6 +91,11 @@ pub fn format_rows(episode: &EpisodeOutcome) -> String {
             opt(d.angular_size_at_alarm_deg),
             opt(d.max_signal),
             opt(d.lead_s()),
+            opt(d.t_deadline_s),
+            opt(d.deadline_lead_s()),
+            d.evadable().to_string(),
+            opt(d.l_over_v_s),
+            opt(d.eye_ttc_at_alarm_s),
         ];
         out += &cells.join(",");
         out.push('\n');
@@ -298,12 +310,15 @@ pub fn parse_episodes_csv(text: &str, origin: &Path) -> Result<Vec<EpisodeOutcom
             detector: get("detector").to_string(),
             threat: parse_b("threat")?,
             t_contact_s: parse_f("t_contact_s")?,
+            t_deadline_s: parse_f("t_deadline_s")?,
             t_alarm_s: parse_f("t_alarm_s")?,
             outcome,
             collision: parse_b("collision")?,
             ttc_at_alarm_s: parse_f("ttc_at_alarm_s")?,
             angular_size_at_alarm_deg: parse_f("angular_size_at_alarm_deg")?,
             max_signal: parse_f("max_signal")?,
+            l_over_v_s: parse_f("l_over_v_s")?,
+            eye_ttc_at_alarm_s: parse_f("eye_ttc_at_alarm_s")?,
             trace: None,
         };
         let key = (get("scenario").to_string(), episode, seed);

@@ -1,10 +1,13 @@
 //! Scenario schema, closed-loop runner and scoring (design §6).
 
 pub mod calibrate;
+pub mod deadline;
 pub mod episodes_csv;
+pub mod lv;
 pub mod error;
 pub mod expand;
 pub mod metrics;
+pub mod reference;
 pub mod regression;
 pub mod report;
 pub mod runner;

@@ -1,23 +1,34 @@
-//! Per-episode scoring and per-detector aggregation (design §6).
+//! Per-episode scoring and per-detector aggregation.
 //!
 //! # Definitions
 //! For one detector in one episode, with ground truth from the runner (an object is a **threat**
-//! if it would touch the robot's body with no escape; `t_c` is its contact time) and the
-//! detector's trigger-signal trace, the **alarm** is the first frame whose signal is
-//! `>= threshold` (the escape controller's rule; NaN never alarms), at time `t_a`:
-//! - threat: [`Outcome::Hit`] if `t_a ≤ t_c − lead_min` (equality counts; a tolerance of
-//!   [`TIME_EPS_S`] absorbs frame-time rounding), else [`Outcome::Miss`] (late or no alarm);
+//! if it would touch the robot's body with no escape; `t_c` is its contact time; `t_dl` is its
+//! **escape deadline**, the latest trigger time from which the episode's own escape manoeuvre
+//! still avoids every contact, see [`crate::deadline`]) and the detector's trigger-signal trace,
+//! the **alarm** is the first frame whose signal is `>= threshold` (the escape controller's rule;
+//! NaN never alarms), at time `t_a`:
+//! - evadable threat (it has a deadline): [`Outcome::Hit`] if `t_a ≤ t_dl − lead_margin`
+//!   (equality counts; a tolerance of [`TIME_EPS_S`] absorbs frame-time rounding), else
+//!   [`Outcome::Miss`]: *late* if it alarmed after that, *silent* if it never alarmed;
+//! - threat that no trigger time evades: [`Outcome::Unavoidable`], reported apart (neither hit nor
+//!   miss, whatever the detector did);
 //! - no threat: [`Outcome::FalseAlarm`] if there is any alarm, else [`Outcome::CorrectRejection`];
 //! - closed loop: `collision` (the robot was touched) or evaded;
 //! - at the alarm: the true TTC and true angular size of the threat, as the runner recorded them.
 //!
+//! So a hit is an alarm in time to evade, and a hit that still collides is a contradiction of the
+//! closed loop (a re-trigger of the level-triggered controller that dodges back into the object,
+//! or a non-monotone deadline): reports count it as `hit_collisions`.
+//!
 //! The ROC **score** of an episode ([`DetectorEpisode::max_signal`]) is the maximum signal over the
-//! window in which an alarm counts: frames with `t ≤ t_c − lead_min` for threats, all frames for
-//! non-threats; see [`crate::stats`] for why this gives the exact threshold sweep.
+//! window in which an alarm counts: frames with `t ≤ t_dl − lead_margin` for evadable threats, all
+//! frames for non-threats (unavoidable threats are not ROC positives); see [`crate::stats`] for why
+//! this gives the exact threshold sweep.
 //!
 //! # Rates
-//! `hit_rate = hits / (hits + misses)`, `false_alarm_rate = false_alarms / (false_alarms +
-//! correct_rejections)`, `collision_rate = collisions / episodes`, each with a 95 % Wilson interval.
+//! `hit_rate = hits / (hits + misses)` (evadable threats), `false_alarm_rate = false_alarms /
+//! (false_alarms + correct_rejections)`, `collision_rate = collisions / episodes`, `evasion_rate =
+//! evaded / evadable_threats`, each with a 95 % Wilson interval.
 //! A rate whose denominator is zero (e.g. the hit rate of a suite without threats) is `None`,
 //! written `null` in JSON and empty in CSV — not 0, which would read as "every threat missed";
 //! the same holds for its interval, the mean lead time (no hits) and the AUC (no threats or no
@@ -30,9 +41,10 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
+use crate::lv::LvFit;
 use crate::stats::{self, Interval, RocPoint};
 
-/// Tolerance on time comparisons (seconds), so that `t_a = t_c − lead_min` computed from frame
+/// Tolerance on time comparisons (seconds), so that `t_a = t_dl − lead_margin` computed from frame
 /// counts still counts as a hit despite floating-point rounding.
 pub const TIME_EPS_S: f64 = 1e-9;
 
@@ -89,10 +101,12 @@ pub enum ScoringError {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Outcome {
-    /// Threat, alarm at least `lead_min` before contact.
+    /// Evadable threat, alarm no later than its escape deadline (minus `lead_margin_s`).
     Hit,
-    /// Threat, alarm too late or none.
+    /// Evadable threat, alarm after the deadline (late) or none (silent).
     Miss,
+    /// Threat that no trigger time evades.
+    Unavoidable,
     /// No threat, but an alarm.
     FalseAlarm,
     /// No threat, no alarm.
@@ -105,6 +119,7 @@ impl Outcome {
         match self {
             Self::Hit => "hit",
             Self::Miss => "miss",
+            Self::Unavoidable => "unavoidable",
             Self::FalseAlarm => "false_alarm",
             Self::CorrectRejection => "correct_rejection",
         }
@@ -123,10 +138,11 @@ impl FromStr for Outcome {
         match s {
             "hit" => Ok(Self::Hit),
             "miss" => Ok(Self::Miss),
+            "unavoidable" => Ok(Self::Unavoidable),
             "false_alarm" => Ok(Self::FalseAlarm),
             "correct_rejection" => Ok(Self::CorrectRejection),
             _ => Err(format!(
-                "unknown outcome `{s}` (expected hit, miss, false_alarm or correct_rejection)"
+                "unknown outcome `{s}` (expected hit, miss, unavoidable, false_alarm or correct_rejection)"
             )),
         }
     }
@@ -136,10 +152,13 @@ impl FromStr for Outcome {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ScoringConfig {
-    /// Minimal warning time in seconds: a threat's alarm must come at least this long before
-    /// contact to count as a hit. Default 0.1 s (a dozen frames at 120 Hz); set it from the
-    /// robot's dynamics (time it needs to clear its own half-width at dodge speed).
-    pub lead_min_s: f64,
+    /// Extra margin in seconds: a threat's alarm must come at least this long before its escape
+    /// deadline to count as a hit (default 0: the deadline itself).
+    pub lead_margin_s: f64,
+    /// Removed: the fixed lead before contact is replaced by the escape deadline. Accepted by the
+    /// parser only to reject it with a message naming the replacement.
+    #[serde(default, skip_serializing)]
+    pub lead_min_s: Option<f64>,
     /// Keep the full signal trace in each [`DetectorEpisode`] (memory grows with episode length).
     pub keep_traces: bool,
 }
@@ -147,7 +166,8 @@ pub struct ScoringConfig {
 impl Default for ScoringConfig {
     fn default() -> Self {
         Self {
-            lead_min_s: 0.1,
+            lead_margin_s: 0.0,
+            lead_min_s: None,
             keep_traces: false,
         }
     }
@@ -156,10 +176,20 @@ impl Default for ScoringConfig {
 impl ScoringConfig {
     /// Check every value.
     pub fn validate(&self) -> Result<(), ScoringError> {
-        if !(self.lead_min_s.is_finite() && self.lead_min_s >= 0.0) {
+        if let Some(v) = self.lead_min_s {
             return Err(ScoringError::InvalidConfig {
                 key: "scoring.lead_min_s",
-                value: self.lead_min_s.to_string(),
+                value: v.to_string(),
+                reason: "was removed: a hit is now an alarm no later than the threat's escape deadline (found \
+                         by physics-only replays of the escape manoeuvre); delete the key, or use \
+                         `scoring.lead_margin_s` for an extra margin before the deadline"
+                    .into(),
+            });
+        }
+        if !(self.lead_margin_s.is_finite() && self.lead_margin_s >= 0.0) {
+            return Err(ScoringError::InvalidConfig {
+                key: "scoring.lead_margin_s",
+                value: self.lead_margin_s.to_string(),
                 reason: "must be a finite number of seconds >= 0".into(),
             });
         }
@@ -174,6 +204,8 @@ pub struct GroundTruth {
     pub threat: bool,
     /// Contact time `t_c` in seconds (required for threats, `None` otherwise).
     pub t_contact_s: Option<f64>,
+    /// Escape deadline `t_dl` in seconds of a threat (`None`: unavoidable, or no threat).
+    pub t_deadline_s: Option<f64>,
     /// Whether the robot was actually touched in this (closed-loop) run.
     pub collision: bool,
 }
@@ -200,6 +232,9 @@ pub struct DetectorEpisode {
     pub threat: bool,
     /// Contact time `t_c` of the threat.
     pub t_contact_s: Option<f64>,
+    /// Escape deadline `t_dl` of an evadable threat.
+    #[serde(default)]
+    pub t_deadline_s: Option<f64>,
     /// First alarm time `t_a`.
     pub t_alarm_s: Option<f64>,
     /// Hit / miss / false alarm / correct rejection.
@@ -212,6 +247,14 @@ pub struct DetectorEpisode {
     pub angular_size_at_alarm_deg: Option<f64>,
     /// ROC score: maximum finite signal in the scoring window (`None`: no finite value there).
     pub max_signal: Option<f64>,
+    /// Half-size over closing speed `l/|v|` (s) of a threat approaching head-on at constant speed
+    /// (the l/|v| analysis; `None` for other episodes).
+    #[serde(default)]
+    pub l_over_v_s: Option<f64>,
+    /// At the alarm, the time until the threat's centre would reach the camera at its current
+    /// closing speed (s): the time to collision of the l/|v| analysis.
+    #[serde(default)]
+    pub eye_ttc_at_alarm_s: Option<f64>,
     /// The full trace, if [`ScoringConfig::keep_traces`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub trace: Option<Vec<TraceSample>>,
@@ -224,6 +267,26 @@ impl DetectorEpisode {
             (Outcome::Hit, Some(tc), Some(ta)) => Some(tc - ta),
             _ => None,
         }
+    }
+
+    /// Whether the episode is a threat that some trigger time evades.
+    pub fn evadable(&self) -> bool {
+        self.threat && self.t_deadline_s.is_some()
+    }
+
+    /// How long before contact the deadline is, `t_c − t_dl` (s; evadable threats).
+    pub fn deadline_lead_s(&self) -> Option<f64> {
+        Some(self.t_contact_s? - self.t_deadline_s?)
+    }
+
+    /// A miss with an alarm after the deadline.
+    pub fn is_late_miss(&self) -> bool {
+        self.outcome == Outcome::Miss && self.t_alarm_s.is_some()
+    }
+
+    /// A miss without any alarm.
+    pub fn is_silent_miss(&self) -> bool {
+        self.outcome == Outcome::Miss && self.t_alarm_s.is_none()
     }
 
     /// The score used for ROC curves (−∞ when there is none: never alarms).
@@ -260,21 +323,20 @@ fn check_time(detector: &str, what: &str, t: f64) -> Result<(), ScoringError> {
 
 /// Classify one episode from the ground truth and the first alarm time (see the module docs).
 ///
-/// Errors if a threat has no (finite) contact time or a non-threat has one.
-pub fn classify(
-    threat: bool,
-    t_contact_s: Option<f64>,
-    t_alarm_s: Option<f64>,
-    lead_min_s: f64,
-) -> Result<Outcome, ScoringError> {
+/// Errors if a threat has no (finite) contact time, a non-threat has one or a deadline.
+pub fn classify(truth: &GroundTruth, t_alarm_s: Option<f64>, lead_margin_s: f64) -> Result<Outcome, ScoringError> {
     if let Some(ta) = t_alarm_s {
         check_time("<unnamed>", "t_alarm_s", ta)?;
     }
-    match (threat, t_contact_s) {
+    match (truth.threat, truth.t_contact_s) {
         (true, Some(tc)) => {
             check_time("<unnamed>", "t_contact_s", tc)?;
+            let Some(td) = truth.t_deadline_s else {
+                return Ok(Outcome::Unavoidable);
+            };
+            check_time("<unnamed>", "t_deadline_s", td)?;
             Ok(match t_alarm_s {
-                Some(ta) if ta <= tc - lead_min_s + TIME_EPS_S => Outcome::Hit,
+                Some(ta) if ta <= td - lead_margin_s + TIME_EPS_S => Outcome::Hit,
                 _ => Outcome::Miss,
             })
         }
@@ -285,6 +347,10 @@ pub fn classify(
         (false, Some(tc)) => Err(ScoringError::GroundTruth {
             detector: "<unnamed>".into(),
             reason: format!("a non-threat has contact time t_contact_s = {tc}; mark it as a threat or drop the time"),
+        }),
+        (false, None) if truth.t_deadline_s.is_some() => Err(ScoringError::GroundTruth {
+            detector: "<unnamed>".into(),
+            reason: "a non-threat has an escape deadline".into(),
         }),
         (false, None) => Ok(if t_alarm_s.is_some() {
             Outcome::FalseAlarm
@@ -327,9 +393,10 @@ pub fn score_detector_episode(
         .filter(|s| s.signal >= threshold)
         .min_by(|a, b| a.t_s.total_cmp(&b.t_s));
     let t_alarm_s = alarm.map(|s| s.t_s);
-    let outcome = classify(truth.threat, truth.t_contact_s, t_alarm_s, config.lead_min_s).map_err(name_err)?;
-    let window_end = match (truth.threat, truth.t_contact_s) {
-        (true, Some(tc)) => tc - config.lead_min_s + TIME_EPS_S,
+    let outcome = classify(truth, t_alarm_s, config.lead_margin_s).map_err(name_err)?;
+    let window_end = match (truth.threat, truth.t_deadline_s, truth.t_contact_s) {
+        (true, Some(td), _) => td - config.lead_margin_s + TIME_EPS_S,
+        (true, None, Some(tc)) => tc,
         _ => f64::INFINITY,
     };
     let max_signal = samples
@@ -341,19 +408,23 @@ pub fn score_detector_episode(
         detector: detector.into(),
         threat: truth.threat,
         t_contact_s: truth.t_contact_s,
+        t_deadline_s: truth.t_deadline_s.filter(|_| truth.threat),
         t_alarm_s,
         outcome,
         collision: truth.collision,
         ttc_at_alarm_s: alarm.and_then(|s| s.ttc_s).filter(|v| v.is_finite()),
         angular_size_at_alarm_deg: alarm.and_then(|s| s.angular_size_deg).filter(|v| v.is_finite()),
         max_signal,
+        l_over_v_s: None,
+        eye_ttc_at_alarm_s: None,
         trace: config.keep_traces.then(|| samples.to_vec()),
     })
 }
 
 /// Aggregated scores of one detector over a set of episodes (see the module docs for the rates).
 ///
-/// The first nine fields are the report contract (design §7) and always present; `None` is `null`.
+/// The first nine fields are the report contract (`docs/design.md`) and always present; `None` is
+/// `null`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DetectorSummary {
     /// Number of episodes.
@@ -392,6 +463,40 @@ pub struct DetectorSummary {
     /// Area under the ROC curve; `None` without threats or without non-threats.
     #[serde(default)]
     pub auc: Option<f64>,
+    /// Threats some trigger time evades (the denominator of `hit_rate` and `evasion_rate`).
+    #[serde(default)]
+    pub evadable_threats: u64,
+    /// Threats no trigger time evades (neither hits nor misses).
+    #[serde(default)]
+    pub unavoidable_threats: u64,
+    /// Evadable threats the closed loop evaded.
+    #[serde(default)]
+    pub evaded: u64,
+    /// evaded / evadable_threats.
+    #[serde(default)]
+    pub evasion_rate: Option<f64>,
+    /// 95 % Wilson interval of `evasion_rate`.
+    #[serde(default)]
+    pub evasion_rate_ci: Option<Interval>,
+    /// Misses with an alarm after the deadline.
+    #[serde(default)]
+    pub late_misses: u64,
+    /// Misses without any alarm.
+    #[serde(default)]
+    pub silent_misses: u64,
+    /// Hits that still collided (a contradiction of the closed loop; see the module docs).
+    #[serde(default)]
+    pub hit_collisions: u64,
+    /// Non-threat episodes that collided after a false-alarm escape.
+    #[serde(default)]
+    pub false_alarm_collisions: u64,
+    /// 1 − collisions / collisions of the `null` reference row (filled in by the report; `None`
+    /// without a null row or when null never collides).
+    #[serde(default)]
+    pub collision_reduction: Option<f64>,
+    /// The l/|v| fit over constant-speed head-on threats ([`crate::lv`]).
+    #[serde(default)]
+    pub lv_fit: Option<LvFit>,
     /// The ROC curve (see [`crate::stats`]).
     #[serde(default)]
     pub roc: Vec<RocPoint>,
@@ -413,7 +518,9 @@ impl DetectorSummary {
         let (false_alarms, correct_rejections) = (count(Outcome::FalseAlarm), count(Outcome::CorrectRejection));
         let episodes = eps.len() as u64;
         let collisions = eps.iter().filter(|e| e.collision).count() as u64;
-        let positives: Vec<f64> = eps.iter().filter(|e| e.threat).map(|e| e.roc_score()).collect();
+        let evadable_threats = eps.iter().filter(|e| e.evadable()).count() as u64;
+        let evaded = eps.iter().filter(|e| e.evadable() && !e.collision).count() as u64;
+        let positives: Vec<f64> = eps.iter().filter(|e| e.evadable()).map(|e| e.roc_score()).collect();
         let negatives: Vec<f64> = eps.iter().filter(|e| !e.threat).map(|e| e.roc_score()).collect();
         let roc = stats::roc_curve(&positives, &negatives);
         let auc = (!roc.is_empty()).then(|| stats::auc_trapezoid(&roc));
@@ -434,6 +541,20 @@ impl DetectorSummary {
             mean_lead_s: mean(hits_iter().filter_map(|e| e.lead_s())),
             mean_angular_size_at_alarm_deg: mean(hits_iter().filter_map(|e| e.angular_size_at_alarm_deg)),
             auc,
+            evadable_threats,
+            unavoidable_threats: count(Outcome::Unavoidable),
+            evaded,
+            evasion_rate: stats::rate(evaded, evadable_threats),
+            evasion_rate_ci: stats::wilson_95(evaded, evadable_threats),
+            late_misses: eps.iter().filter(|e| e.is_late_miss()).count() as u64,
+            silent_misses: eps.iter().filter(|e| e.is_silent_miss()).count() as u64,
+            hit_collisions: eps.iter().filter(|e| e.outcome == Outcome::Hit && e.collision).count() as u64,
+            false_alarm_collisions: eps
+                .iter()
+                .filter(|e| e.outcome == Outcome::FalseAlarm && e.collision)
+                .count() as u64,
+            collision_reduction: None,
+            lv_fit: LvFit::from_episodes(&eps),
             roc,
         }
     }
@@ -447,8 +568,15 @@ pub fn summarize_by_detector(episodes: &[EpisodeOutcome]) -> BTreeMap<String, De
             by_detector.entry(&d.detector).or_default().push(d);
         }
     }
-    by_detector
+    let mut summaries: BTreeMap<String, DetectorSummary> = by_detector
         .into_iter()
         .map(|(k, v)| (k.to_string(), DetectorSummary::from_episodes(v)))
-        .collect()
+        .collect();
+    let null_collisions = summaries.get(crate::reference::NULL).map(|s| s.collisions);
+    if let Some(null) = null_collisions.filter(|&c| c > 0) {
+        for s in summaries.values_mut() {
+            s.collision_reduction = Some(1.0 - s.collisions as f64 / null as f64);
+        }
+    }
+    summaries
 }

@@ -3,7 +3,7 @@
 //! `report.json` layout (keys always present; unknown/absent values are `null`, never NaN):
 //! ```json
 //! { "loomlab_version": "0.1.0", "suite": "suites/smoke", "seed": 1, "episodes": 40,
-//!   "wall_time_s": 12.5, "lead_min_s": 0.1,
+//!   "wall_time_s": 12.5, "lead_margin_s": 0.0, "references": ["null", "oracle", "ideal_theta"],
 //!   "detectors": { "<id>": { "episodes": 40, "hits": 18, "misses": 2, "false_alarms": 1,
 //!                            "correct_rejections": 19, "hit_rate": 0.9, "false_alarm_rate": 0.05,
 //!                            "collisions": 2, "collision_rate": 0.05,
@@ -12,7 +12,11 @@
 //!   "scenarios": { "<name>": { "episodes": 20, "detectors": { "<id>": { …same… } } } } }
 //! ```
 //! `detectors.<id>` pools every episode of the suite; `scenarios.<name>.detectors.<id>` only that
-//! scenario's. See [`crate::metrics`] for the definitions.
+//! scenario's. The reference rows (`null`, `oracle`, `ideal_theta`, see [`crate::reference`]) sit
+//! beside the detectors and are listed in `references`. Every summary also carries the escape
+//! fields (`evadable_threats`, `unavoidable_threats`, `evaded`, `evasion_rate`, `late_misses`,
+//! `silent_misses`, `hit_collisions`, `false_alarm_collisions`, `collision_reduction`) and
+//! `lv_fit`. See [`crate::metrics`] for the definitions.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -35,8 +39,8 @@ pub struct ReportMeta {
     pub seed: u64,
     /// Wall-clock time of the run in seconds.
     pub wall_time_s: f64,
-    /// The `lead_min_s` the episodes were scored with.
-    pub lead_min_s: f64,
+    /// The `lead_margin_s` the episodes were scored with.
+    pub lead_margin_s: f64,
 }
 
 /// Scores of one scenario.
@@ -61,12 +65,24 @@ pub struct Report {
     pub episodes: u64,
     /// Wall-clock time of the run in seconds.
     pub wall_time_s: f64,
-    /// Minimal warning time the episodes were scored with.
-    pub lead_min_s: f64,
+    /// Margin before the escape deadline the episodes were scored with (s).
+    pub lead_margin_s: f64,
+    /// Labels of the reference rows among `detectors` (computed from ground truth).
+    #[serde(default)]
+    pub references: Vec<String>,
     /// Per-detector summaries over all episodes.
     pub detectors: BTreeMap<String, DetectorSummary>,
     /// Per-scenario, per-detector summaries.
     pub scenarios: BTreeMap<String, ScenarioSummary>,
+}
+
+/// The reference labels that occur in `episodes`, in table order.
+fn present_references(episodes: &[EpisodeOutcome]) -> Vec<String> {
+    crate::reference::REFERENCE_LABELS
+        .iter()
+        .filter(|r| episodes.iter().any(|e| e.detectors.iter().any(|d| d.detector == **r)))
+        .map(|r| r.to_string())
+        .collect()
 }
 
 fn finite_or_zero(x: f64) -> f64 {
@@ -96,7 +112,8 @@ impl Report {
             seed: meta.seed,
             episodes: episodes.len() as u64,
             wall_time_s: finite_or_zero(meta.wall_time_s),
-            lead_min_s: finite_or_zero(meta.lead_min_s),
+            lead_margin_s: finite_or_zero(meta.lead_margin_s),
+            references: present_references(episodes),
             detectors: summarize_by_detector(episodes),
             scenarios,
         }
@@ -169,25 +186,37 @@ fn fmt_opt(v: Option<f64>, digits: usize) -> String {
     v.map_or_else(|| "n/a".into(), |v| format!("{v:.digits$}"))
 }
 
-/// Aligned table: detector, episodes, hit rate [95 % CI], FA rate [95 % CI], collision rate, AUC.
+/// Aligned table: the detectors, then the reference rows (marked `*`): episodes, hit rate
+/// [95 % CI], false-alarm rate [95 % CI], evasion rate [95 % CI], collision rate, collision
+/// reduction against `null`, hits that collided, AUC; a first line counts the threats.
 pub fn format_summary_table(detectors: &BTreeMap<String, DetectorSummary>) -> String {
     let header = [
         "detector",
         "episodes",
         "hit rate [95% CI]",
         "FA rate [95% CI]",
+        "evasion rate [95% CI]",
         "collision rate",
+        "coll. reduction",
+        "hit+coll",
         "AUC",
     ];
-    let rows: Vec<[String; 6]> = detectors
+    let is_ref = |id: &str| crate::reference::is_reference(id);
+    let ordered = detectors
         .iter()
+        .filter(|(id, _)| !is_ref(id))
+        .chain(crate::reference::REFERENCE_LABELS.iter().filter_map(|r| detectors.get_key_value(*r)));
+    let rows: Vec<[String; 9]> = ordered
         .map(|(id, s)| {
             [
-                id.clone(),
+                if is_ref(id) { format!("{id} *") } else { id.clone() },
                 s.episodes.to_string(),
                 fmt_rate(s.hit_rate, s.hit_rate_ci),
                 fmt_rate(s.false_alarm_rate, s.false_alarm_rate_ci),
+                fmt_rate(s.evasion_rate, s.evasion_rate_ci),
                 fmt_opt(s.collision_rate, 2),
+                fmt_opt(s.collision_reduction, 2),
+                s.hit_collisions.to_string(),
                 fmt_opt(s.auc, 3),
             ]
         })
@@ -199,6 +228,15 @@ pub fn format_summary_table(detectors: &BTreeMap<String, DetectorSummary>) -> St
         }
     }
     let mut out = String::new();
+    if let Some(s) = detectors.values().next() {
+        let threats = s.hits + s.misses + s.unavoidable_threats;
+        out += &format!(
+            "{threats} threats ({} evadable, {} unavoidable), {} non-threats\n",
+            s.evadable_threats,
+            s.unavoidable_threats,
+            s.false_alarms + s.correct_rejections
+        );
+    }
     let mut line = |cells: &[String]| {
         let parts: Vec<String> = cells
             .iter()
@@ -220,6 +258,10 @@ pub fn format_summary_table(detectors: &BTreeMap<String, DetectorSummary>) -> St
     line(&widths.map(|w| "-".repeat(w)));
     for row in &rows {
         line(row);
+    }
+    if detectors.keys().any(|id| is_ref(id)) {
+        out += "* reference row from ground truth (null: never alarms; oracle: alarms at each escape deadline; \
+                ideal_theta: true angular size >= the hopfield threshold)\n";
     }
     out
 }

@@ -38,13 +38,15 @@
 
 use std::sync::{Arc, Mutex};
 
-use loomlab_agents::{EscapeAgent, TriggerSignal};
+use loomlab_agents::{EscapeAgent, EscapeConfig, EscapeController, LoomingSideEstimator, TriggerSignal};
 use loomlab_detector::{Detector, Frame};
-use loomlab_sim::{GpuContext, Renderer, Sim, SimError};
+use loomlab_sim::{GpuContext, ObjectTruth, Renderer, Sim, SimError};
 use rayon::prelude::*;
 
+use crate::deadline::{EscapeDeadline, escape_deadline, replay_trigger};
 use crate::error::RunError;
 use crate::metrics::{DetectorEpisode, EpisodeOutcome, GroundTruth, TraceSample, score_detector_episode};
+use crate::reference::{IDEAL_THETA, INDICATOR_THRESHOLD, NULL, ORACLE, ideal_theta_deg};
 use crate::schema::{DetectorSpec, EpisodeSpec};
 use crate::truth::TruthRecorder;
 
@@ -95,6 +97,8 @@ pub struct EpisodeTrace {
     pub angular_size_deg: Vec<f64>,
     /// True time to contact of the reference object per frame (s), when on a collision course.
     pub ttc_s: Vec<Option<f64>>,
+    /// The escape deadline of a threat (s; `None`: no threat, or unavoidable).
+    pub t_deadline_s: Option<f64>,
     /// Per detector.
     pub detectors: Vec<DetectorTrace>,
 }
@@ -123,6 +127,8 @@ pub struct EpisodeRun {
     pub trace: EpisodeTrace,
     /// Closed-loop details per detector (same order as `outcome.detectors`).
     pub closed_loop: Vec<ClosedLoop>,
+    /// The escape deadline search of a threat.
+    pub deadline: Option<EscapeDeadline>,
     /// Frames rendered in total (open loop + tails).
     pub frames_rendered: usize,
 }
@@ -133,6 +139,7 @@ pub struct Runner {
     renderers: RendererPool,
     pool: rayon::ThreadPool,
     jobs: usize,
+    references: bool,
 }
 
 impl std::fmt::Debug for Runner {
@@ -191,7 +198,15 @@ impl Runner {
             renderers: RendererPool::default(),
             pool,
             jobs,
+            references: true,
         })
+    }
+
+    /// Whether episodes also score the reference rows `null`, `oracle` and `ideal_theta` (default
+    /// true; see [`crate::reference`]).
+    pub fn with_references(mut self, references: bool) -> Self {
+        self.references = references;
+        self
     }
 
     /// Number of workers.
@@ -244,28 +259,23 @@ impl Runner {
         let mut t_s = Vec::with_capacity(total);
         let mut signal = vec![Vec::with_capacity(total); nd];
         let mut output = vec![Vec::with_capacity(total); nd];
-        // per frame, per object: (ttc, angular size)
-        let mut truth: Vec<Vec<(Option<f64>, f64)>> = Vec::with_capacity(total);
+        let mut truth: Vec<Vec<ObjectTruth>> = Vec::with_capacity(total);
         let mut recorder = TruthRecorder::new(&sim);
         let open = (|| -> Result<(), RunError> {
             for _ in 0..total {
                 let cmd = ep.cruise.command_at(sim.time());
-                let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
-                let frame = Frame::from_f32(nn, out.frame.clone()).map_err(|e| c.det(e))?;
+                let mut out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
+                let frame = Frame::from_f32(nn, std::mem::take(&mut out.frame)).map_err(|e| c.det(e))?;
                 for (i, (d, spec)) in detectors.iter_mut().zip(&ep.detectors).enumerate() {
                     let s = d.step(&frame).map_err(|e| c.det(e))?;
                     signal[i].push(spec.trigger.value(&s).unwrap_or(f64::NAN));
                     output[i].push(s.output);
                 }
                 t_s.push(out.t_s);
-                truth.push(
-                    out.truth
-                        .iter()
-                        .map(|o| (o.ttc_s.map(f64::from), f64::from(o.angular_size_deg)))
-                        .collect(),
-                );
                 frames.push(frame);
-                if recorder.record(&out).is_some() {
+                let contact = recorder.record(&out).is_some();
+                truth.push(out.truth);
+                if contact {
                     break;
                 }
             }
@@ -277,62 +287,106 @@ impl Runner {
         open?;
         let mut frames_rendered = frames.len();
 
-        // ---- ground truth ----
+        // ---- ground truth: threat, reference object, escape deadline, l/|v| ----
         let episode_truth = recorder.finish();
-        let threat = episode_truth.threat();
-        let t_contact_s = episode_truth.t_contact_s();
         let reference = episode_truth.reference;
-        let ref_ttc: Vec<Option<f64>> = truth.iter().map(|row| reference.and_then(|id| row[id].0)).collect();
-        let ref_theta: Vec<f64> = truth
-            .iter()
-            .map(|row| reference.map_or(f64::NAN, |id| row[id].1))
+        let ref_truth = |k: usize| reference.and_then(|id| truth[k].get(id));
+        let ref_ttc: Vec<Option<f64>> = (0..t_s.len())
+            .map(|k| ref_truth(k).and_then(|o| o.ttc_s).map(f64::from))
             .collect();
+        let ref_theta: Vec<f64> = (0..t_s.len())
+            .map(|k| ref_truth(k).map_or(f64::NAN, |o| f64::from(o.angular_size_deg)))
+            .collect();
+        let mut side = LoomingSideEstimator::default();
+        let sides: Vec<Option<f32>> = frames.iter().map(|f| side.update(f)).collect();
+        let escape = EscapeController::new(ep.controller.clone()).map_err(|source| RunError::Controller {
+            scenario: ep.scenario.clone(),
+            episode: ep.index,
+            source,
+        })?;
+        let deadline = match &episode_truth.contact {
+            Some(contact) => Some(escape_deadline(ep, ep.seed, &escape, &sides, &t_s, contact.frame).map_err(|e| c.sim(e))?),
+            None => None,
+        };
+        let approach = episode_truth
+            .contact
+            .as_ref()
+            .and_then(|contact| HeadOnApproach::measure(&truth, contact.object_id, contact.frame, ep.world.dt()));
+        let ground_truth = GroundTruth {
+            threat: episode_truth.threat(),
+            t_contact_s: episode_truth.t_contact_s(),
+            t_deadline_s: deadline.as_ref().and_then(|d| d.t_s),
+            collision: false,
+        };
+        let contact_frame = episode_truth.contact.as_ref().map(|c| c.frame);
 
-        // ---- scores and closed loops ----
-        let mut scored: Vec<DetectorEpisode> = Vec::with_capacity(nd);
-        let mut closed = Vec::with_capacity(nd);
-        for (i, spec) in ep.detectors.iter().enumerate() {
+        // ---- scores and closed loops: the detectors, then the reference rows ----
+        let mut rows: Vec<Row> = ep
+            .detectors
+            .iter()
+            .enumerate()
+            .map(|(i, spec)| Row {
+                label: spec.label.clone(),
+                trigger: spec.trigger,
+                threshold: spec.threshold,
+                signal: std::mem::take(&mut signal[i]),
+                output: std::mem::take(&mut output[i]),
+                tail: Tail::Detector(spec),
+            })
+            .collect();
+        if self.references {
+            rows.extend(reference_rows(ep, &truth, deadline.as_ref(), t_s.len()));
+        }
+        let mut scored: Vec<DetectorEpisode> = Vec::with_capacity(rows.len());
+        let mut closed = Vec::with_capacity(rows.len());
+        for row in &rows {
             let samples: Vec<TraceSample> = (0..t_s.len())
                 .map(|k| TraceSample {
                     t_s: t_s[k],
-                    signal: signal[i][k],
+                    signal: row.signal[k],
                     ttc_s: ref_ttc[k],
                     angular_size_deg: Some(ref_theta[k]).filter(|v| v.is_finite()),
                 })
                 .collect();
-            let truth = GroundTruth {
-                threat,
-                t_contact_s,
-                collision: false,
-            };
-            let mut d = score_detector_episode(&spec.label, spec.threshold, &samples, &truth, &ep.scoring).map_err(
-                |source| RunError::Scoring {
+            let mut d = score_detector_episode(&row.label, row.threshold, &samples, &ground_truth, &ep.scoring)
+                .map_err(|source| RunError::Scoring {
                     scenario: ep.scenario.clone(),
                     episode: ep.index,
                     source,
-                },
-            )?;
-            let first_alarm = signal[i].iter().position(|&s| s >= spec.threshold);
-            let contact_frame = episode_truth.contact.as_ref().map(|c| c.frame);
+                })?;
+            let first_alarm = row.signal.iter().position(|&s| s >= row.threshold);
             let cl = match (first_alarm, contact_frame) {
                 (None, _) => ClosedLoop {
-                    label: spec.label.clone(),
+                    label: row.label.clone(),
                     simulated: false,
                     triggers: 0,
-                    collision_t_s: t_contact_s,
+                    collision_t_s: ground_truth.t_contact_s,
                     frames_rendered: 0,
                 },
                 (Some(ka), Some(kc)) if ka >= kc => ClosedLoop {
-                    label: spec.label.clone(),
+                    label: row.label.clone(),
                     simulated: false,
                     triggers: 1,
-                    collision_t_s: t_contact_s,
+                    collision_t_s: ground_truth.t_contact_s,
                     frames_rendered: 0,
                 },
-                (Some(ka), _) => self.closed_loop_tail(&c, spec, &frames, ka)?,
+                (Some(ka), _) => match &row.tail {
+                    Tail::Replay => ClosedLoop {
+                        label: row.label.clone(),
+                        simulated: true,
+                        triggers: 1,
+                        collision_t_s: replay_trigger(ep, ep.seed, &escape, ka, sides[ka]).map_err(|e| c.sim(e))?,
+                        frames_rendered: 0,
+                    },
+                    tail => self.closed_loop_tail(&c, &row.label, tail, row.threshold, &frames, &truth, ka)?,
+                },
             };
             frames_rendered += cl.frames_rendered;
             d.collision = cl.collision_t_s.is_some();
+            if let Some(a) = &approach {
+                d.l_over_v_s = Some(a.l_over_v_s);
+                d.eye_ttc_at_alarm_s = first_alarm.and_then(|k| a.eye_ttc_s(k));
+            }
             scored.push(d);
             closed.push(cl);
         }
@@ -342,16 +396,15 @@ impl Runner {
             reference_object: reference.map(|id| objects[id].1.clone()),
             angular_size_deg: ref_theta,
             ttc_s: ref_ttc,
-            detectors: ep
-                .detectors
-                .iter()
-                .zip(signal.into_iter().zip(output))
-                .map(|(spec, (signal, output))| DetectorTrace {
-                    label: spec.label.clone(),
-                    trigger: spec.trigger,
-                    threshold: spec.threshold,
-                    signal,
-                    output,
+            t_deadline_s: ground_truth.t_deadline_s,
+            detectors: rows
+                .into_iter()
+                .map(|row| DetectorTrace {
+                    label: row.label,
+                    trigger: row.trigger,
+                    threshold: row.threshold,
+                    signal: row.signal,
+                    output: row.output,
                 })
                 .collect(),
         };
@@ -365,16 +418,23 @@ impl Runner {
             },
             trace,
             closed_loop: closed,
+            deadline,
             frames_rendered,
         })
     }
 
-    /// Closed loop of one detector whose first alarm is open-loop frame `ka` (before any contact).
+    /// Closed loop of one row whose first alarm is open-loop frame `ka` (before any contact): a
+    /// physics-only replay to the alarm frame with the agent on the cached frames, then rendering
+    /// with the agent in the loop (see the module docs).
+    #[allow(clippy::too_many_arguments)]
     fn closed_loop_tail(
         &self,
         c: &Ctx<'_>,
-        spec: &DetectorSpec,
+        label: &str,
+        tail: &Tail<'_>,
+        threshold: f64,
         frames: &[Frame],
+        truth: &[Vec<ObjectTruth>],
         ka: usize,
     ) -> Result<ClosedLoop, RunError> {
         let ep = c.ep;
@@ -382,21 +442,40 @@ impl Runner {
         let nn = n as usize;
         let total = ep.frames();
         let mut sim = Sim::new_physics_only(&ep.world, ep.seed).map_err(|e| c.sim(e))?;
-        let detector = spec.build(nn).map_err(|e| c.det(e))?;
-        let mut agent =
-            EscapeAgent::new(vec![detector], spec.controller(&ep.controller)).map_err(|source| RunError::Controller {
-                scenario: ep.scenario.clone(),
-                episode: ep.index,
-                source,
-            })?;
+        let controller_err = |source| RunError::Controller {
+            scenario: ep.scenario.clone(),
+            episode: ep.index,
+            source,
+        };
+        // The agent: the detector itself, or (ideal_theta) no detector and the true angular size
+        // as its trigger value.
+        let mut agent = match tail {
+            Tail::Detector(spec) => {
+                let detector = spec.build(nn).map_err(|e| c.det(e))?;
+                EscapeAgent::new(vec![detector], spec.controller(&ep.controller)).map_err(controller_err)?
+            }
+            _ => EscapeAgent::new(
+                Vec::new(),
+                EscapeConfig {
+                    trigger: TriggerSignal::AngularSizeDeg,
+                    threshold,
+                    ..ep.controller.clone()
+                },
+            )
+            .map_err(controller_err)?,
+        };
+        let decide = |agent: &mut EscapeAgent, t: f64, frame: &Frame, truth: &[ObjectTruth]| {
+            let cruise = ep.cruise.command_at(t);
+            match tail {
+                Tail::Detector(_) => agent.step(t, frame, cruise).map(|s| s.command).map_err(|e| c.det(e)),
+                _ => Ok(agent.step_with_trigger(t, frame, ideal_theta_deg(truth), cruise).command),
+            }
+        };
         // Replay up to and including the alarm frame: physics only, the agent on the cached frames.
         let mut cmd = ep.cruise.command_at(0.0);
-        for frame in &frames[..=ka] {
+        for (frame, truth) in frames[..=ka].iter().zip(truth) {
             let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
-            cmd = agent
-                .step(out.t_s, frame, ep.cruise.command_at(out.t_s))
-                .map_err(|e| c.det(e))?
-                .command;
+            cmd = decide(&mut agent, out.t_s, frame, truth)?;
         }
         // Continue with rendering, the agent in the loop.
         let renderer = self.renderers.take(&self.ctx, n).map_err(|e| c.sim(e))?;
@@ -407,17 +486,14 @@ impl Runner {
         let mut rendered = 0;
         let tail = (|| -> Result<(), RunError> {
             for _ in ka + 1..total {
-                let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
+                let mut out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
                 rendered += 1;
                 if let Some(ct) = out.contacts.first() {
                     collision_t_s = Some(ct.time_s());
                     break;
                 }
-                let frame = Frame::from_f32(nn, out.frame).map_err(|e| c.det(e))?;
-                cmd = agent
-                    .step(out.t_s, &frame, ep.cruise.command_at(out.t_s))
-                    .map_err(|e| c.det(e))?
-                    .command;
+                let frame = Frame::from_f32(nn, std::mem::take(&mut out.frame)).map_err(|e| c.det(e))?;
+                cmd = decide(&mut agent, out.t_s, &frame, &out.truth)?;
             }
             Ok(())
         })();
@@ -426,11 +502,153 @@ impl Runner {
         }
         tail?;
         Ok(ClosedLoop {
-            label: spec.label.clone(),
+            label: label.to_string(),
             simulated: true,
             triggers: agent.controller().triggers(),
             collision_t_s,
             frames_rendered: rendered,
         })
+    }
+}
+
+/// How a row's closed loop after its first alarm is run.
+enum Tail<'a> {
+    /// The detector drives the escape agent on rendered frames.
+    Detector(&'a DetectorSpec),
+    /// The true angular size drives the escape agent on rendered frames (`ideal_theta`).
+    TrueAngularSize,
+    /// One trigger, then physics only: the escape-deadline replay (`oracle`).
+    Replay,
+}
+
+/// One row of an episode: a detector or a reference row, with its open-loop trigger signal.
+struct Row<'a> {
+    label: String,
+    trigger: TriggerSignal,
+    threshold: f64,
+    signal: Vec<f64>,
+    output: Vec<f64>,
+    tail: Tail<'a>,
+}
+
+/// The reference rows of an episode (see [`crate::reference`]) over its `frames` open-loop frames.
+fn reference_rows<'a>(
+    ep: &EpisodeSpec,
+    truth: &[Vec<ObjectTruth>],
+    deadline: Option<&EscapeDeadline>,
+    frames: usize,
+) -> Vec<Row<'a>> {
+    let indicator = |k: Option<usize>| -> Vec<f64> {
+        (0..frames)
+            .map(|i| if Some(i) == k { INDICATOR_THRESHOLD } else { 0.0 })
+            .collect()
+    };
+    let ideal: Vec<f64> = truth.iter().map(|row| ideal_theta_deg(row)).collect();
+    let row = |label: &str, trigger, threshold, signal: Vec<f64>, tail| Row {
+        label: label.to_string(),
+        trigger,
+        threshold,
+        output: signal.clone(),
+        signal,
+        tail,
+    };
+    vec![
+        row(NULL, TriggerSignal::Output, INDICATOR_THRESHOLD, indicator(None), Tail::Replay),
+        row(
+            ORACLE,
+            TriggerSignal::Output,
+            INDICATOR_THRESHOLD,
+            indicator(deadline.and_then(|d| d.frame)),
+            Tail::Replay,
+        ),
+        row(
+            IDEAL_THETA,
+            TriggerSignal::AngularSizeDeg,
+            ideal_theta_threshold_deg(ep),
+            ideal,
+            Tail::TrueAngularSize,
+        ),
+    ]
+}
+
+/// The Hopfield trigger threshold of an episode: that of its detector labelled `hopfield`
+/// (triggered by θ̂), else the escape controller's default angle (10°; e.g. in sweeps, whose
+/// points have other labels, so that every shard scores the same reference row).
+pub fn ideal_theta_threshold_deg(ep: &EpisodeSpec) -> f64 {
+    ep.detectors
+        .iter()
+        .find(|d| d.label == "hopfield" && d.trigger == TriggerSignal::AngularSizeDeg)
+        .map_or(EscapeConfig::default().threshold, |d| d.threshold)
+}
+
+/// A threat approaching head-on at constant speed (see [`crate::lv`]), measured over the last
+/// second before contact from ground truth.
+#[derive(Debug, Clone)]
+struct HeadOnApproach {
+    /// Half-size over closing speed (s).
+    l_over_v_s: f64,
+    /// Per open-loop frame: distance to the object's centre over its closing speed (s).
+    eye_ttc_s: Vec<Option<f64>>,
+}
+
+impl HeadOnApproach {
+    /// Largest relative spread of the half-size and closing speed over the last second.
+    const MAX_SPREAD: f64 = 0.05;
+    /// Largest |bearing| over the last second (degrees).
+    const MAX_BEARING_DEG: f64 = 15.0;
+
+    fn measure(truth: &[Vec<ObjectTruth>], id: usize, contact_frame: usize, dt: f64) -> Option<Self> {
+        let get = |k: usize| truth.get(k).and_then(|row| row.get(id));
+        let distance = |k: usize| get(k).map(|o| f64::from(o.center_distance_m));
+        let last = contact_frame.min(truth.len().checked_sub(1)?);
+        let closing = |k: usize| -> Option<f64> {
+            let (a, b) = (k.saturating_sub(1), (k + 1).min(last));
+            if b <= a {
+                return None;
+            }
+            Some((distance(a)? - distance(b)?) / ((b - a) as f64 * dt))
+        };
+        // the last second before contact, without the contact frame (the object may overlap it)
+        let window = ((1.0 / dt).round() as usize).max(2);
+        let first = last.saturating_sub(window);
+        let ks: Vec<usize> = (first..last).collect();
+        if ks.len() < 2 {
+            return None;
+        }
+        let mut half = Vec::with_capacity(ks.len());
+        let mut speed = Vec::with_capacity(ks.len());
+        for &k in &ks {
+            let o = get(k)?;
+            if f64::from(o.bearing_deg).abs() > Self::MAX_BEARING_DEG {
+                return None;
+            }
+            half.push(f64::from(o.center_distance_m) * (f64::from(o.angular_size_deg).to_radians() / 2.0).sin());
+            speed.push(closing(k)?);
+        }
+        let spread = |v: &[f64]| -> Option<f64> {
+            let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            let mean = v.iter().sum::<f64>() / v.len() as f64;
+            (mean > 0.0 && lo.is_finite()).then(|| (hi - lo) / mean)
+        };
+        if spread(&half)? > Self::MAX_SPREAD || spread(&speed)? > Self::MAX_SPREAD {
+            return None;
+        }
+        let l = half.iter().sum::<f64>() / half.len() as f64;
+        let v = speed.iter().sum::<f64>() / speed.len() as f64;
+        let eye_ttc_s = (0..truth.len())
+            .map(|k| {
+                let v = closing(k)?;
+                (v > 0.0).then(|| distance(k).map(|d| d / v)).flatten()
+            })
+            .collect();
+        Some(Self {
+            l_over_v_s: l / v,
+            eye_ttc_s,
+        })
+    }
+
+    fn eye_ttc_s(&self, k: usize) -> Option<f64> {
+        self.eye_ttc_s.get(k).copied().flatten()
     }
 }

@@ -27,7 +27,7 @@
 //! dodge_speed_mps = 2.0
 //!
 //! [scoring]
-//! lead_min_s = 0.1
+//! lead_margin_s = 0.0              # a hit alarms this long before the escape deadline
 //!
 //! [sweep]                          # see crate::expand
 //! "world.projectiles.0.speed_mps" = [6, 9, 12]
@@ -231,19 +231,25 @@ pub struct DetectorDesc {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ScoringDesc {
-    /// Minimal warning time (s): a threat's alarm must come at least this long before contact to
-    /// be a hit (default: `ScoringConfig::default().lead_min_s`).
-    #[serde(default = "d_lead")]
-    pub lead_min_s: f64,
+    /// Extra margin (s): a threat's alarm must come at least this long before its escape deadline
+    /// to be a hit (default: `ScoringConfig::default().lead_margin_s`, 0).
+    #[serde(default = "d_margin")]
+    pub lead_margin_s: f64,
+    /// Removed (replaced by the escape deadline); rejected with a message naming the replacement.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lead_min_s: Option<f64>,
 }
 
-fn d_lead() -> f64 {
-    ScoringConfig::default().lead_min_s
+fn d_margin() -> f64 {
+    ScoringConfig::default().lead_margin_s
 }
 
 impl Default for ScoringDesc {
     fn default() -> Self {
-        Self { lead_min_s: d_lead() }
+        Self {
+            lead_margin_s: d_margin(),
+            lead_min_s: None,
+        }
     }
 }
 
@@ -499,8 +505,8 @@ pub fn parse_scenario(
         description = doc.description.clone();
         let (world, detectors) = resolve(&doc, opts).map_err(&err)?;
         let scoring = ScoringConfig {
-            lead_min_s: doc.scoring.lead_min_s,
-            keep_traces: false,
+            lead_margin_s: doc.scoring.lead_margin_s,
+            ..ScoringConfig::default()
         };
         for r in 0..episode.repeats as usize {
             let index = first_index + r;
@@ -558,15 +564,23 @@ fn resolve(doc: &ScenarioDoc, opts: &LoadOptions) -> Result<(WorldDesc, Vec<Dete
     doc.controller
         .validate()
         .map_err(|e| ("controller".to_string(), e.to_string()))?;
-    let lead = doc.scoring.lead_min_s;
-    if !(lead.is_finite() && lead >= 0.0) {
+    if let Some(v) = doc.scoring.lead_min_s {
         return Err((
             "scoring.lead_min_s".into(),
-            format!("{lead} must be a number of seconds >= 0"),
+            format!(
+                "{v}: the key was removed: a hit is now an alarm no later than the threat's escape deadline \
+                 (found by physics-only replays of the escape manoeuvre); delete it, or use \
+                 `scoring.lead_margin_s` for an extra margin before the deadline"
+            ),
         ));
     }
-    let n = world.camera.n as usize;
-    let fov = f64::from(world.camera.fov_deg);
+    let margin = doc.scoring.lead_margin_s;
+    if !(margin.is_finite() && margin >= 0.0) {
+        return Err((
+            "scoring.lead_margin_s".into(),
+            format!("{margin} must be a number of seconds >= 0"),
+        ));
+    }
     let entries = opts.detector_entries.as_ref().or(doc.detectors.as_ref());
     let listed: Vec<(usize, DetectorDesc)> = match entries {
         Some(list) => list.iter().cloned().enumerate().collect(),
@@ -600,7 +614,7 @@ fn resolve(doc: &ScenarioDoc, opts: &LoadOptions) -> Result<(WorldDesc, Vec<Dete
             Some(i) => format!("detectors[{i}].{k}"),
             None => format!("detectors.{k}"),
         };
-        let spec = resolve_detector(&d, n, fov).map_err(|(k, r)| (key(&k), r))?;
+        let spec = resolve_detector(&d, CameraFacts::of(&world)).map_err(|(k, r)| (key(&k), r))?;
         if specs.iter().any(|s| s.label == spec.label) {
             return Err((
                 key("label"),
@@ -617,7 +631,40 @@ fn resolve(doc: &ScenarioDoc, opts: &LoadOptions) -> Result<(WorldDesc, Vec<Dete
 
 /// Validates one `[[detectors]]` entry for n×n frames at `fov_deg` and builds its spec.
 /// Errors are `(key, reason)` with the key relative to the entry (`threshold`, `params.alpha`, …).
-pub fn resolve_detector(d: &DetectorDesc, n: usize, fov_deg: f64) -> Result<DetectorSpec, (String, String)> {
+/// The camera facts a detector is built for: the Hopfield `n`, `fov_deg` and `frame_rate_hz` come
+/// from the camera and may not be given as detector parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraFacts {
+    /// Frame side length (pixels).
+    pub n: usize,
+    /// Field of view (degrees).
+    pub fov_deg: f64,
+    /// Frame rate (Hz).
+    pub frame_rate_hz: f64,
+}
+
+impl CameraFacts {
+    /// The facts of a world's camera.
+    pub fn of(world: &WorldDesc) -> Self {
+        Self {
+            n: world.camera.n as usize,
+            fov_deg: f64::from(world.camera.fov_deg),
+            frame_rate_hz: f64::from(world.camera_hz),
+        }
+    }
+
+    /// The default camera's facts with frame side `n` (for validating detector lists that are not
+    /// tied to a world yet).
+    pub fn default_with_size(n: usize) -> Self {
+        Self {
+            n,
+            ..Self::of(&WorldDesc::default())
+        }
+    }
+}
+
+/// Validates one `[[detectors]]` entry for `camera` and builds its spec.
+pub fn resolve_detector(d: &DetectorDesc, camera: CameraFacts) -> Result<DetectorSpec, (String, String)> {
     let Some(&id) = DETECTOR_IDS.iter().find(|&&k| k == d.id) else {
         return Err((
             "id".into(),
@@ -638,7 +685,16 @@ pub fn resolve_detector(d: &DetectorDesc, n: usize, fov_deg: f64) -> Result<Dete
             "must be non-empty, without commas, quotes or newlines".into(),
         ));
     }
-    let params = detector_params(id, d.params.as_ref(), n, fov_deg)?;
+    if crate::reference::is_reference(&label) {
+        return Err((
+            "label".into(),
+            format!(
+                "`{label}` is reserved for a reference row ({}); choose another label",
+                crate::reference::REFERENCE_LABELS.join(", ")
+            ),
+        ));
+    }
+    let params = detector_params(id, d.params.as_ref(), camera)?;
     Ok(DetectorSpec {
         label,
         id,
@@ -672,7 +728,7 @@ pub fn parse_detector_entries(text: &str, path: &Path) -> Result<Vec<DetectorDes
     }
     let mut labels = Vec::new();
     for (i, d) in doc.detectors.iter().enumerate() {
-        let spec = resolve_detector(d, 64, 60.0)
+        let spec = resolve_detector(d, CameraFacts::default_with_size(64))
             .map_err(|(k, r)| ScenarioError::key(path, format!("detectors[{i}].{k}"), r))?;
         if labels.contains(&spec.label) {
             return Err(ScenarioError::key(
@@ -708,11 +764,11 @@ fn bare(id: &str) -> DetectorDesc {
     }
 }
 
-fn detector_params(id: &str, params: Option<&Table>, n: usize, fov_deg: f64) -> Result<DetectorSet, (String, String)> {
+fn detector_params(id: &str, params: Option<&Table>, camera: CameraFacts) -> Result<DetectorSet, (String, String)> {
     let mut set = DetectorSet::default();
     let table = params.cloned().unwrap_or_default();
     if id == "hopfield" {
-        for k in ["n", "fov_deg"] {
+        for k in ["n", "fov_deg", "frame_rate_hz"] {
             if table.contains_key(k) {
                 return Err((
                     format!("params.{k}"),
@@ -721,7 +777,12 @@ fn detector_params(id: &str, params: Option<&Table>, n: usize, fov_deg: f64) -> 
             }
         }
         let cfg: HopfieldConfig = typed(Value::Table(table), "params")?;
-        set.hopfield = HopfieldConfig { n, fov_deg, ..cfg };
+        set.hopfield = HopfieldConfig {
+            n: camera.n,
+            fov_deg: camera.fov_deg,
+            frame_rate_hz: camera.frame_rate_hz,
+            ..cfg
+        };
         set.hopfield
             .validate()
             .map_err(|e| ("params".to_string(), e.to_string()))?;

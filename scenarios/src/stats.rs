@@ -3,7 +3,7 @@
 //! # ROC from per-episode scores
 //! The alarm rule is `signal >= threshold` (see [`crate::metrics`]). For one episode, let its
 //! **score** be the maximum of the detector's signal over the window in which an alarm counts
-//! (threats: up to `t_c − lead_min`; non-threats: the whole episode). Then, for any threshold θ,
+//! (evadable threats: up to `t_dl − lead_margin`; non-threats: the whole episode). Then, for any threshold θ,
 //! "the episode is a hit / false alarm at θ" ⇔ "score ≥ θ". So sweeping θ over all distinct scores
 //! gives every achievable (false-alarm rate, hit rate) pair exactly — the ROC curve — from one run,
 //! and its trapezoid area equals the Mann–Whitney statistic P(S₊ > S₋) + ½·P(S₊ = S₋).

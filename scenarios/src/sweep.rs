@@ -46,10 +46,11 @@ use toml::{Table, Value};
 use crate::episodes_csv::{format_rows, header_line, parse_episodes_csv, quote};
 use crate::error::{RunError, ScenarioError};
 use crate::expand::{KeyPath, KeySegment, Variation, mix_seed};
-use crate::metrics::{DetectorSummary, EpisodeOutcome, ScoringError};
+use crate::metrics::{DetectorEpisode, DetectorSummary, EpisodeOutcome, ScoringError};
+use crate::reference::is_reference;
 use crate::report::{LOOMLAB_VERSION, Report, ReportMeta};
 use crate::runner::Runner;
-use crate::schema::{DetectorDesc, EpisodeSpec, LoadOptions, resolve_detector, typed};
+use crate::schema::{CameraFacts, DetectorDesc, EpisodeSpec, LoadOptions, resolve_detector, typed};
 use crate::suite::load_suite;
 
 /// Most parameter points one sweep may expand to.
@@ -335,7 +336,7 @@ impl SweepFile {
                 let label = format!("{prefix}-{k:03}");
                 desc.label = Some(label.clone());
                 // Check the point (values out of range name the point and its values).
-                resolve_detector(&desc, doc.size.unwrap_or(64) as usize, 60.0).map_err(|(key, r)| {
+                resolve_detector(&desc, CameraFacts::default_with_size(doc.size.unwrap_or(64) as usize)).map_err(|(key, r)| {
                     let vals = values
                         .iter()
                         .map(|(k, v)| format!("{k} = {v}"))
@@ -479,7 +480,7 @@ impl SweepPlan {
                 serde_json::to_string(&ep.cruise).unwrap_or_default(),
                 ep.duration_s,
                 serde_json::to_string(&ep.controller).unwrap_or_default(),
-                ep.scoring.lead_min_s,
+                ep.scoring.lead_margin_s,
             );
         }
         text += &serde_json::to_string(&shards).unwrap_or_default();
@@ -553,7 +554,12 @@ impl SweepPlan {
             .map(|p| p.label.as_str())
             .collect();
         for (o, ep) in outcomes.iter().zip(&self.episodes[shard.episodes.clone()]) {
-            let labels: Vec<&str> = o.detectors.iter().map(|d| d.detector.as_str()).collect();
+            let labels: Vec<&str> = o
+                .detectors
+                .iter()
+                .map(|d| d.detector.as_str())
+                .filter(|l| !is_reference(l))
+                .collect();
             if o.scenario != ep.scenario || o.episode != ep.index || o.seed != ep.seed || labels != want {
                 return Err(bad(format!(
                     "rows of {} episode {} ({labels:?}) where {} episode {} ({want:?}) belongs",
@@ -577,9 +583,12 @@ impl SweepPlan {
         // Shards are episode block outer, so walking them in order keeps suite order per point.
         for (shard, outcomes) in self.shards.iter().zip(shards) {
             for o in outcomes {
-                for (p, d) in shard.points.clone().zip(&o.detectors) {
+                // every point's report carries the episode's reference rows, as `loomlab run` does
+                let (references, rows): (Vec<&DetectorEpisode>, Vec<&DetectorEpisode>) =
+                    o.detectors.iter().partition(|d| is_reference(&d.detector));
+                for (p, d) in shard.points.clone().zip(rows) {
                     per_point[p].push(EpisodeOutcome {
-                        detectors: vec![d.clone()],
+                        detectors: std::iter::once(d).chain(references.iter().copied()).cloned().collect(),
                         ..o.clone()
                     });
                 }
@@ -589,7 +598,7 @@ impl SweepPlan {
             suite: self.file.suite.display().to_string(),
             seed: self.file.seed,
             wall_time_s,
-            lead_min_s: self.episodes.first().map_or(0.0, |e| e.scoring.lead_min_s),
+            lead_margin_s: self.episodes.first().map_or(0.0, |e| e.scoring.lead_margin_s),
         };
         let Objective {
             metric,

@@ -13,7 +13,11 @@
 //! Per frame the reference object's true time to contact and angular size are what the scoring
 //! reads at the alarm.
 
+use loomlab_agents::{EscapeController, LoomingSideEstimator};
+use loomlab_detector::Frame;
 use loomlab_sim::{Contact, ObjectKind, Sim, SimError, StepOutput};
+
+use crate::deadline::{EscapeDeadline, escape_deadline};
 
 use crate::schema::EpisodeSpec;
 
@@ -138,4 +142,33 @@ pub fn open_loop_truth(spec: &EpisodeSpec, seed: u64) -> Result<EpisodeTruth, Si
         }
     }
     Ok(recorder.finish())
+}
+
+/// The escape deadline of episode `spec` (simulator seed `seed`) whose open-loop ground truth is
+/// `truth` (`None` for a non-threat). The looming sides at the candidate trigger frames come from
+/// rendering the open-loop pass again up to the contact on `sim`, which must render; `sim` is left
+/// reset to the episode's start.
+pub fn threat_deadline(
+    spec: &EpisodeSpec,
+    seed: u64,
+    truth: &EpisodeTruth,
+    controller: &EscapeController,
+    sim: &mut Sim,
+) -> Result<Option<EscapeDeadline>, SimError> {
+    let Some(contact) = &truth.contact else {
+        return Ok(None);
+    };
+    sim.reset(&spec.world, seed)?;
+    let n = spec.world.camera.n as usize;
+    let mut side = LoomingSideEstimator::default();
+    let mut sides = Vec::with_capacity(contact.frame + 1);
+    let mut t_s = Vec::with_capacity(contact.frame + 1);
+    for _ in 0..=contact.frame {
+        let cmd = spec.cruise.command_at(sim.time());
+        let out = sim.step(&cmd.to_sim())?;
+        t_s.push(out.t_s);
+        sides.push(Frame::from_f32(n, out.frame).ok().and_then(|f| side.update(&f)));
+    }
+    sim.reset(&spec.world, seed)?;
+    escape_deadline(spec, seed, controller, &sides, &t_s, contact.frame).map(Some)
 }

@@ -164,12 +164,12 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
     bar.finish_and_clear();
     let wall_time_s = started.elapsed().as_secs_f64();
 
-    let outcomes: Vec<EpisodeOutcome> = runs.iter().map(|r| r.outcome.clone()).collect();
+    let outcomes = runs_outcomes(&runs);
     let meta = ReportMeta {
         suite: suite_path.display().to_string(),
         seed: args.seed,
         wall_time_s,
-        lead_min_s: episodes[0].scoring.lead_min_s,
+        lead_margin_s: episodes[0].scoring.lead_margin_s,
     };
     let report = Report::from_episodes(&meta, &outcomes);
     let report_path = args.out.join("report.json");
@@ -235,6 +235,11 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
         }
     }
     Ok(0)
+}
+
+/// The scored outcomes of `runs`.
+fn runs_outcomes(runs: &[EpisodeRun]) -> Vec<EpisodeOutcome> {
+    runs.iter().map(|r| r.outcome.clone()).collect()
 }
 
 /// Writes one episode's open-loop trace as CSV.
@@ -312,9 +317,12 @@ fn write_plots(out: &Path, report: &Report, runs: &[EpisodeRun]) -> anyhow::Resu
     let width = (160 + 120 * scenarios.len() as u32).max(640);
     rate_bars(
         &out.join("rates.png"),
-        "correct decisions (hits + correct rejections) / episodes, per scenario",
+        "correct decisions (hits + correct rejections) / decidable episodes, per scenario",
         &scenarios,
-        &per(&|s| (s.episodes > 0).then(|| (s.hits + s.correct_rejections) as f64 / s.episodes as f64)),
+        &per(&|s| {
+            let decided = s.hits + s.misses + s.false_alarms + s.correct_rejections;
+            (decided > 0).then(|| (s.hits + s.correct_rejections) as f64 / decided as f64)
+        }),
         (width, 520),
     )?;
     rate_bars(
@@ -323,6 +331,41 @@ fn write_plots(out: &Path, report: &Report, runs: &[EpisodeRun]) -> anyhow::Resu
         &scenarios,
         &per(&|s| s.collision_rate),
         (width, 520),
+    )?;
+
+    // The l/|v| analysis: alarm time to collision against half-size / closing speed, with the fit.
+    let outcomes = runs_outcomes(runs);
+    let lv: Vec<Series> = report
+        .detectors
+        .iter()
+        .map(|(id, s)| {
+            let (x, y): (Vec<f64>, Vec<f64>) = loomlab_scenarios::report::detector_episodes(&outcomes, id)
+                .filter_map(|d| Some((d.l_over_v_s?, d.eye_ttc_at_alarm_s?)))
+                .unzip();
+            let name = match &s.lv_fit {
+                Some(f) => format!(
+                    "{id}: θ_th {} δ {:.3} s R² {:.2} (n={})",
+                    f.theta_th_deg.map_or("n/a".into(), |t| format!("{t:.1}°")),
+                    f.delay_s,
+                    f.r2,
+                    f.episodes
+                ),
+                None => format!("{id}: no fit ({} alarms)", x.len()),
+            };
+            Series::new(name, x, y).scatter(s.lv_fit.map(|f| (f.slope, f.intercept_s)))
+        })
+        .collect();
+    line_chart(
+        &out.join("lv.png"),
+        &LineChart {
+            title: "l/|v| analysis: constant-speed head-on threats".into(),
+            x_label: "l/|v|: half-size / closing speed (s)".into(),
+            y_label: "time to collision at the alarm (s)".into(),
+            series: lv,
+            x_range: None,
+            y_range: None,
+        },
+        (760, 600),
     )?;
 
     // A sample episode: the first threat the first detector hits, else the first threat, else the first.
