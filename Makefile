@@ -59,7 +59,7 @@ python-env: deps
 ## python/examples for a few steps. The sweep tests run the `loomlab` binary: built here first.
 python-test: python-env
 	$(CARGO) build --bin loomlab
-	cd python && LOOMLAB_BIN=$(CURDIR)/target/debug/loomlab $(abspath $(VENV))/bin/python -m pytest -q
+	cd python && LOOMLAB_BIN=$${CARGO_TARGET_DIR:-$(CURDIR)/target}/debug/loomlab $(abspath $(VENV))/bin/python -m pytest -q
 	$(MAKE) --no-print-directory python-examples
 
 ## Smoke-run every example for a few steps (`--smoke`); those whose optional dependency (torch,

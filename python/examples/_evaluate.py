@@ -50,7 +50,9 @@ def evaluate(env: gym.Env, policy: Callable[[dict, dict], object], episodes: int
             dodged |= bool(info["dodging"])
             if terminated or truncated:
                 break
-        out = info["outcome"]
+        # the scored outcome; absent when a wrapper cut the episode (gym.make's max_episode_steps is
+        # a TimeLimit wrapper: pass the environment's own max_episode_steps to get it)
+        out = info.get("outcome", {"collision": info["collision"], "threat": info["threat"], "detectors": {}})
         returns.append(ret)
         collisions += out["collision"]
         threats += out["threat"]

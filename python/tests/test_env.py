@@ -185,3 +185,18 @@ def test_envs_step_concurrently_from_python_threads(short_kwargs):
     for t in threads:
         t.join()
     assert_same([results[1][0], results[2][0]], sequential)
+
+
+def test_defaults_and_action_names_are_rusts():
+    """RewardConfig/ActionConfig and the action names restate nothing: same fields and values as
+    Rust's defaults (exported by the extension)."""
+    from dataclasses import asdict
+
+    from loomlab import _native
+    from loomlab.env import CONTINUOUS_ACTION_NAMES, DISCRETE_ACTIONS
+
+    assert asdict(loomlab.RewardConfig()) == _native.REWARD_DEFAULTS
+    assert asdict(loomlab.ActionConfig()) == _native.ACTION_DEFAULTS
+    assert DISCRETE_ACTIONS == ("none", "dodge_left", "dodge_right", "stop") == _native.DISCRETE_ACTIONS
+    assert CONTINUOUS_ACTION_NAMES == ("forward", "yaw_rate", "lateral") == _native.CONTINUOUS_ACTION_NAMES
+    assert gym.make("loomlab/EscapeDiscrete-v0", frame_size=32).action_space.n == len(DISCRETE_ACTIONS)
