@@ -214,7 +214,7 @@ pub fn run_suite(
             suite: suite.display().to_string(),
             seed,
             wall_time_s: started.elapsed().as_secs_f64(),
-            lead_min_s: episodes.first().map_or(0.0, |e| e.scoring.lead_min_s),
+            lead_margin_s: episodes.first().map_or(0.0, |e| e.scoring.lead_margin_s),
         };
         Ok(Report::from_episodes(&meta, &outcomes).to_json())
     })
