@@ -4,12 +4,19 @@ use std::path::Path;
 use std::sync::Mutex;
 
 use loomlab_scenarios::metrics::Outcome;
+use loomlab_scenarios::reference::{IDEAL_THETA, NULL, ORACLE, REFERENCE_LABELS};
+use loomlab_scenarios::report::{Report, ReportMeta};
 use loomlab_scenarios::{EpisodeRun, LoadOptions, Runner, Scenario, parse_scenario};
 
 /// A ball thrown slowly at a standing robot on a uniform background (no ground: before the launch
 /// nothing in the image changes). `{miss}` is the miss distance (to the robot's right), `{detectors}`
 /// the detector list.
 fn scenario(miss: f64, detectors: &str) -> Scenario {
+    scenario_with(miss, detectors, "")
+}
+
+/// [`scenario`] with `extra` TOML appended (e.g. a `[sweep]`).
+fn scenario_with(miss: f64, detectors: &str, extra: &str) -> Scenario {
     let text = format!(
         r#"
 name = "slow_ball"
@@ -36,8 +43,9 @@ forward_mps = 0.0
 dodge_speed_mps = 1.5
 duration_s = 0.6
 [scoring]
-lead_min_s = 0.2
+lead_margin_s = 0.0
 {detectors}
+{extra}
 "#
     );
     parse_scenario(&text, Path::new("slow_ball.toml"), None, &LoadOptions::default()).unwrap()
@@ -67,9 +75,12 @@ fn run_one(r: &Runner, s: &Scenario) -> EpisodeRun {
 fn an_early_alarm_evades_and_no_alarm_collides() {
     let s = scenario(0.0, EARLY_AND_NEVER);
     let run = run_one(&runner(1), &s);
-    let [early, never] = &run.outcome.detectors[..] else {
-        panic!("two detectors")
+    // the detectors, then the reference rows
+    let [early, never, null, oracle, ideal] = &run.outcome.detectors[..] else {
+        panic!("two detectors and three reference rows")
     };
+    let labels: Vec<&str> = [null, oracle, ideal].iter().map(|d| d.detector.as_str()).collect();
+    assert_eq!(labels, REFERENCE_LABELS);
     // ground truth: the ball would hit the standing robot
     assert!(early.threat && never.threat);
     let t_c = early.t_contact_s.unwrap();
@@ -77,10 +88,35 @@ fn an_early_alarm_evades_and_no_alarm_collides() {
     assert!(t_c > 1.6 && t_c < 2.0, "t_c = {t_c}");
     assert_eq!(run.trace.reference_object.as_deref(), Some("ball"));
 
-    // `early` alarms well before contact, dodges and evades
+    // the escape deadline: a 1.5 m/s dodge clears a 3 m/s ball aimed at the camera when it starts
+    // about (0.2 + 0.15·√1.25)/1.5 − 0.15/3 ≈ 0.2 s before contact (see tests/deadline.rs)
+    let t_dl = early.t_deadline_s.expect("an evadable threat");
+    let lead = early.deadline_lead_s().unwrap();
+    assert!(lead > 0.17 && lead < 0.25, "t_c − t_dl = {lead}");
+    let d = run.deadline.as_ref().expect("a threat has a deadline search");
+    assert_eq!(d.t_s, Some(t_dl));
+    assert_eq!(run.trace.t_deadline_s, Some(t_dl));
+    assert_eq!(run.trace.t_s[d.frame.unwrap()], t_dl);
+    assert!(d.monotone(), "{:?}", d.evading);
+    for r in &run.outcome.detectors {
+        assert_eq!(
+            (r.threat, r.t_contact_s, r.t_deadline_s),
+            (true, Some(t_c), Some(t_dl)),
+            "{}",
+            r.detector
+        );
+        assert!(r.evadable());
+    }
+    // a constant-speed head-on ball: l/|v| = 0.15 m / 3 m/s on every row
+    for r in &run.outcome.detectors {
+        let lv = r.l_over_v_s.expect("a head-on approach at constant speed");
+        assert!((lv - 0.05).abs() < 0.0025, "{}: l/|v| = {lv}", r.detector);
+    }
+
+    // `early` alarms well before the deadline, dodges and evades
     assert_eq!(early.outcome, Outcome::Hit);
     let t_a = early.t_alarm_s.unwrap();
-    assert!(t_a < t_c - 0.4, "t_a = {t_a}");
+    assert!(t_a < t_c - 0.4 && t_a < t_dl, "t_a = {t_a}");
     assert!(!early.collision, "the dodge should evade a 3 m/s ball");
     let cl = &run.closed_loop[0];
     assert!(cl.simulated && cl.triggers >= 1 && cl.collision_t_s.is_none(), "{cl:?}");
@@ -91,12 +127,40 @@ fn an_early_alarm_evades_and_no_alarm_collides() {
     let theta = early.angular_size_at_alarm_deg.unwrap();
     assert!(theta > 1.0 && theta < 20.0, "θ at alarm {theta}");
     assert_eq!(early.lead_s(), Some(t_c - t_a));
+    // the eye TTC at the alarm: distance to the ball's centre over its speed, a bit more than the
+    // TTC to the body (the ball touches the front face r before its centre would reach the camera)
+    let eye = early.eye_ttc_at_alarm_s.unwrap();
+    assert!((eye - (ttc + 0.05)).abs() < 0.02, "eye TTC {eye} vs ttc {ttc}");
 
-    // `never` never alarms: the closed loop equals the open loop, a collision
+    // `never` never alarms: the closed loop equals the open loop, a collision; a silent miss
     assert_eq!(never.outcome, Outcome::Miss);
     assert!(never.t_alarm_s.is_none() && never.collision);
+    assert!(never.is_silent_miss() && never.eye_ttc_at_alarm_s.is_none());
     assert!(!run.closed_loop[1].simulated);
     assert_eq!(run.closed_loop[1].collision_t_s, Some(t_c));
+
+    // null: never alarms, so exactly like `never`
+    assert_eq!(
+        (null.outcome, null.t_alarm_s, null.collision),
+        (Outcome::Miss, None, true)
+    );
+    assert!(!run.closed_loop[2].simulated && run.closed_loop[2].collision_t_s == Some(t_c));
+    // oracle: alarms at the deadline, a hit (equality counts) that evades in a physics-only replay
+    assert_eq!((oracle.outcome, oracle.t_alarm_s), (Outcome::Hit, Some(t_dl)));
+    assert!(!oracle.collision);
+    let cl = &run.closed_loop[3];
+    assert!(
+        cl.simulated && cl.triggers == 1 && cl.collision_t_s.is_none() && cl.frames_rendered == 0,
+        "{cl:?}"
+    );
+    // ideal_theta: the true angular size reaches 10° (no `hopfield` here: the default angle)
+    // about 0.15/tan(5°)/3 ≈ 0.57 s before contact, well before the deadline
+    assert_eq!(ideal.outcome, Outcome::Hit);
+    let t_ideal = ideal.t_alarm_s.unwrap();
+    assert!((t_c - t_ideal - 0.57).abs() < 0.05, "t_c − t_a = {}", t_c - t_ideal);
+    assert!(ideal.angular_size_at_alarm_deg.unwrap() >= 10.0 && ideal.angular_size_at_alarm_deg.unwrap() < 11.0);
+    assert!(!ideal.collision && run.closed_loop[4].simulated && run.closed_loop[4].frames_rendered > 0);
+    assert_eq!(run.trace.detectors[4].threshold, 10.0);
 
     // the open-loop pass ends at the contact
     assert!(*run.trace.t_s.last().unwrap() >= t_c - 1e-9);
@@ -108,10 +172,21 @@ fn a_miss_is_not_a_threat() {
     // The ball passes 2 m to the robot's right; `early`'s false alarm makes it dodge left, away.
     let s = scenario(2.0, EARLY_AND_NEVER);
     let run = run_one(&runner(1), &s);
-    let [early, never] = &run.outcome.detectors[..] else {
-        panic!("two detectors")
+    let [early, never, null, oracle, _ideal] = &run.outcome.detectors[..] else {
+        panic!("two detectors and three reference rows")
     };
-    assert!(!early.threat && early.t_contact_s.is_none());
+    assert!(!early.threat && early.t_contact_s.is_none() && early.t_deadline_s.is_none());
+    assert!(run.deadline.is_none() && run.trace.t_deadline_s.is_none());
+    // no threat: the reference rows never alarm, nothing collides
+    for r in [null, oracle] {
+        assert_eq!(
+            (r.outcome, r.collision),
+            (Outcome::CorrectRejection, false),
+            "{}",
+            r.detector
+        );
+    }
+    assert!(early.l_over_v_s.is_none(), "no contact, no l/|v|");
     assert!(run.closed_loop[0].simulated && run.closed_loop[0].triggers >= 1);
     assert_eq!(early.outcome, Outcome::FalseAlarm);
     assert_eq!(never.outcome, Outcome::CorrectRejection);
@@ -176,4 +251,163 @@ fn parallel_runs_keep_order_and_results() {
     // a failing callback stops the run with its message
     let e = runner(1).run(&refs, |_, _| Err("disk full".into())).unwrap_err();
     assert!(e.to_string().contains("disk full"), "{e}");
+}
+
+#[test]
+fn reference_rows_can_be_turned_off() {
+    let s = scenario(0.0, EARLY_AND_NEVER);
+    let run = runner(1).with_references(false).run_episode(&s.episodes[0]).unwrap();
+    let labels: Vec<&str> = run.outcome.detectors.iter().map(|d| d.detector.as_str()).collect();
+    assert_eq!(labels, ["early", "never"]);
+    assert_eq!(run.closed_loop.len(), 2);
+    assert_eq!(run.trace.detectors.len(), 2);
+    // the deadline is ground truth: computed all the same
+    assert!(run.outcome.detectors[0].t_deadline_s.is_some() && run.deadline.is_some());
+    // and the detector rows are those of a run with references
+    let with = run_one(&runner(1), &s);
+    assert_eq!(&with.outcome.detectors[..2], &run.outcome.detectors[..]);
+}
+
+/// Balls at the standing robot: head-on (threat), grazing its right side (threat), passing 2 m
+/// to the right (no threat), each at two speeds; plus a ball launched from 0.6 m away at once,
+/// which no dodge can clear (unavoidable).
+fn reference_suite() -> Vec<loomlab_scenarios::EpisodeSpec> {
+    let detectors = "[[detectors]]\nid = \"hopfield\"\nthreshold = 12.0\n[[detectors]]\nid = \"soc\"\n";
+    let mut eps = scenario_with(
+        0.0,
+        detectors,
+        "[sweep]\n\"world.projectiles.0.miss_distance_m\" = [0.0, 0.3, 2.0]\n\"world.projectiles.0.speed_mps\" = [3.0, 5.0]\n",
+    )
+    .episodes;
+    let mut close = scenario(0.0, detectors).episodes.remove(0);
+    close.scenario = "too_close".into();
+    let ball = &mut close.world.projectiles[0];
+    ball.launch_distance_m = 0.6;
+    ball.launch_time_s = Some(0.0);
+    ball.speed_mps = 8.0;
+    eps.push(close);
+    eps
+}
+
+#[test]
+fn reference_rows_bound_the_detectors() {
+    let eps = reference_suite();
+    let refs: Vec<_> = eps.iter().collect();
+    let runs = runner(2).run(&refs, |_, _| Ok(())).unwrap();
+    let outcomes: Vec<_> = runs.iter().map(|r| r.outcome.clone()).collect();
+    let report = Report::from_episodes(
+        &ReportMeta {
+            suite: "reference_suite".into(),
+            seed: 0,
+            wall_time_s: 0.0,
+            lead_margin_s: 0.0,
+        },
+        &outcomes,
+    );
+
+    // every report has the three reference rows beside the detectors
+    assert_eq!(report.references, REFERENCE_LABELS);
+    let ids: Vec<&str> = report.detectors.keys().map(String::as_str).collect();
+    assert_eq!(ids, ["hopfield", "ideal_theta", "null", "oracle", "soc"]);
+    for s in report.scenarios.values() {
+        for r in REFERENCE_LABELS {
+            assert!(s.detectors.contains_key(r), "{r}");
+        }
+    }
+    // ideal_theta thresholds the true angular size at the hopfield detector's threshold
+    for run in &runs {
+        let ideal = run.trace.detectors.iter().find(|d| d.label == IDEAL_THETA).unwrap();
+        assert_eq!(ideal.threshold, 12.0);
+    }
+
+    // the episodes cover every kind of ground truth
+    let threats = outcomes.iter().filter(|o| o.detectors[0].threat).count() as u64;
+    let evadable = outcomes.iter().filter(|o| o.detectors[0].evadable()).count() as u64;
+    let unavoidable = threats - evadable;
+    assert_eq!(report.episodes, 7);
+    eprintln!(
+        "{threats} threats ({evadable} evadable, {unavoidable} unavoidable)\n{}",
+        report.format_table(false)
+    );
+    assert!(
+        evadable >= 2 && unavoidable >= 1 && threats < 7,
+        "{threats} threats, {evadable} evadable"
+    );
+    let last = &outcomes[6].detectors[0];
+    assert!(
+        last.threat && !last.evadable(),
+        "the close ball is unavoidable: {last:?}"
+    );
+    for (o, run) in outcomes.iter().zip(&runs) {
+        // ground truth is the same on every row, and the deadline is the search's
+        let truth = (
+            o.detectors[0].threat,
+            o.detectors[0].t_contact_s,
+            o.detectors[0].t_deadline_s,
+        );
+        for d in &o.detectors {
+            assert_eq!(
+                (d.threat, d.t_contact_s, d.t_deadline_s),
+                truth,
+                "{} {}",
+                o.episode,
+                d.detector
+            );
+            if !d.threat {
+                assert_ne!(d.outcome, Outcome::Unavoidable);
+            } else if !d.evadable() {
+                assert_eq!(d.outcome, Outcome::Unavoidable, "{}", d.detector);
+            }
+        }
+        assert_eq!(run.deadline.as_ref().and_then(|d| d.t_s), truth.2);
+        assert_eq!(run.deadline.is_some(), truth.0);
+    }
+
+    // null: never alarms, so it collides with exactly the threats
+    let null = &report.detectors[NULL];
+    assert_eq!(null.collisions, threats);
+    assert_eq!(null.collision_rate, Some(threats as f64 / 7.0));
+    assert_eq!((null.hits, null.false_alarms, null.late_misses), (0, 0, 0));
+    assert_eq!((null.silent_misses, null.evaded), (evadable, 0));
+    assert_eq!(null.unavoidable_threats, unavoidable);
+    assert_eq!(null.collision_reduction, Some(0.0));
+
+    // oracle: evades every evadable threat, without a false alarm; every hit evades
+    let oracle = &report.detectors[ORACLE];
+    assert_eq!((oracle.hits, oracle.misses, oracle.evaded), (evadable, 0, evadable));
+    assert_eq!(oracle.evasion_rate, Some(1.0));
+    assert_eq!((oracle.false_alarms, oracle.false_alarm_collisions), (0, 0));
+    assert_eq!(oracle.false_alarm_rate, Some(0.0));
+    assert_eq!(oracle.hit_collisions, 0);
+    assert_eq!(oracle.collisions, unavoidable, "only the unavoidable threats hit it");
+    assert_eq!(
+        oracle.collision_reduction,
+        Some(1.0 - unavoidable as f64 / threats as f64)
+    );
+    for o in &outcomes {
+        let d = o.detectors.iter().find(|d| d.detector == ORACLE).unwrap();
+        if d.outcome == Outcome::Hit {
+            assert!(!d.collision, "episode {}: an oracle hit collided", o.episode);
+            assert_eq!(d.t_alarm_s, d.t_deadline_s, "the oracle alarms at the deadline");
+        }
+        if d.evadable() {
+            assert_eq!(d.outcome, Outcome::Hit);
+        } else {
+            assert_eq!(d.t_alarm_s, None, "the oracle alarms only on evadable threats");
+        }
+    }
+    // no row evades more than the oracle; all rows share the ground truth counts
+    for (id, s) in &report.detectors {
+        assert!(s.evaded <= oracle.evaded, "{id}");
+        assert_eq!(s.evadable_threats, evadable, "{id}");
+        assert_eq!(s.unavoidable_threats, unavoidable, "{id}");
+        assert!(
+            s.collision_reduction.is_some(),
+            "{id}: null collides, so every row has a reduction"
+        );
+    }
+    // the JSON carries it all
+    let v: serde_json::Value = serde_json::from_str(&report.to_json()).unwrap();
+    assert_eq!(v["references"], serde_json::json!(REFERENCE_LABELS));
+    assert_eq!(v["detectors"]["oracle"]["evasion_rate"], 1.0);
 }

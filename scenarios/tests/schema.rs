@@ -3,7 +3,10 @@
 use std::path::{Path, PathBuf};
 
 use loomlab_agents::TriggerSignal;
-use loomlab_scenarios::schema::{DEFAULT_THRESHOLDS, default_threshold};
+use loomlab_scenarios::reference::REFERENCE_LABELS;
+use loomlab_scenarios::schema::{
+    CameraFacts, DEFAULT_THRESHOLDS, DetectorDesc, default_threshold, parse_detector_entries, resolve_detector,
+};
 use loomlab_scenarios::{DEFAULT_SUITE, LoadOptions, ScenarioError, load_scenario, load_suite, parse_scenario};
 
 const BASE: &str = r#"
@@ -283,7 +286,7 @@ fn suites_merge_defaults_and_reject_duplicate_names() {
     let dir = tmp_dir("suite");
     std::fs::write(
         dir.join("suite.toml"),
-        "description = \"t\"\n[defaults]\nworld.camera = { n = 40 }\nscoring.lead_min_s = 0.3\n",
+        "description = \"t\"\n[defaults]\nworld.camera = { n = 40 }\nscoring.lead_margin_s = 0.3\n",
     )
     .unwrap();
     std::fs::write(dir.join("a.toml"), BASE.replace("name = \"ball\"", "")).unwrap();
@@ -305,7 +308,8 @@ fn suites_merge_defaults_and_reject_duplicate_names() {
         suite.scenarios[1].episodes[0].world.camera.n, 40,
         "the default fills in"
     );
-    assert_eq!(suite.scenarios[1].episodes[0].scoring.lead_min_s, 0.3);
+    assert_eq!(suite.scenarios[1].episodes[0].scoring.lead_margin_s, 0.3);
+    assert_eq!(suite.scenarios[1].episodes[0].scoring.lead_min_s, None);
     assert_eq!(suite.episode_count(), 2);
 
     // a list file
@@ -351,4 +355,123 @@ fn the_default_suite_loads_with_at_least_300_episodes() {
             s.file.display()
         );
     }
+}
+
+#[test]
+fn the_scoring_margin_defaults_to_zero_and_is_checked() {
+    let s = parse(BASE).unwrap();
+    assert_eq!(s.episodes[0].scoring.lead_margin_s, 0.0);
+    assert_eq!(s.episodes[0].scoring.lead_min_s, None);
+    let s = parse(&format!("{BASE}\n[scoring]\nlead_margin_s = 0.05\n")).unwrap();
+    assert_eq!(s.episodes[0].scoring.lead_margin_s, 0.05);
+    s.episodes[0].scoring.validate().unwrap();
+    for bad in ["-0.1", "nan", "inf"] {
+        let e = err(&format!("{BASE}\n[scoring]\nlead_margin_s = {bad}\n"));
+        assert!(
+            e.contains("`scoring.lead_margin_s`") && e.contains(">= 0"),
+            "{bad}: {e}"
+        );
+    }
+}
+
+#[test]
+fn the_removed_lead_min_s_is_an_error_naming_its_replacement() {
+    let e = err(&format!("{BASE}\n[scoring]\nlead_min_s = 0.2\n"));
+    assert!(e.starts_with("dir/test.toml: "), "{e}");
+    assert!(e.contains("`scoring.lead_min_s`"), "{e}");
+    assert!(e.contains("lead_margin_s") && e.contains("deadline"), "{e}");
+    // also beside a valid margin, and when it comes from a suite's defaults
+    let e = err(&format!("{BASE}\n[scoring]\nlead_margin_s = 0.1\nlead_min_s = 0.2\n"));
+    assert!(e.contains("`scoring.lead_min_s`") && e.contains("lead_margin_s"), "{e}");
+    let dir = tmp_dir("lead-min");
+    std::fs::write(
+        dir.join("suite.toml"),
+        "description = \"old\"\n[defaults]\nscoring.lead_min_s = 0.3\n",
+    )
+    .unwrap();
+    std::fs::write(dir.join("a.toml"), BASE).unwrap();
+    let e = load_suite(&dir, &LoadOptions::default()).unwrap_err().to_string();
+    assert!(e.contains("`scoring.lead_min_s`") && e.contains("lead_margin_s"), "{e}");
+    // swept: the error names the episode and the key
+    let e = err(&format!(
+        "{BASE}\n[scoring]\nlead_margin_s = 0.0\n[sweep]\n\"scoring.lead_min_s\" = [0.1, 0.2]\n"
+    ));
+    assert!(
+        e.contains("episode 0") && e.contains("`scoring.lead_min_s`") && e.contains("lead_margin_s"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn reference_labels_are_reserved_for_detectors() {
+    for label in REFERENCE_LABELS {
+        let e = err(&format!(
+            "{BASE}\n[[detectors]]\nid = \"soc\"\n[[detectors]]\nid = \"hopfield\"\nlabel = \"{label}\"\n"
+        ));
+        assert!(e.contains("`detectors[1].label`"), "{label}: {e}");
+        assert!(
+            e.contains(&format!("`{label}`")) && e.contains("reserved"),
+            "{label}: {e}"
+        );
+        assert!(e.contains("null, oracle, ideal_theta"), "{e}");
+    }
+    // the detectors-file form (`loomlab run --detectors-file`, sweep points) too
+    let e = parse_detector_entries(
+        "[[detectors]]\nid = \"soc\"\nlabel = \"oracle\"\n",
+        Path::new("points.toml"),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("points.toml") && e.contains("`detectors[0].label`") && e.contains("reserved"),
+        "{e}"
+    );
+    // and resolve_detector itself, for any camera
+    let desc = |label: &str| DetectorDesc {
+        id: "hopfield".into(),
+        label: Some(label.into()),
+        threshold: None,
+        trigger: None,
+        params: None,
+    };
+    let (key, reason) = resolve_detector(&desc("oracle"), CameraFacts::default_with_size(32)).unwrap_err();
+    assert_eq!(key, "label");
+    assert!(reason.contains("reserved"), "{reason}");
+    let ok = resolve_detector(&desc("oracle_2"), CameraFacts::default_with_size(32)).unwrap();
+    assert_eq!(ok.label, "oracle_2");
+    // a near miss of a reserved label is fine, and so is the id as a label
+    let s = parse(&format!(
+        "{BASE}\n[[detectors]]\nid = \"hopfield\"\nlabel = \"Oracle\"\n"
+    ))
+    .unwrap();
+    assert_eq!(s.episodes[0].detectors[0].label, "Oracle");
+}
+
+#[test]
+fn detectors_are_built_for_the_camera_facts() {
+    let world: loomlab_sim::WorldDesc =
+        toml::from_str("camera = { n = 48, fov_deg = 90.0 }\ncamera_hz = 60.0\n").unwrap();
+    let facts = CameraFacts::of(&world);
+    assert_eq!((facts.n, facts.fov_deg, facts.frame_rate_hz), (48, 90.0, 60.0));
+    let d = DetectorDesc {
+        id: "hopfield".into(),
+        label: None,
+        threshold: None,
+        trigger: None,
+        params: None,
+    };
+    let spec = resolve_detector(&d, facts).unwrap();
+    let h = &spec.params.hopfield;
+    assert_eq!((h.n, h.fov_deg, h.frame_rate_hz), (48, 90.0, 60.0));
+    // and a scenario passes its world's camera: the frame rate may not be set per detector
+    let e = err(&format!(
+        "{BASE}\n[[detectors]]\nid = \"hopfield\"\nparams = {{ frame_rate_hz = 30.0 }}\n"
+    ));
+    assert!(
+        e.contains("`detectors[0].params.frame_rate_hz`") && e.contains("world.camera"),
+        "{e}"
+    );
+    let default = CameraFacts::default_with_size(20);
+    assert_eq!((default.n, default.fov_deg), (20, 60.0));
 }

@@ -1,13 +1,18 @@
-//! Scoring: per-episode metrics, Wilson intervals, ROC/AUC, report JSON, episodes.csv, regression.
+//! Scoring: per-episode metrics (escape deadlines, unavoidable threats, late/silent misses), the
+//! escape and collision aggregates, reference rows, the l/|v| fit, Wilson intervals, ROC/AUC,
+//! report JSON, episodes.csv, calibration and regression.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use loomlab_scenarios::calibrate;
 use loomlab_scenarios::episodes_csv::{self, EpisodesCsvWriter, HEADER};
+use loomlab_scenarios::lv::{self, LvFit};
 use loomlab_scenarios::metrics::{
     self, DetectorEpisode, DetectorSummary, EpisodeOutcome, GroundTruth, Outcome, ScoringConfig, ScoringError,
-    TraceSample,
+    TIME_EPS_S, TraceSample,
 };
+use loomlab_scenarios::reference::{self, IDEAL_THETA, NULL, ORACLE, REFERENCE_LABELS};
 use loomlab_scenarios::regression::{self, RateTolerance, RegressionKind, Tolerances};
 use loomlab_scenarios::report::{self, Report, ReportMeta};
 use loomlab_scenarios::stats::{self, RocPoint};
@@ -31,17 +36,29 @@ fn trace(end: f64, f: impl Fn(f64) -> f64) -> Vec<TraceSample> {
         .collect()
 }
 
-fn cfg(lead_min_s: f64) -> ScoringConfig {
+fn cfg(lead_margin_s: f64) -> ScoringConfig {
     ScoringConfig {
-        lead_min_s,
-        keep_traces: false,
+        lead_margin_s,
+        ..ScoringConfig::default()
     }
 }
 
-fn threat(t_c: f64) -> GroundTruth {
+/// An evadable threat with contact at `t_c` and escape deadline `t_dl`.
+fn threat(t_c: f64, t_dl: f64) -> GroundTruth {
     GroundTruth {
         threat: true,
         t_contact_s: Some(t_c),
+        t_deadline_s: Some(t_dl),
+        collision: false,
+    }
+}
+
+/// A threat that no trigger time evades (contact at `t_c`, no deadline).
+fn unavoidable(t_c: f64) -> GroundTruth {
+    GroundTruth {
+        threat: true,
+        t_contact_s: Some(t_c),
+        t_deadline_s: None,
         collision: false,
     }
 }
@@ -49,23 +66,58 @@ fn threat(t_c: f64) -> GroundTruth {
 const NO_THREAT: GroundTruth = GroundTruth {
     threat: false,
     t_contact_s: None,
+    t_deadline_s: None,
     collision: false,
 };
 
-/// A hand-built episode of one detector, classified by `metrics::classify`.
+/// The escape deadline `ep` gives a threat: 0.1 s before contact.
+const EP_DEADLINE_LEAD_S: f64 = 0.1;
+
+/// A hand-built episode of one detector (deadline `EP_DEADLINE_LEAD_S` before contact for a
+/// threat), classified by `metrics::classify` with no margin.
 fn ep(threat: bool, t_c: Option<f64>, t_a: Option<f64>, collision: bool, max_signal: Option<f64>) -> DetectorEpisode {
-    DetectorEpisode {
-        detector: "hopfield".into(),
+    ep_dl(
+        threat,
+        t_c,
+        t_c.filter(|_| threat).map(|c| c - EP_DEADLINE_LEAD_S),
+        t_a,
+        collision,
+        max_signal,
+    )
+}
+
+/// As [`ep`] with an explicit deadline (`None` for a threat: unavoidable).
+fn ep_dl(
+    threat: bool,
+    t_c: Option<f64>,
+    t_dl: Option<f64>,
+    t_a: Option<f64>,
+    collision: bool,
+    max_signal: Option<f64>,
+) -> DetectorEpisode {
+    let truth = GroundTruth {
         threat,
         t_contact_s: t_c,
-        t_alarm_s: t_a,
-        outcome: metrics::classify(threat, t_c, t_a, 0.1).unwrap(),
+        t_deadline_s: t_dl,
         collision,
-        ttc_at_alarm_s: t_a.map(|a| 1.0 + a),
-        angular_size_at_alarm_deg: t_a.map(|_| 10.0),
-        max_signal,
-        trace: None,
-    }
+    };
+    // scored from an empty trace, then the alarm filled in by hand (no struct literal, so that
+    // fields added to DetectorEpisode later keep their scorer defaults)
+    let mut d = metrics::score_detector_episode("hopfield", 1.0, &[], &truth, &ScoringConfig::default()).unwrap();
+    d.t_alarm_s = t_a;
+    d.outcome = metrics::classify(&truth, t_a, 0.0).unwrap();
+    d.ttc_at_alarm_s = t_a.map(|a| 1.0 + a);
+    d.angular_size_at_alarm_deg = t_a.map(|_| 10.0);
+    d.max_signal = max_signal;
+    assert_eq!(
+        (d.threat, d.t_contact_s, d.t_deadline_s, d.collision),
+        (threat, t_c, t_dl, collision)
+    );
+    assert_eq!(
+        (d.l_over_v_s, d.eye_ttc_at_alarm_s, d.trace.is_none()),
+        (None, None, true)
+    );
+    d
 }
 
 fn episode(scenario: &str, index: usize, detectors: Vec<DetectorEpisode>) -> EpisodeOutcome {
@@ -129,7 +181,7 @@ fn meta() -> ReportMeta {
         suite: "suites/test".into(),
         seed: 7,
         wall_time_s: 1.25,
-        lead_min_s: 0.1,
+        lead_margin_s: 0.0,
     }
 }
 
@@ -149,34 +201,57 @@ fn assert_close(a: f64, b: f64, tol: f64) {
 
 #[test]
 fn early_alarm_on_threat_is_hit() {
-    // Signal crosses 10 at t = 1.0 (signal = 10·t); contact at 3 s, lead_min 0.5 s.
-    let d =
-        metrics::score_detector_episode("hopfield", 10.0, &trace(3.0, |t| 10.0 * t), &threat(3.0), &cfg(0.5)).unwrap();
+    // Signal crosses 10 at t = 1.0 (signal = 10·t); contact at 3 s, deadline at 2.5 s.
+    let d = metrics::score_detector_episode(
+        "hopfield",
+        10.0,
+        &trace(3.0, |t| 10.0 * t),
+        &threat(3.0, 2.5),
+        &cfg(0.0),
+    )
+    .unwrap();
     assert_eq!(d.outcome, Outcome::Hit);
     assert_eq!(d.t_alarm_s, Some(1.0));
+    assert_eq!(d.t_deadline_s, Some(2.5));
+    assert!(d.evadable());
+    // the warning time is still measured to contact; the deadline lead is t_c − t_dl
     assert_close(d.lead_s().unwrap(), 2.0, 1e-12);
+    assert_eq!(d.deadline_lead_s(), Some(0.5));
+    assert!(!d.is_late_miss() && !d.is_silent_miss());
     // TTC and angular size come from the alarm frame.
     assert_eq!(d.ttc_at_alarm_s, Some(9.0));
     assert_eq!(d.angular_size_at_alarm_deg, Some(4.0));
+    // the l/|v| fields are the runner's to fill in
+    assert_eq!((d.l_over_v_s, d.eye_ttc_at_alarm_s), (None, None));
 }
 
 #[test]
-fn lead_min_boundary_equality_counts_as_hit() {
-    // Exactly representable: t_a = 1.5 = 2.0 − 0.5.
+fn deadline_boundary_equality_counts_as_hit() {
+    // Exactly representable: t_a = t_dl = 1.5, no margin.
     assert_eq!(
-        metrics::classify(true, Some(2.0), Some(1.5), 0.5).unwrap(),
+        metrics::classify(&threat(2.0, 1.5), Some(1.5), 0.0).unwrap(),
+        Outcome::Hit
+    );
+    // With a margin: t_a = 1.5 = t_dl − 0.5.
+    assert_eq!(
+        metrics::classify(&threat(2.5, 2.0), Some(1.5), 0.5).unwrap(),
         Outcome::Hit
     );
     // Not exactly representable: 0.3 − 0.1 = 0.19999999999999998 < 0.2, still a hit.
-    let (tc, lead) = (std::hint::black_box(0.3), std::hint::black_box(0.1));
-    assert!(tc - lead < 0.2);
+    let (td, margin) = (std::hint::black_box(0.3), std::hint::black_box(0.1));
+    assert!(td - margin < 0.2);
     assert_eq!(
-        metrics::classify(true, Some(0.3), Some(0.2), 0.1).unwrap(),
+        metrics::classify(&threat(0.5, 0.3), Some(0.2), 0.1).unwrap(),
         Outcome::Hit
     );
-    // One frame later is a miss.
+    // One frame later is a miss (a late one).
     assert_eq!(
-        metrics::classify(true, Some(2.0), Some(1.5 + 1.0 / 120.0), 0.5).unwrap(),
+        metrics::classify(&threat(2.5, 2.0), Some(1.5 + 1.0 / 120.0), 0.5).unwrap(),
+        Outcome::Miss
+    );
+    // Later than the deadline by more than the rounding tolerance: a miss.
+    assert_eq!(
+        metrics::classify(&threat(2.0, 1.5), Some(1.5 + 10.0 * TIME_EPS_S), 0.0).unwrap(),
         Outcome::Miss
     );
     // Via the trace, alarm exactly at the boundary frame.
@@ -184,8 +259,8 @@ fn lead_min_boundary_equality_counts_as_hit() {
         "x",
         1.0,
         &trace(2.0, |t| if t >= 1.5 { 1.0 } else { 0.0 }),
-        &threat(2.0),
-        &cfg(0.5),
+        &threat(2.0, 1.5),
+        &cfg(0.0),
     )
     .unwrap();
     assert_eq!((d.t_alarm_s, d.outcome), (Some(1.5), Outcome::Hit));
@@ -193,34 +268,149 @@ fn lead_min_boundary_equality_counts_as_hit() {
 }
 
 #[test]
-fn late_alarm_is_miss() {
-    // Alarm at 2.8 s, before contact (3 s) but after t_c − lead_min = 2.5 s.
-    let d = metrics::score_detector_episode(
-        "x",
-        1.0,
-        &trace(3.0, |t| if t >= 2.8 { 5.0 } else { 0.0 }),
-        &threat(3.0),
-        &cfg(0.5),
-    )
-    .unwrap();
-    assert_eq!(d.outcome, Outcome::Miss);
-    assert_eq!(d.t_alarm_s, Some(2.8));
-    assert_eq!(d.lead_s(), None);
+fn hit_iff_alarm_no_later_than_deadline_minus_margin() {
+    // Alarm at every frame time of a 120 Hz episode, several deadlines and margins: a hit iff
+    // t_a ≤ t_dl − margin (frame-count times, so equality happens and must count).
+    let hz = 120.0;
+    let t = |k: u32| f64::from(k) / hz;
+    for (dl_frame, margin_frames) in [(60u32, 0u32), (60, 6), (37, 12), (1, 0), (200, 24)] {
+        let (t_dl, margin) = (t(dl_frame), f64::from(margin_frames) / hz);
+        let truth = threat(t_dl + 0.3, t_dl);
+        for k in 0..=dl_frame + 5 {
+            let o = metrics::classify(&truth, Some(t(k)), margin).unwrap();
+            let want = if k + margin_frames <= dl_frame {
+                Outcome::Hit
+            } else {
+                Outcome::Miss
+            };
+            assert_eq!(
+                o, want,
+                "deadline frame {dl_frame}, margin {margin_frames} frames, alarm frame {k}"
+            );
+        }
+        // no alarm: a miss whatever the margin
+        assert_eq!(metrics::classify(&truth, None, margin).unwrap(), Outcome::Miss);
+    }
+    // the alarm is compared with the deadline, not with the contact time: an alarm 0.4 s before
+    // contact is a miss when the deadline is 0.5 s before contact, a hit when it is 0.3 s before
     assert_eq!(
-        d.max_signal,
-        Some(0.0),
-        "samples after t_c − lead_min are outside the ROC window"
+        metrics::classify(&threat(3.0, 2.5), Some(2.6), 0.0).unwrap(),
+        Outcome::Miss
+    );
+    assert_eq!(
+        metrics::classify(&threat(3.0, 2.7), Some(2.6), 0.0).unwrap(),
+        Outcome::Hit
     );
 }
 
 #[test]
-fn no_alarm_on_threat_is_miss() {
-    let d = metrics::score_detector_episode("x", 10.0, &trace(3.0, |t| t), &threat(3.0), &cfg(0.1)).unwrap();
+fn late_alarm_is_a_late_miss() {
+    // Alarm at 2.8 s, before contact (3 s) but after the deadline (2.5 s).
+    let d = metrics::score_detector_episode(
+        "x",
+        1.0,
+        &trace(3.0, |t| if t >= 2.8 { 5.0 } else { 0.0 }),
+        &threat(3.0, 2.5),
+        &cfg(0.0),
+    )
+    .unwrap();
     assert_eq!(d.outcome, Outcome::Miss);
+    assert_eq!(d.t_alarm_s, Some(2.8));
+    assert!(d.is_late_miss() && !d.is_silent_miss());
+    assert_eq!(d.lead_s(), None);
+    assert_eq!(
+        d.max_signal,
+        Some(0.0),
+        "samples after the deadline are outside the ROC window"
+    );
+    // An alarm before the deadline but inside the margin is late too.
+    let d = metrics::score_detector_episode(
+        "x",
+        1.0,
+        &trace(3.0, |t| if t >= 2.3 { 5.0 } else { 0.0 }),
+        &threat(3.0, 2.5),
+        &cfg(0.25),
+    )
+    .unwrap();
+    assert!(d.outcome == Outcome::Miss && d.is_late_miss(), "{d:?}");
+    assert_eq!(d.max_signal, Some(0.0), "the ROC window ends at t_dl − margin");
+}
+
+#[test]
+fn no_alarm_on_threat_is_a_silent_miss() {
+    let d = metrics::score_detector_episode("x", 10.0, &trace(3.0, |t| t), &threat(3.0, 2.5), &cfg(0.0)).unwrap();
+    assert_eq!(d.outcome, Outcome::Miss);
+    assert!(d.is_silent_miss() && !d.is_late_miss());
     assert_eq!(
         (d.t_alarm_s, d.ttc_at_alarm_s, d.angular_size_at_alarm_deg),
         (None, None, None)
     );
+    assert_eq!(d.max_signal, Some(2.5), "maximum up to the deadline");
+}
+
+#[test]
+fn unavoidable_threats_are_neither_hits_nor_misses() {
+    for t_a in [None, Some(0.1), Some(2.9), Some(3.5)] {
+        assert_eq!(
+            metrics::classify(&unavoidable(3.0), t_a, 0.0).unwrap(),
+            Outcome::Unavoidable,
+            "alarm {t_a:?}"
+        );
+        assert_eq!(
+            metrics::classify(&unavoidable(3.0), t_a, 0.5).unwrap(),
+            Outcome::Unavoidable
+        );
+    }
+    let d = metrics::score_detector_episode(
+        "x",
+        0.5,
+        &trace(3.5, |t| if t >= 0.5 { t } else { 0.0 }),
+        &unavoidable(3.0),
+        &cfg(0.0),
+    )
+    .unwrap();
+    assert_eq!(d.outcome, Outcome::Unavoidable);
+    assert!(d.threat && !d.evadable());
+    assert_eq!((d.t_deadline_s, d.deadline_lead_s()), (None, None));
+    assert!(!d.is_late_miss() && !d.is_silent_miss());
+    assert_eq!(d.lead_s(), None, "only hits have a lead");
+    assert_eq!(d.t_alarm_s, Some(0.5));
+    assert_eq!(
+        d.max_signal,
+        Some(3.0),
+        "an unavoidable threat's score window ends at contact"
+    );
+    assert_eq!(Outcome::Unavoidable.to_string(), "unavoidable");
+    assert_eq!("unavoidable".parse::<Outcome>(), Ok(Outcome::Unavoidable));
+
+    // In a summary they are counted apart: not in the hit rate, not ROC positives, not in the
+    // evasion rate; they still count as episodes and collisions.
+    let eps = [
+        ep_dl(true, Some(3.0), None, Some(1.0), true, Some(50.0)), // unavoidable, alarmed early
+        ep_dl(true, Some(3.0), None, None, true, Some(0.5)),       // unavoidable, silent
+        ep(true, Some(3.0), Some(1.0), false, Some(20.0)),         // hit
+        ep(true, Some(3.0), None, true, Some(1.0)),                // silent miss
+        ep(false, None, None, false, Some(10.0)),                  // correct rejection
+        ep(false, None, Some(2.0), false, Some(30.0)),             // false alarm
+    ];
+    let s = DetectorSummary::from_episodes(&eps);
+    assert_eq!((s.episodes, s.unavoidable_threats, s.evadable_threats), (6, 2, 2));
+    assert_eq!((s.hits, s.misses, s.silent_misses, s.late_misses), (1, 1, 1, 0));
+    assert_eq!(s.hit_rate, Some(0.5));
+    assert_eq!((s.evaded, s.evasion_rate), (1, Some(0.5)));
+    assert_eq!((s.collisions, s.collision_rate), (3, Some(0.5)));
+    // ROC positives {20, 1}, negatives {10, 30}: 1 of 4 pairs ordered → AUC 0.25. With the
+    // unavoidable threats' scores (50, 0.5) as positives it would be 3/8 instead.
+    assert_close(s.auc.unwrap(), 0.25, 1e-12);
+    assert_eq!(s.roc.iter().filter(|p| p.threshold == Some(50.0)).count(), 0);
+    // only unavoidable threats: no hit rate, no evasion rate, no ROC
+    let s = DetectorSummary::from_episodes(&eps[..2]);
+    assert_eq!(
+        (s.hit_rate, s.evasion_rate, s.evasion_rate_ci, s.auc),
+        (None, None, None, None)
+    );
+    assert!(s.roc.is_empty());
+    assert_eq!(s.unavoidable_threats, 2);
 }
 
 #[test]
@@ -234,6 +424,7 @@ fn alarm_without_threat_is_false_alarm() {
     )
     .unwrap();
     assert_eq!(d.outcome, Outcome::FalseAlarm);
+    assert!(!d.evadable() && d.deadline_lead_s().is_none());
     assert_eq!(
         d.max_signal,
         Some(50.0),
@@ -260,16 +451,17 @@ fn nan_signal_never_alarms_and_is_not_a_score() {
 fn unsorted_samples_give_the_earliest_alarm() {
     let mut s = trace(2.0, |t| if t >= 1.0 { 20.0 } else { 0.0 });
     s.reverse();
-    let d = metrics::score_detector_episode("x", 10.0, &s, &threat(2.0), &cfg(0.1)).unwrap();
+    let d = metrics::score_detector_episode("x", 10.0, &s, &threat(2.0, 1.5), &cfg(0.1)).unwrap();
     assert_eq!(d.t_alarm_s, Some(1.0));
+    assert_eq!(d.outcome, Outcome::Hit);
 }
 
 #[test]
 fn traces_are_kept_only_on_request() {
     let s = trace(1.0, |t| t);
     let keep = ScoringConfig {
-        lead_min_s: 0.1,
         keep_traces: true,
+        ..cfg(0.1)
     };
     assert_eq!(
         metrics::score_detector_episode("x", 5.0, &s, &NO_THREAT, &keep)
@@ -291,6 +483,7 @@ fn inconsistent_ground_truth_is_an_error_naming_the_detector() {
     let bad_threat = GroundTruth {
         threat: true,
         t_contact_s: None,
+        t_deadline_s: Some(1.0),
         collision: false,
     };
     let e = metrics::score_detector_episode("soc", 1.0, &[], &bad_threat, &cfg(0.1)).unwrap_err();
@@ -303,12 +496,62 @@ fn inconsistent_ground_truth_is_an_error_naming_the_detector() {
     let bad_non_threat = GroundTruth {
         threat: false,
         t_contact_s: Some(1.0),
+        t_deadline_s: None,
         collision: false,
     };
     assert!(metrics::score_detector_episode("soc", 1.0, &[], &bad_non_threat, &cfg(0.1)).is_err());
+    // a non-threat with a deadline
+    let deadline_without_threat = GroundTruth {
+        t_deadline_s: Some(1.0),
+        ..NO_THREAT
+    };
+    let e = metrics::score_detector_episode("soc", 1.0, &[], &deadline_without_threat, &cfg(0.1)).unwrap_err();
+    assert!(
+        e.to_string().contains("`soc`") && e.to_string().contains("deadline"),
+        "{e}"
+    );
+    // a non-finite deadline
+    let e = metrics::score_detector_episode("soc", 1.0, &[], &threat(2.0, f64::NAN), &cfg(0.1)).unwrap_err();
+    assert!(e.to_string().contains("t_deadline_s"), "{e}");
     assert!(metrics::score_detector_episode("soc", f64::NAN, &[], &NO_THREAT, &cfg(0.1)).is_err());
     assert!(metrics::score_detector_episode("soc", 1.0, &[], &NO_THREAT, &cfg(-1.0)).is_err());
+    assert!(metrics::score_detector_episode("soc", 1.0, &[], &NO_THREAT, &cfg(f64::INFINITY)).is_err());
     assert!(metrics::score_detector_episode("soc", 1.0, &[sample(f64::NAN, 0.0)], &NO_THREAT, &cfg(0.1)).is_err());
+}
+
+#[test]
+fn lead_min_s_is_rejected_naming_lead_margin_s() {
+    let old = ScoringConfig {
+        lead_min_s: Some(0.2),
+        ..ScoringConfig::default()
+    };
+    let e = old.validate().unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        matches!(
+            e,
+            ScoringError::InvalidConfig {
+                key: "scoring.lead_min_s",
+                ..
+            }
+        ),
+        "{msg}"
+    );
+    assert!(msg.contains("lead_min_s") && msg.contains("lead_margin_s"), "{msg}");
+    // scoring with it fails the same way
+    let e = metrics::score_detector_episode("x", 1.0, &[], &NO_THREAT, &old).unwrap_err();
+    assert!(e.to_string().contains("lead_margin_s"), "{e}");
+    // config files: the old key still parses (to be rejected), and is never written back
+    let parsed: ScoringConfig = serde_json::from_str(r#"{"lead_min_s": 0.2}"#).unwrap();
+    assert_eq!(parsed.lead_min_s, Some(0.2));
+    assert!(parsed.validate().is_err());
+    let json = serde_json::to_string(&ScoringConfig::default()).unwrap();
+    assert!(
+        !json.contains("lead_min_s") && json.contains("\"lead_margin_s\":0.0"),
+        "{json}"
+    );
+    ScoringConfig::default().validate().unwrap();
+    assert_eq!(ScoringConfig::default().lead_margin_s, 0.0);
 }
 
 // ---------------------------------------------------------------- aggregation
@@ -316,10 +559,11 @@ fn inconsistent_ground_truth_is_an_error_naming_the_detector() {
 #[test]
 fn summary_counts_rates_and_collision_rate() {
     let eps = [
+        // (deadlines 0.1 s before contact)
         ep(true, Some(3.0), Some(1.0), false, Some(30.0)), // hit, lead 2.0
         ep(true, Some(3.0), Some(2.95), true, Some(8.0)),  // late → miss, collision
-        ep(true, Some(3.0), None, true, Some(5.0)),        // no alarm → miss, collision
-        ep(true, Some(2.0), Some(1.9), false, Some(12.0)), // boundary → hit, lead 0.1
+        ep(true, Some(3.0), None, true, Some(5.0)),        // no alarm → silent miss, collision
+        ep(true, Some(2.0), Some(1.9), false, Some(12.0)), // at the deadline → hit, lead 0.1
         ep(false, None, Some(0.5), false, Some(15.0)),     // false alarm
         ep(false, None, None, false, Some(3.0)),           // correct rejection
         ep(false, None, None, true, Some(4.0)),            // correct rejection, collision
@@ -352,6 +596,18 @@ fn summary_counts_rates_and_collision_rate() {
         .sum();
     assert_eq!(wins, 13.0);
     assert_close(s.auc.unwrap(), 13.0 / 16.0, 1e-12);
+    // escape fields
+    assert_eq!((s.evadable_threats, s.unavoidable_threats, s.evaded), (4, 0, 2));
+    assert_eq!((s.evasion_rate, s.evasion_rate_ci), (Some(0.5), stats::wilson_95(2, 4)));
+    assert_eq!((s.late_misses, s.silent_misses), (1, 1));
+    assert_eq!(s.late_misses + s.silent_misses, s.misses);
+    assert_eq!(
+        (s.hit_collisions, s.false_alarm_collisions),
+        (0, 0),
+        "the collision of a correct rejection is neither"
+    );
+    assert_eq!(s.collision_reduction, None, "filled in only against a null row");
+    assert_eq!(s.lv_fit, None);
 }
 
 #[test]
@@ -384,25 +640,33 @@ fn roc_at_the_operating_threshold_reproduces_hit_and_false_alarm_rates() {
             .wrapping_add(1442695040888963407);
         (state >> 33) as f64 / (1u64 << 31) as f64
     };
-    let lead = 0.25;
+    // Threats have deadlines 0.1–0.4 s before contact and are scored with a 0.1 s margin; every
+    // fifth is unavoidable (not a ROC positive, not in the hit rate).
+    let margin = 0.1;
     let mut cases = Vec::new();
     for i in 0..60 {
         let is_threat = i % 3 != 0;
         let t_c = 2.0 + next();
+        let t_dl = t_c - 0.1 - 0.3 * next();
         let (a, b) = (next() * 20.0, next() * 4.0);
         let samples: Vec<TraceSample> = (0..=40)
             .map(|k| k as f64 / 12.0)
             .map(|t| sample(t, a * t / 3.0 + b * (t * 7.0).sin()))
             .collect();
-        let truth = if is_threat { threat(t_c) } else { NO_THREAT };
+        let truth = match (is_threat, i % 5 == 1) {
+            (false, _) => NO_THREAT,
+            (true, false) => threat(t_c, t_dl),
+            (true, true) => unavoidable(t_c),
+        };
         cases.push((samples, truth));
     }
     for theta in [0.5, 3.0, 6.0, 9.0, 12.0] {
         let eps: Vec<DetectorEpisode> = cases
             .iter()
-            .map(|(s, g)| metrics::score_detector_episode("x", theta, s, g, &cfg(lead)).unwrap())
+            .map(|(s, g)| metrics::score_detector_episode("x", theta, s, g, &cfg(margin)).unwrap())
             .collect();
         let summary = DetectorSummary::from_episodes(&eps);
+        assert!(summary.unavoidable_threats > 0 && summary.evadable_threats > 0);
         // The ROC point for θ is the one with the smallest threshold ≥ θ (or (0,0) if none).
         let point = summary
             .roc
@@ -561,10 +825,18 @@ fn report_json_has_the_contract_keys_and_no_nan() {
         "seed",
         "episodes",
         "wall_time_s",
-        "lead_min_s",
+        "lead_margin_s",
+        "references",
     ] {
         assert!(v.get(key).is_some(), "metadata key {key}");
     }
+    assert!(v.get("lead_min_s").is_none(), "the removed key is not written");
+    assert_eq!(v["lead_margin_s"], 0.0);
+    assert_eq!(
+        v["references"],
+        serde_json::json!([]),
+        "no reference rows in these episodes"
+    );
     assert_eq!(v["episodes"], 11);
     assert_eq!(v["loomlab_version"], report::LOOMLAB_VERSION);
     let contract = [
@@ -592,6 +864,17 @@ fn report_json_has_the_contract_keys_and_no_nan() {
             "collision_rate_ci",
             "auc",
             "mean_lead_s",
+            "evadable_threats",
+            "unavoidable_threats",
+            "evaded",
+            "evasion_rate",
+            "evasion_rate_ci",
+            "late_misses",
+            "silent_misses",
+            "hit_collisions",
+            "false_alarm_collisions",
+            "collision_reduction",
+            "lv_fit",
         ] {
             assert!(o.get(key).is_some(), "missing extra key {key}");
         }
@@ -645,16 +928,30 @@ fn terminal_table_is_aligned() {
     let report = Report::from_episodes(&meta(), &eps);
     let table = report::format_summary_table(&report.detectors);
     let lines: Vec<&str> = table.lines().collect();
-    assert_eq!(lines.len(), 2 + 3);
-    assert!(lines[0].starts_with("detector") && lines[0].contains("hit rate [95% CI]") && lines[0].ends_with("AUC"));
-    let width = lines[0].chars().count();
-    assert!(lines.iter().all(|l| l.chars().count() == width), "\n{table}");
-    assert!(
-        lines[2].starts_with("a_long_detector_id") && lines[2].contains("n/a"),
+    // a line counting the threats (of the first row's episodes), header, rule, three rows
+    assert_eq!(lines.len(), 1 + 2 + 3, "\n{table}");
+    assert_eq!(
+        lines[0], "0 threats (0 evadable, 0 unavoidable), 1 non-threats",
         "\n{table}"
     );
-    // hopfield: 5/5 hits → "1.00 [0.57, 1.00]".
-    assert!(lines[3].contains("1.00 [0.57, 1.00]"), "\n{table}");
+    let rows = &lines[1..];
+    assert!(
+        rows[0].starts_with("detector")
+            && rows[0].contains("hit rate [95% CI]")
+            && rows[0].contains("evasion rate [95% CI]")
+            && rows[0].contains("coll. reduction")
+            && rows[0].ends_with("AUC"),
+        "\n{table}"
+    );
+    let width = rows[0].chars().count();
+    assert!(rows.iter().all(|l| l.chars().count() == width), "\n{table}");
+    assert!(
+        rows[2].starts_with("a_long_detector_id") && rows[2].contains("n/a"),
+        "\n{table}"
+    );
+    // hopfield: 5/5 hits → "1.00 [0.57, 1.00]" (hit rate and, as none collided, evasion rate).
+    assert_eq!(rows[3].matches("1.00 [0.57, 1.00]").count(), 2, "\n{table}");
+    assert!(!table.contains("reference row"), "no footnote without reference rows");
     let full = report.format_table(true);
     assert!(full.contains("scenario empty road (1 episodes)"), "{full}");
 }
@@ -938,4 +1235,522 @@ fn tolerances_parse_and_validate() {
     .unwrap_err();
     assert!(e.to_string().contains("tolerances.collision_rate.max_change"), "{e}");
     Tolerances::default().validate().unwrap();
+}
+
+// ---------------------------------------------------------------- escape and collision aggregates
+
+#[test]
+fn evasion_rate_is_evaded_over_evadable_threats_with_a_wilson_interval() {
+    // 7 evadable threats of which 5 evaded (4 hits, one late miss that still got away), 2
+    // unavoidable threats (one dodged anyway: not counted), 3 non-threats.
+    let mut eps = vec![
+        ep(true, Some(3.0), Some(1.0), false, Some(9.0)),
+        ep(true, Some(3.0), Some(1.5), false, Some(9.0)),
+        ep(true, Some(3.0), Some(2.0), false, Some(9.0)),
+        ep(true, Some(3.0), Some(2.9), false, Some(9.0)), // at the deadline
+        ep(true, Some(3.0), Some(2.95), false, Some(1.0)), // late, but evaded
+        ep(true, Some(3.0), Some(2.95), true, Some(1.0)), // late, collided
+        ep(true, Some(3.0), None, true, Some(1.0)),       // silent
+        ep_dl(true, Some(1.0), None, Some(0.5), false, Some(9.0)),
+        ep_dl(true, Some(1.0), None, None, true, Some(0.0)),
+    ];
+    for i in 0..3 {
+        eps.push(ep(false, None, None, false, Some(f64::from(i))));
+    }
+    let s = DetectorSummary::from_episodes(&eps);
+    assert_eq!((s.evadable_threats, s.unavoidable_threats), (7, 2));
+    assert_eq!((s.hits, s.misses, s.late_misses, s.silent_misses), (4, 3, 2, 1));
+    assert_eq!(s.evaded, 5);
+    assert_eq!(s.evasion_rate, Some(5.0 / 7.0));
+    assert_eq!(s.evasion_rate_ci, stats::wilson_95(5, 7));
+    let ci = s.evasion_rate_ci.unwrap();
+    assert!(ci.contains(5.0 / 7.0) && ci.lower > 0.0 && ci.upper < 1.0, "{ci:?}");
+    // 5/7 by the quadratic-formula reference (as in wilson_interval_matches_independent_reference_values)
+    let (n, p, z) = (7.0, 5.0 / 7.0, stats::Z_95);
+    let (a, b, c) = (1.0 + z * z / n, -(2.0 * p + z * z / n), p * p);
+    let disc = (b * b - 4.0 * a * c).sqrt();
+    assert_close(ci.lower, (-b - disc) / (2.0 * a), 1e-12);
+    assert_close(ci.upper, (-b + disc) / (2.0 * a), 1e-12);
+    // evaded = evadable threats without a collision, whatever the outcome
+    let manual = eps.iter().filter(|e| e.evadable() && !e.collision).count() as u64;
+    assert_eq!(manual, s.evaded);
+    // no evadable threat: no rate, no interval, no NaN in JSON
+    let s = DetectorSummary::from_episodes(&eps[7..]);
+    assert_eq!(
+        (s.evadable_threats, s.evaded, s.evasion_rate, s.evasion_rate_ci),
+        (0, 0, None, None)
+    );
+    let json = serde_json::to_string(&s).unwrap();
+    assert!(
+        json.contains("\"evasion_rate\":null") && !json.contains("NaN"),
+        "{json}"
+    );
+}
+
+#[test]
+fn hit_collisions_and_false_alarm_collisions_are_counted() {
+    let eps = [
+        ep(true, Some(3.0), Some(1.0), true, Some(9.0)),  // hit that collided
+        ep(true, Some(3.0), Some(1.0), true, Some(9.0)),  // another
+        ep(true, Some(3.0), Some(1.0), false, Some(9.0)), // hit, evaded
+        ep(true, Some(3.0), Some(2.95), true, Some(1.0)), // late miss, collided: not a hit collision
+        ep(false, None, Some(1.0), true, Some(9.0)),      // false alarm escape into an object
+        ep(false, None, Some(1.0), false, Some(9.0)),     // false alarm, harmless
+        ep(false, None, None, true, Some(0.0)),           // correct rejection that collided: neither
+        ep_dl(true, Some(1.0), None, Some(0.2), true, Some(9.0)), // unavoidable: neither
+    ];
+    let s = DetectorSummary::from_episodes(&eps);
+    assert_eq!(s.hit_collisions, 2);
+    assert_eq!(s.false_alarm_collisions, 1);
+    assert_eq!(s.collisions, 6);
+    assert_eq!((s.hits, s.false_alarms, s.evaded), (3, 2, 1));
+    // the table shows the hits that collided
+    let table = report::format_summary_table(&std::collections::BTreeMap::from([("hopfield".to_string(), s)]));
+    assert!(table.lines().nth(1).unwrap().contains("hit+coll"), "{table}");
+    assert!(table.lines().nth(3).unwrap().contains("  2  "), "{table}");
+}
+
+/// One episode with a `null` row (no alarm) and a detector row, both scored from `truth`.
+fn null_and_detector(
+    index: usize,
+    threat: bool,
+    null_collides: bool,
+    det_alarm: Option<f64>,
+    det_collides: bool,
+) -> EpisodeOutcome {
+    let t_c = threat.then_some(3.0);
+    let null = with_detector(ep(threat, t_c, None, null_collides, Some(0.0)), NULL);
+    let det = with_detector(ep(threat, t_c, det_alarm, det_collides, Some(1.0)), "hopfield");
+    episode(if index % 2 == 0 { "even" } else { "odd" }, index, vec![det, null])
+}
+
+#[test]
+fn collision_reduction_is_measured_against_the_null_row() {
+    // 6 threats (null collides in all), 4 non-threats; hopfield collides in 2 threats and 1
+    // non-threat (a false-alarm escape): reduction 1 − 3/6.
+    let mut eps = Vec::new();
+    for i in 0..10 {
+        let threat = i < 6;
+        let collides = (threat && i < 2) || i == 9;
+        let alarm = if i == 9 || (threat && i >= 2) { Some(1.0) } else { None };
+        eps.push(null_and_detector(i, threat, threat, alarm, collides));
+    }
+    let by = metrics::summarize_by_detector(&eps);
+    assert_eq!((by[NULL].collisions, by["hopfield"].collisions), (6, 3));
+    assert_eq!(by["hopfield"].collision_reduction, Some(0.5));
+    assert_eq!(by[NULL].collision_reduction, Some(0.0), "null against itself");
+    assert_eq!(by["hopfield"].false_alarm_collisions, 1);
+    // per scenario, against that scenario's null row: even = {0,2,4,6,8}, odd = {1,3,5,7,9}
+    let report = Report::from_episodes(&meta(), &eps);
+    assert_eq!(report.detectors["hopfield"].collision_reduction, Some(0.5));
+    let even = &report.scenarios["even"].detectors;
+    let odd = &report.scenarios["odd"].detectors;
+    // even: null 3 collisions (0, 2, 4), hopfield 1 (0) → 2/3; odd: null 3 (1, 3, 5), hopfield 2 (1, 9) → 1/3
+    assert_close(even["hopfield"].collision_reduction.unwrap(), 2.0 / 3.0, 1e-12);
+    assert_close(odd["hopfield"].collision_reduction.unwrap(), 1.0 / 3.0, 1e-12);
+    // a detector worse than null has a negative reduction
+    let mut worse = eps.clone();
+    for e in &mut worse {
+        e.detectors[0].collision = true;
+    }
+    assert_close(
+        metrics::summarize_by_detector(&worse)["hopfield"]
+            .collision_reduction
+            .unwrap(),
+        1.0 - 10.0 / 6.0,
+        1e-12,
+    );
+
+    // no null row: None
+    let without_null: Vec<EpisodeOutcome> = eps
+        .iter()
+        .cloned()
+        .map(|mut e| {
+            e.detectors.retain(|d| d.detector != NULL);
+            e
+        })
+        .collect();
+    let by = metrics::summarize_by_detector(&without_null);
+    assert_eq!(by["hopfield"].collision_reduction, None);
+    assert_eq!(
+        DetectorSummary::from_episodes(&[ep(true, Some(3.0), None, true, None)]).collision_reduction,
+        None
+    );
+
+    // a null row that never collides (no threats): None, not a division by zero
+    let no_threats: Vec<EpisodeOutcome> = (0..4)
+        .map(|i| null_and_detector(i, false, false, Some(1.0), i == 0))
+        .collect();
+    let by = metrics::summarize_by_detector(&no_threats);
+    assert_eq!(by[NULL].collisions, 0);
+    assert_eq!(
+        (by["hopfield"].collision_reduction, by[NULL].collision_reduction),
+        (None, None)
+    );
+    let text = Report::from_episodes(&meta(), &no_threats).to_json();
+    assert!(!text.contains("NaN") && !text.contains("inf"), "{text}");
+}
+
+/// A suite whose episodes carry the three reference rows beside `hopfield`.
+fn episodes_with_references() -> Vec<EpisodeOutcome> {
+    let mut out = Vec::new();
+    for i in 0..8 {
+        let threat = i % 2 == 0;
+        let t_c = threat.then_some(3.0);
+        let hop = ep(
+            threat,
+            t_c,
+            threat.then_some(2.0),
+            false,
+            Some(if threat { 20.0 } else { 2.0 }),
+        );
+        // the oracle alarms exactly at each deadline; its indicator is 1 there
+        let oracle = ep(
+            threat,
+            t_c,
+            t_c.map(|c| c - EP_DEADLINE_LEAD_S),
+            false,
+            Some(if threat { 1.0 } else { 0.0 }),
+        );
+        let null = ep(threat, t_c, None, threat, Some(0.0));
+        // ideal_theta: huge scores on non-threats, so that calibrating it would give a high threshold
+        let ideal = ep(threat, t_c, Some(1.0), false, Some(if threat { 30.0 } else { 500.0 }));
+        out.push(episode(
+            "refs",
+            i,
+            vec![
+                with_detector(hop, "hopfield"),
+                with_detector(null, NULL),
+                with_detector(oracle, ORACLE),
+                with_detector(ideal, IDEAL_THETA),
+            ],
+        ));
+    }
+    out
+}
+
+#[test]
+fn reference_labels_are_reserved_and_listed_in_table_order() {
+    assert_eq!(REFERENCE_LABELS, ["null", "oracle", "ideal_theta"]);
+    for l in REFERENCE_LABELS {
+        assert!(reference::is_reference(l));
+    }
+    for l in ["hopfield", "soc", "Oracle", "null_1", ""] {
+        assert!(!reference::is_reference(l), "{l}");
+    }
+}
+
+#[test]
+fn report_lists_the_references_and_the_table_puts_them_last() {
+    let eps = episodes_with_references();
+    let report = Report::from_episodes(&meta(), &eps);
+    assert_eq!(report.references, ["null", "oracle", "ideal_theta"]);
+    let v: serde_json::Value = serde_json::from_str(&report.to_json()).unwrap();
+    assert_eq!(v["references"], serde_json::json!(["null", "oracle", "ideal_theta"]));
+    for r in REFERENCE_LABELS {
+        assert!(
+            v["detectors"].get(r).is_some() && v["scenarios"]["refs"]["detectors"].get(r).is_some(),
+            "{r}"
+        );
+    }
+    // only those present, still in table order
+    let some: Vec<EpisodeOutcome> = eps
+        .iter()
+        .cloned()
+        .map(|mut e| {
+            e.detectors.retain(|d| d.detector != NULL);
+            e.detectors.reverse();
+            e
+        })
+        .collect();
+    assert_eq!(
+        Report::from_episodes(&meta(), &some).references,
+        ["oracle", "ideal_theta"]
+    );
+    // round trip, and an old report without the key reads as no references
+    let text = report.to_json();
+    assert_eq!(Report::from_json(&text, Path::new("mem")).unwrap(), report);
+    let mut old: serde_json::Value = serde_json::from_str(&text).unwrap();
+    old.as_object_mut().unwrap().remove("references");
+    let back = Report::from_json(&old.to_string(), Path::new("old.json")).unwrap();
+    assert!(back.references.is_empty());
+    // the terminal table: detectors first, then the reference rows marked `*`, then a footnote
+    let table = report::format_summary_table(&report.detectors);
+    let labels: Vec<&str> = table
+        .lines()
+        .skip(3)
+        .take(4)
+        .map(|l| l.split("  ").next().unwrap().trim_end())
+        .collect();
+    assert_eq!(labels, ["hopfield", "null *", "oracle *", "ideal_theta *"], "\n{table}");
+    assert!(
+        table
+            .lines()
+            .next()
+            .unwrap()
+            .starts_with("4 threats (4 evadable, 0 unavoidable), 4 non-threats"),
+        "\n{table}"
+    );
+    assert!(
+        table.trim_end().lines().last().unwrap().starts_with("* reference row"),
+        "\n{table}"
+    );
+    // the oracle evades every evadable threat with no false alarm; null collides with every threat
+    let (o, n) = (&report.detectors[ORACLE], &report.detectors[NULL]);
+    assert_eq!((o.hits, o.misses, o.false_alarms, o.evasion_rate), (4, 0, 0, Some(1.0)));
+    assert_eq!((n.hits, n.silent_misses, n.collision_rate), (0, 4, Some(0.5)));
+    assert_eq!(o.collision_reduction, Some(1.0));
+}
+
+#[test]
+fn references_are_excluded_from_calibration() {
+    let eps = episodes_with_references();
+    let cal = calibrate::calibrate(&eps, 0.1);
+    let labels: Vec<&str> = cal.iter().map(|c| c.label.as_str()).collect();
+    assert_eq!(labels, ["hopfield"], "{cal:?}");
+    // hopfield: 4 non-threats with score 2.0 → the threshold is just above 2; every threat hits
+    let c = &cal[0];
+    assert_eq!(c.non_threats, 4);
+    assert!(c.threshold.unwrap() > 2.0 && c.threshold.unwrap() <= 2.01, "{c:?}");
+    assert_eq!((c.false_alarm_rate, c.hit_rate), (0.0, Some(1.0)));
+    // unavoidable threats are not positives of the calibration's hit rate either
+    let mut with_unavoidable = eps.clone();
+    with_unavoidable.push(episode(
+        "refs",
+        99,
+        vec![ep_dl(true, Some(1.0), None, None, true, Some(0.0))],
+    ));
+    assert_eq!(calibrate::calibrate(&with_unavoidable, 0.1)[0].hit_rate, Some(1.0));
+}
+
+#[test]
+fn references_are_not_regression_checked() {
+    let base = report_of(&episodes_with_references());
+    // the current run: the oracle got much worse (every threat a silent miss that collided), null
+    // and ideal_theta are gone; hopfield unchanged
+    let cur_eps: Vec<EpisodeOutcome> = episodes_with_references()
+        .into_iter()
+        .map(|mut e| {
+            e.detectors.retain(|d| d.detector == "hopfield" || d.detector == ORACLE);
+            for d in &mut e.detectors {
+                if d.detector == ORACLE {
+                    let worse = if d.threat {
+                        ep(true, d.t_contact_s, None, true, Some(0.0)) // silent miss, collided
+                    } else {
+                        ep(false, None, Some(0.5), false, Some(5.0)) // false alarm
+                    };
+                    *d = with_detector(worse, ORACLE);
+                }
+            }
+            e
+        })
+        .collect();
+    let cur = report_of(&cur_eps);
+    let (o_cur, o_base) = (&cur.detectors[ORACLE], &base.detectors[ORACLE]);
+    assert!(o_cur.collision_rate > o_base.collision_rate && o_cur.hit_rate < o_base.hit_rate);
+    assert!(o_cur.false_alarm_rate > o_base.false_alarm_rate && o_cur.auc < o_base.auc);
+    let strict = Tolerances {
+        hit_rate: RateTolerance {
+            max_change: 0.0,
+            wilson: false,
+        },
+        false_alarm_rate: RateTolerance {
+            max_change: 0.0,
+            wilson: false,
+        },
+        collision_rate: RateTolerance {
+            max_change: 0.0,
+            wilson: false,
+        },
+        auc_drop: Some(0.0),
+        per_scenario: true,
+    };
+    let regs = regression::compare(&cur, &base, &strict);
+    assert!(regs.is_empty(), "{regs:?}");
+    // a detector regression is still found beside them
+    let mut worse = cur_eps.clone();
+    for e in &mut worse {
+        let d = &mut e.detectors[0];
+        if d.threat {
+            *d = ep(true, d.t_contact_s, None, true, Some(0.0));
+        }
+    }
+    let regs = regression::compare(&report_of(&worse), &base, &strict);
+    assert!(!regs.is_empty());
+    assert!(
+        regs.iter().all(|r| r.detector.as_deref() == Some("hopfield")),
+        "{regs:?}"
+    );
+}
+
+// ---------------------------------------------------------------- l/|v|
+
+/// A head-on threat for the l/|v| fit: `l_over_v` and the eye TTC at the alarm (`None`: no alarm).
+fn lv_episode(l_over_v: Option<f64>, eye_ttc: Option<f64>) -> DetectorEpisode {
+    let mut d = ep(true, Some(3.0), eye_ttc.map(|_| 1.0), false, Some(10.0));
+    d.l_over_v_s = l_over_v;
+    d.eye_ttc_at_alarm_s = eye_ttc;
+    d
+}
+
+#[test]
+fn lv_fit_is_in_the_summary_from_three_qualifying_episodes() {
+    // a detector that fires at θ = 15° after a 40 ms delay: t = (l/|v|)/tan(7.5°) − 0.04
+    let (theta_deg, delay) = (15.0f64, 0.04);
+    let at = |x: f64| x / (theta_deg.to_radians() / 2.0).tan() - delay;
+    let xs = [0.02, 0.035, 0.05, 0.08];
+    let qualifying: Vec<DetectorEpisode> = xs.iter().map(|&x| lv_episode(Some(x), Some(at(x)))).collect();
+    // episodes that do not qualify: no l/|v| (not head-on), or no alarm
+    let others = [
+        lv_episode(None, Some(0.7)),
+        lv_episode(Some(0.06), None),
+        ep(false, None, Some(1.0), false, Some(1.0)),
+    ];
+    assert_eq!(lv::MIN_FIT_EPISODES, 3);
+    // two qualifying episodes: no fit
+    let two: Vec<&DetectorEpisode> = qualifying[..2].iter().chain(&others).collect();
+    assert_eq!(DetectorSummary::from_episodes(two).lv_fit, None);
+    // three: a fit through them
+    let three: Vec<&DetectorEpisode> = qualifying[..3].iter().chain(&others).collect();
+    let f = DetectorSummary::from_episodes(three)
+        .lv_fit
+        .expect("three qualifying episodes");
+    assert_eq!(f.episodes, 3);
+    assert_close(f.theta_th_deg.unwrap(), theta_deg, 1e-9);
+    assert_close(f.delay_s, delay, 1e-12);
+    assert_close(f.r2, 1.0, 1e-12);
+    assert_close(f.slope, 1.0 / (theta_deg.to_radians() / 2.0).tan(), 1e-9);
+    assert_close(f.intercept_s, -delay, 1e-12);
+    // all four, in a summary by detector and in the report JSON
+    let mut eps: Vec<EpisodeOutcome> = qualifying
+        .iter()
+        .chain(&others)
+        .enumerate()
+        .map(|(i, d)| episode("lv", i, vec![d.clone()]))
+        .collect();
+    let report = Report::from_episodes(&meta(), &eps);
+    let f = report.detectors["hopfield"].lv_fit.unwrap();
+    assert_eq!(f.episodes, 4);
+    assert_eq!(report.scenarios["lv"].detectors["hopfield"].lv_fit, Some(f));
+    assert_eq!(Some(f), LvFit::fit(&xs.map(|x| (x, at(x)))));
+    let v: serde_json::Value = serde_json::from_str(&report.to_json()).unwrap();
+    let j = &v["detectors"]["hopfield"]["lv_fit"];
+    assert_eq!(j["episodes"], 4);
+    for key in ["slope", "intercept_s", "theta_th_deg", "delay_s", "r2"] {
+        assert!(j[key].is_number(), "lv_fit.{key}: {j}");
+    }
+    // noisy points: R² below 1, still a fit
+    eps[1].detectors[0].eye_ttc_at_alarm_s = Some(at(0.035) + 0.05);
+    let f = Report::from_episodes(&meta(), &eps).detectors["hopfield"]
+        .lv_fit
+        .unwrap();
+    assert!(f.r2 < 1.0 && f.r2 > 0.5, "{f:?}");
+    // no lv_fit: null in JSON
+    let v: serde_json::Value =
+        serde_json::from_str(&Report::from_episodes(&meta(), &suite_episodes()).to_json()).unwrap();
+    assert_eq!(v["detectors"]["hopfield"]["lv_fit"], serde_json::Value::Null);
+}
+
+// ---------------------------------------------------------------- episodes.csv with deadlines
+
+#[test]
+fn csv_round_trip_keeps_the_deadline_and_lv_columns() {
+    for name in [
+        "t_deadline_s",
+        "deadline_lead_s",
+        "evadable",
+        "l_over_v_s",
+        "eye_ttc_at_alarm_s",
+    ] {
+        assert!(HEADER.contains(&name), "{name}");
+    }
+    let mut hit = ep_dl(true, Some(0.5), Some(0.1 + 0.2), Some(0.2), false, Some(9.0));
+    assert_eq!(hit.outcome, Outcome::Hit);
+    hit.l_over_v_s = Some(0.05);
+    hit.eye_ttc_at_alarm_s = Some(2.0000000000000004);
+    let late = ep(true, Some(2.5), Some(2.45), true, Some(1.0));
+    let unav = ep_dl(true, Some(0.4), None, Some(0.2), true, Some(5.0));
+    let non = ep(false, None, Some(1.0), false, Some(3.0));
+    let eps = vec![episode(
+        "deadlines",
+        0,
+        vec![
+            with_detector(hit, "hopfield"),
+            with_detector(late, "soc"),
+            with_detector(unav, IDEAL_THETA),
+            with_detector(non, ORACLE),
+        ],
+    )];
+    let p = tmp("deadlines.csv");
+    let mut w = EpisodesCsvWriter::create(&p).unwrap();
+    w.write_episode(&eps[0]).unwrap();
+    drop(w);
+    let text = std::fs::read_to_string(&p).unwrap();
+    let back = episodes_csv::read_episodes_csv(&p).unwrap();
+    assert_eq!(back, eps);
+    assert_eq!(back[0].detectors[0].t_deadline_s, Some(0.30000000000000004));
+    // the written cells, by column name (no field of these rows holds a comma)
+    let rows: Vec<Vec<&str>> = text.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert!(rows.iter().all(|r| r.len() == HEADER.len()), "{text}");
+    let col = |row: usize, name: &str| -> String {
+        let i = HEADER.iter().position(|h| *h == name).unwrap();
+        rows[row][i].to_string()
+    };
+    assert_eq!(col(0, "outcome"), "hit");
+    assert_eq!(col(0, "t_deadline_s"), "0.30000000000000004");
+    assert_eq!(col(0, "deadline_lead_s"), (0.5 - (0.1 + 0.2)).to_string());
+    assert_eq!(col(0, "lead_s"), (0.5f64 - 0.2).to_string());
+    assert_eq!(col(0, "evadable"), "true");
+    assert_eq!(col(0, "l_over_v_s"), "0.05");
+    assert_eq!(col(0, "eye_ttc_at_alarm_s"), "2.0000000000000004");
+    assert_eq!(col(1, "outcome"), "miss");
+    assert_eq!(
+        col(1, "deadline_lead_s"),
+        (2.5f64 - (2.5 - EP_DEADLINE_LEAD_S)).to_string()
+    );
+    assert_eq!(
+        (col(1, "lead_s"), col(1, "l_over_v_s"), col(1, "eye_ttc_at_alarm_s")),
+        (String::new(), String::new(), String::new())
+    );
+    assert_eq!(col(2, "outcome"), "unavoidable");
+    assert_eq!(
+        (col(2, "t_deadline_s"), col(2, "deadline_lead_s"), col(2, "evadable")),
+        (String::new(), String::new(), "false".to_string())
+    );
+    assert_eq!(col(3, "outcome"), "false_alarm");
+    assert_eq!(
+        (col(3, "t_deadline_s"), col(3, "evadable")),
+        (String::new(), "false".to_string())
+    );
+    // the derived columns are ignored on reading: a wrong value changes nothing
+    let tampered = text.replacen(",true,0.05,", ",false,0.05,", 1);
+    assert_ne!(tampered, text);
+    assert_eq!(
+        episodes_csv::parse_episodes_csv(&tampered, Path::new("t.csv")).unwrap(),
+        eps
+    );
+    // the report rebuilt from the CSV equals the one from memory
+    assert_eq!(
+        Report::from_episodes(&meta(), &back),
+        Report::from_episodes(&meta(), &eps)
+    );
+    // a file without the new columns (an older version's) is refused, naming the missing column
+    let old_header = HEADER[..14].join(",");
+    let e = episodes_csv::parse_episodes_csv(&format!("{old_header}\n"), Path::new("old.csv")).unwrap_err();
+    assert!(e.to_string().contains("missing column `t_deadline_s`"), "{e}");
+    let q = tmp("old.csv");
+    std::fs::write(&q, format!("{old_header}\n")).unwrap();
+    assert!(
+        EpisodesCsvWriter::append(&q)
+            .unwrap_err()
+            .to_string()
+            .contains("new output folder")
+    );
+    // a malformed deadline names its column
+    let bad = text.replacen("0.30000000000000004", "soon", 1);
+    let e = episodes_csv::parse_episodes_csv(&bad, Path::new("b.csv")).unwrap_err();
+    assert!(
+        e.to_string().contains("b.csv:2") && e.to_string().contains("t_deadline_s"),
+        "{e}"
+    );
 }

@@ -3,7 +3,9 @@
 
 use std::path::{Path, PathBuf};
 
+use loomlab_scenarios::episodes_csv::HEADER;
 use loomlab_scenarios::metrics::DetectorSummary;
+use loomlab_scenarios::reference::REFERENCE_LABELS;
 use loomlab_scenarios::report::{Report, ReportMeta};
 use loomlab_scenarios::schema::load_detector_entries;
 use loomlab_scenarios::stats::RocPoint;
@@ -158,31 +160,25 @@ fn shards_cover_every_episode_and_point_once() {
 }
 
 fn summary(hit: f64, fa: f64, roc: &[(f64, f64)]) -> DetectorSummary {
-    DetectorSummary {
-        episodes: 10,
-        hits: 0,
-        misses: 0,
-        false_alarms: 0,
-        correct_rejections: 0,
-        hit_rate: Some(hit),
-        false_alarm_rate: Some(fa),
-        collisions: 0,
-        collision_rate: Some(1.0 - hit),
-        hit_rate_ci: None,
-        false_alarm_rate_ci: None,
-        collision_rate_ci: None,
-        mean_lead_s: None,
-        mean_angular_size_at_alarm_deg: None,
-        auc: Some(0.5),
-        roc: roc
-            .iter()
-            .map(|&(fpr, tpr)| RocPoint {
-                threshold: None,
-                fpr,
-                tpr,
-            })
-            .collect(),
-    }
+    // an empty summary with the fields the metrics read set by hand (no struct literal, so that
+    // fields added to DetectorSummary later keep their defaults)
+    let mut s = DetectorSummary::from_episodes(&[]);
+    assert_eq!((s.episodes, s.hit_rate, s.auc, s.roc.len()), (0, None, None, 0));
+    s.episodes = 10;
+    s.hit_rate = Some(hit);
+    s.false_alarm_rate = Some(fa);
+    s.collision_rate = Some(1.0 - hit);
+    s.evasion_rate = Some(hit);
+    s.auc = Some(0.5);
+    s.roc = roc
+        .iter()
+        .map(|&(fpr, tpr)| RocPoint {
+            threshold: None,
+            fpr,
+            tpr,
+        })
+        .collect();
+    s
 }
 
 #[test]
@@ -256,10 +252,16 @@ fn merged_reports_equal_a_direct_run_of_each_point() {
             suite: plan.file.suite.display().to_string(),
             seed: 0,
             wall_time_s: 0.0,
-            lead_min_s: episodes[0].scoring.lead_min_s,
+            lead_margin_s: episodes[0].scoring.lead_margin_s,
         };
         let direct = Report::from_episodes(&meta, &outcomes);
         assert_eq!(r.report, direct, "{}", r.point.label);
+        // every point's report carries the reference rows, and only its own detector beside them
+        assert_eq!(r.report.references, REFERENCE_LABELS);
+        let mut labels: Vec<&str> = r.report.detectors.keys().map(String::as_str).collect();
+        labels.sort_by_key(|l| REFERENCE_LABELS.contains(l));
+        assert_eq!(labels[0], r.point.label);
+        assert_eq!(labels.len(), 1 + REFERENCE_LABELS.len());
         assert_eq!(
             Report::read_json(&out.join("points").join(&r.point.label).join("report.json")).unwrap(),
             direct
@@ -284,7 +286,8 @@ fn the_output_folder_refuses_another_sweep_and_checks_shards() {
     let out = dir.path().join("out");
     let d = SweepDir::open(&out, &plan, false).unwrap();
     // a shard's rows must be the shard's
-    let rows = "scenario,episode,seed,params,detector,threat,t_contact_s,t_alarm_s,outcome,collision,ttc_at_alarm_s,angular_size_at_alarm_deg,max_signal,lead_s\n";
+    let rows = HEADER.join(",") + "\n";
+    let rows = rows.as_str();
     let e = d.write_shard(&plan, 0, rows).unwrap_err().to_string();
     assert!(
         e.contains("0 episodes, the shard has 2") && e.contains("00000.csv"),
