@@ -1,4 +1,9 @@
-//! `loomlab`: closed-loop testbed for looming detectors. Thin binary over `loomlab::cli`.
+//! `loomlab`: closed-loop testbed for looming detectors. The binary parses arguments, dispatches to
+//! one module per subcommand (`cli/`) and maps errors to exit codes; every capability lives in the
+//! library crates (`loomlab-detector`, `loomlab-sim`, `loomlab-agents`, `loomlab-scenarios`).
+
+mod cli;
+mod plot;
 
 use clap::{Parser, Subcommand};
 
@@ -12,25 +17,25 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    // Subcommands are added here, one variant each, dispatching to loomlab::cli::<name>::run.
+    // Subcommands are added here, one variant each, dispatching to cli::<name>::run.
     /// Run looming detectors on a stimulus file or a video; writes responses.csv and a plot.
-    Detect(loomlab::cli::detect::DetectArgs),
+    Detect(cli::detect::DetectArgs),
     /// Regenerate the paper's artificial-video experiments (Figs. 3-8) as PNG + CSV.
-    Figures(loomlab::cli::figures::FiguresArgs),
+    Figures(cli::figures::FiguresArgs),
     /// Render the robot's egocentric view of a simulated world: PNG frames, a GIF and truth.csv.
-    Render(loomlab::cli::render::RenderArgs),
+    Render(cli::render::RenderArgs),
     /// Run a scenario suite closed-loop (default: the default suite), print the results table and
     /// write report.json, episodes.csv and plots; with --baseline, exit 1 on regressions.
-    Run(loomlab::cli::run::RunArgs),
+    Run(cli::run::RunArgs),
 }
 
 fn main() {
     let cli = Cli::parse();
     let result: anyhow::Result<i32> = match cli.command {
-        Command::Detect(a) => loomlab::cli::detect::run(a),
-        Command::Figures(a) => loomlab::cli::figures::run(a),
-        Command::Render(a) => loomlab::cli::render::run(a),
-        Command::Run(a) => loomlab::cli::run::run(a),
+        Command::Detect(a) => cli::detect::run(a),
+        Command::Figures(a) => cli::figures::run(a),
+        Command::Render(a) => cli::render::run(a),
+        Command::Run(a) => cli::run::run(a),
     };
     match result {
         Ok(code) => std::process::exit(code),

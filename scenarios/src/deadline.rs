@@ -17,7 +17,7 @@
 //! # Search
 //! Evasion need not be monotone in the trigger time (dodging early can lead into a second object,
 //! a manoeuvre that ends too early can be caught up with), so the search scans every
-//! `scan_stride` frames from 0 to the contact frame (`scan_stride` = 0.1 s of frames, at least
+//! `scan_stride` frames from 0 to the contact frame (`scan_stride` = 0.2 s of frames, at least
 //! one) plus the frame just before contact, then bisects every transition between neighbouring
 //! scan frames to one frame. The result is the set of evading trigger frames as ranges, exact at
 //! every transition the scan finds (a gap or island shorter than the scan stride can be missed).
@@ -31,7 +31,7 @@ use loomlab_sim::{Sim, SimError};
 use crate::schema::EpisodeSpec;
 
 /// The scan stride of the deadline search, in seconds (rounded to frames, at least one).
-pub const SCAN_STRIDE_S: f64 = 0.1;
+pub const SCAN_STRIDE_S: f64 = 0.2;
 
 /// The escape deadline of one threat episode (see the module docs).
 #[derive(Debug, Clone, PartialEq)]
@@ -79,6 +79,7 @@ pub fn replay_trigger(
     side: Option<f32>,
 ) -> Result<Option<f64>, SimError> {
     let mut sim = Sim::new_physics_only(&ep.world, seed)?;
+    sim.set_ground_truth(false);
     let mut agent = EscapeAgent::from_parts(Vec::new(), controller.clone());
     let mut cmd = ep.cruise.command_at(0.0);
     for k in 0..ep.frames() {

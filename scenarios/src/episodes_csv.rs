@@ -3,7 +3,8 @@
 //!
 //! Columns (see [`HEADER`]): `scenario,episode,seed,params,detector,threat,t_contact_s,t_alarm_s,
 //! outcome,collision,ttc_at_alarm_s,angular_size_at_alarm_deg,max_signal,lead_s,t_deadline_s,
-//! deadline_lead_s,evadable,l_over_v_s,eye_ttc_at_alarm_s`. `params` is a
+//! deadline_lead_s,evadable,l_over_v_s,eye_ttc_at_alarm_s,theta_rel_err_median,theta_rel_err_p90,
+//! theta_at_first_estimate_deg,triggers`. `params` is a
 //! compact JSON object of the episode's swept/sampled values (`{"speed_kmh":"50"}`), quoted as CSV
 //! requires; booleans are `true`/`false`; absent values are empty cells; numbers are written in
 //! Rust's shortest round-trip form, so a read gives back exactly what was written. `lead_s`
@@ -24,7 +25,7 @@ use std::path::{Path, PathBuf};
 use crate::metrics::{DetectorEpisode, EpisodeOutcome, Outcome, ScoringError};
 
 /// The column names, in order.
-pub const HEADER: [&str; 19] = [
+pub const HEADER: [&str; 23] = [
     "scenario",
     "episode",
     "seed",
@@ -44,6 +45,10 @@ pub const HEADER: [&str; 19] = [
     "evadable",
     "l_over_v_s",
     "eye_ttc_at_alarm_s",
+    "theta_rel_err_median",
+    "theta_rel_err_p90",
+    "theta_at_first_estimate_deg",
+    "triggers",
 ];
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> ScoringError + '_ {
@@ -96,6 +101,10 @@ pub fn format_rows(episode: &EpisodeOutcome) -> String {
             d.evadable().to_string(),
             opt(d.l_over_v_s),
             opt(d.eye_ttc_at_alarm_s),
+            opt(d.theta_rel_err_median),
+            opt(d.theta_rel_err_p90),
+            opt(d.theta_at_first_estimate_deg),
+            d.triggers.to_string(),
         ];
         out += &cells.join(",");
         out.push('\n');
@@ -319,6 +328,15 @@ pub fn parse_episodes_csv(text: &str, origin: &Path) -> Result<Vec<EpisodeOutcom
             max_signal: parse_f("max_signal")?,
             l_over_v_s: parse_f("l_over_v_s")?,
             eye_ttc_at_alarm_s: parse_f("eye_ttc_at_alarm_s")?,
+            theta_rel_err_median: parse_f("theta_rel_err_median")?,
+            theta_rel_err_p90: parse_f("theta_rel_err_p90")?,
+            theta_at_first_estimate_deg: parse_f("theta_at_first_estimate_deg")?,
+            triggers: get("triggers").parse().map_err(|_| {
+                err(
+                    r.line,
+                    format!("column `triggers`: `{}` is not a count", get("triggers")),
+                )
+            })?,
             trace: None,
         };
         let key = (get("scenario").to_string(), episode, seed);

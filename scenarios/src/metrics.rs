@@ -241,6 +241,10 @@ pub struct DetectorEpisode {
     pub outcome: Outcome,
     /// Whether the robot was touched (closed loop).
     pub collision: bool,
+    /// Escape manoeuvres started in the closed loop (the level-triggered controller re-triggers
+    /// after its cooldown while the signal stays above the threshold).
+    #[serde(default)]
+    pub triggers: u64,
     /// True TTC at the alarm.
     pub ttc_at_alarm_s: Option<f64>,
     /// True angular size at the alarm, degrees.
@@ -255,6 +259,16 @@ pub struct DetectorEpisode {
     /// closing speed (s): the time to collision of the l/|v| analysis.
     #[serde(default)]
     pub eye_ttc_at_alarm_s: Option<f64>,
+    /// θ̂ accuracy on a threat, for detectors triggered by θ̂: median of |θ̂ − θ|/θ over the frames
+    /// whose true θ (reference object) is in [5°, 60°] ([`ThetaAccuracy`]).
+    #[serde(default)]
+    pub theta_rel_err_median: Option<f64>,
+    /// The 90th percentile of the same.
+    #[serde(default)]
+    pub theta_rel_err_p90: Option<f64>,
+    /// True angular size (degrees) at the first frame with θ̂ ≥ 5°.
+    #[serde(default)]
+    pub theta_at_first_estimate_deg: Option<f64>,
     /// The full trace, if [`ScoringConfig::keep_traces`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub trace: Option<Vec<TraceSample>>,
@@ -412,11 +426,15 @@ pub fn score_detector_episode(
         t_alarm_s,
         outcome,
         collision: truth.collision,
+        triggers: u64::from(t_alarm_s.is_some()),
         ttc_at_alarm_s: alarm.and_then(|s| s.ttc_s).filter(|v| v.is_finite()),
         angular_size_at_alarm_deg: alarm.and_then(|s| s.angular_size_deg).filter(|v| v.is_finite()),
         max_signal,
         l_over_v_s: None,
         eye_ttc_at_alarm_s: None,
+        theta_rel_err_median: None,
+        theta_rel_err_p90: None,
+        theta_at_first_estimate_deg: None,
         trace: config.keep_traces.then(|| samples.to_vec()),
     })
 }
@@ -487,6 +505,10 @@ pub struct DetectorSummary {
     /// Hits that still collided (a contradiction of the closed loop; see the module docs).
     #[serde(default)]
     pub hit_collisions: u64,
+    /// Of those, the ones whose closed loop re-triggered (a second manoeuvre that the deadline,
+    /// computed for one manoeuvre, does not cover).
+    #[serde(default)]
+    pub retriggered_hit_collisions: u64,
     /// Non-threat episodes that collided after a false-alarm escape.
     #[serde(default)]
     pub false_alarm_collisions: u64,
@@ -497,6 +519,9 @@ pub struct DetectorSummary {
     /// The l/|v| fit over constant-speed head-on threats ([`crate::lv`]).
     #[serde(default)]
     pub lv_fit: Option<LvFit>,
+    /// θ̂ accuracy over the threats (detectors triggered by θ̂ only).
+    #[serde(default)]
+    pub theta_accuracy: Option<ThetaAccuracy>,
     /// The ROC curve (see [`crate::stats`]).
     #[serde(default)]
     pub roc: Vec<RocPoint>,
@@ -549,14 +574,90 @@ impl DetectorSummary {
             late_misses: eps.iter().filter(|e| e.is_late_miss()).count() as u64,
             silent_misses: eps.iter().filter(|e| e.is_silent_miss()).count() as u64,
             hit_collisions: eps.iter().filter(|e| e.outcome == Outcome::Hit && e.collision).count() as u64,
+            retriggered_hit_collisions: eps
+                .iter()
+                .filter(|e| e.outcome == Outcome::Hit && e.collision && e.triggers > 1)
+                .count() as u64,
             false_alarm_collisions: eps
                 .iter()
                 .filter(|e| e.outcome == Outcome::FalseAlarm && e.collision)
                 .count() as u64,
             collision_reduction: None,
             lv_fit: LvFit::from_episodes(&eps),
+            theta_accuracy: ThetaAccuracy::from_episodes(&eps),
             roc,
         }
+    }
+}
+
+/// True angular sizes over which θ̂ accuracy is measured (degrees).
+pub const THETA_ACCURACY_RANGE_DEG: (f64, f64) = (5.0, 60.0);
+/// θ̂ at or above which a detector counts as having an estimate (degrees).
+pub const THETA_ESTIMATE_ONSET_DEG: f64 = 5.0;
+
+/// How well a detector's angular-size estimate θ̂ tracks the true angular size θ of the threat.
+///
+/// Per threat episode, the relative error |θ̂ − θ|/θ over the frames whose true θ lies in
+/// [`THETA_ACCURACY_RANGE_DEG`] gives a median and a 90th percentile; the summary is the median
+/// over episodes of each (so every episode weighs the same, and a report rebuilt from
+/// `episodes.csv` gives the same numbers).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ThetaAccuracy {
+    /// Median over episodes of the per-episode median relative error.
+    pub median_rel_err: f64,
+    /// Median over episodes of the per-episode 90th-percentile relative error.
+    pub p90_rel_err: f64,
+    /// Median over episodes of the true θ (degrees) when θ̂ first reaches 5° (`None`: never).
+    pub theta_at_first_estimate_deg: Option<f64>,
+    /// Threat episodes measured.
+    pub episodes: u64,
+}
+
+/// The `q`-quantile (0..=1) of `values` by linear interpolation (`None` when empty).
+pub fn quantile(values: &[f64], q: f64) -> Option<f64> {
+    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let pos = q.clamp(0.0, 1.0) * (v.len() - 1) as f64;
+    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
+    Some(v[lo] + (v[hi] - v[lo]) * (pos - lo as f64))
+}
+
+impl ThetaAccuracy {
+    /// The per-episode numbers from per-frame `(θ̂, θ)` pairs in degrees: (median relative
+    /// error, 90th percentile, true θ at the first θ̂ ≥ 5°).
+    pub fn episode(pairs: &[(f64, f64)]) -> (Option<f64>, Option<f64>, Option<f64>) {
+        let (lo, hi) = THETA_ACCURACY_RANGE_DEG;
+        let errors: Vec<f64> = pairs
+            .iter()
+            .filter(|(est, theta)| est.is_finite() && (lo..=hi).contains(theta))
+            .map(|(est, theta)| (est - theta).abs() / theta)
+            .collect();
+        let onset = pairs
+            .iter()
+            .find(|(est, _)| *est >= THETA_ESTIMATE_ONSET_DEG)
+            .map(|(_, theta)| *theta)
+            .filter(|t| t.is_finite());
+        (quantile(&errors, 0.5), quantile(&errors, 0.9), onset)
+    }
+
+    /// The summary over one detector's episodes (`None` when none was measured).
+    pub fn from_episodes(episodes: &[&DetectorEpisode]) -> Option<Self> {
+        let measured: Vec<&&DetectorEpisode> = episodes.iter().filter(|e| e.theta_rel_err_median.is_some()).collect();
+        if measured.is_empty() {
+            return None;
+        }
+        let med: Vec<f64> = measured.iter().filter_map(|e| e.theta_rel_err_median).collect();
+        let p90: Vec<f64> = measured.iter().filter_map(|e| e.theta_rel_err_p90).collect();
+        let onset: Vec<f64> = measured.iter().filter_map(|e| e.theta_at_first_estimate_deg).collect();
+        Some(Self {
+            median_rel_err: quantile(&med, 0.5)?,
+            p90_rel_err: quantile(&p90, 0.5)?,
+            theta_at_first_estimate_deg: quantile(&onset, 0.5),
+            episodes: measured.len() as u64,
+        })
     }
 }
 

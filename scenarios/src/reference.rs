@@ -8,7 +8,10 @@
 //!   the ceiling (it evades every evadable threat with no false alarm);
 //! - `ideal_theta` alarms when the true angular size of any approaching object (angular size
 //!   growing) reaches the Hopfield trigger threshold: what a perfect θ̂ would do with the same
-//!   threshold. It separates "the estimate is wrong" from "thresholding θ is too late".
+//!   threshold. It separates "the estimate is wrong" from "thresholding θ is too late". Its
+//!   perception is perfect throughout: it dodges away from the true image side (bearing) of the
+//!   object it triggers on, and its closed loop after the first alarm is simulated physics-only
+//!   with ground truth as its input (re-triggers included).
 //!
 //! The oracle and null signals are indicators (1 at an alarm frame, 0 elsewhere, threshold
 //! [`INDICATOR_THRESHOLD`]); ideal_theta's signal is in degrees. Reference rows are excluded from
@@ -35,9 +38,15 @@ pub fn is_reference(label: &str) -> bool {
 /// The ideal θ̂: the largest true angular size (degrees) of the objects whose angular size is
 /// growing; 0 when none is.
 pub fn ideal_theta_deg(truth: &[ObjectTruth]) -> f64 {
+    ideal_percept(truth).0
+}
+
+/// The ideal θ̂ and the image side (bearing, −1 left … +1 right) of the object it comes from
+/// (`None` when no object is looming).
+pub fn ideal_percept(truth: &[ObjectTruth]) -> (f64, Option<f32>) {
     truth
         .iter()
         .filter(|o| o.angular_rate_deg_s > 0.0)
-        .map(|o| f64::from(o.angular_size_deg))
-        .fold(0.0, f64::max)
+        .max_by(|a, b| a.angular_size_deg.total_cmp(&b.angular_size_deg))
+        .map_or((0.0, None), |o| (f64::from(o.angular_size_deg), Some(o.bearing)))
 }

@@ -15,8 +15,9 @@
 //! scenario's. The reference rows (`null`, `oracle`, `ideal_theta`, see [`crate::reference`]) sit
 //! beside the detectors and are listed in `references`. Every summary also carries the escape
 //! fields (`evadable_threats`, `unavoidable_threats`, `evaded`, `evasion_rate`, `late_misses`,
-//! `silent_misses`, `hit_collisions`, `false_alarm_collisions`, `collision_reduction`) and
-//! `lv_fit`. See [`crate::metrics`] for the definitions.
+//! `silent_misses`, `hit_collisions`, `retriggered_hit_collisions`, `false_alarm_collisions`,
+//! `collision_reduction`), `lv_fit` and `theta_accuracy`. See [`crate::metrics`] for the
+//! definitions.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -198,7 +199,7 @@ pub fn format_summary_table(detectors: &BTreeMap<String, DetectorSummary>) -> St
         "evasion rate [95% CI]",
         "collision rate",
         "coll. reduction",
-        "hit+coll",
+        "hit+coll (retrig.)",
         "AUC",
     ];
     let is_ref = |id: &str| crate::reference::is_reference(id);
@@ -216,7 +217,7 @@ pub fn format_summary_table(detectors: &BTreeMap<String, DetectorSummary>) -> St
                 fmt_rate(s.evasion_rate, s.evasion_rate_ci),
                 fmt_opt(s.collision_rate, 2),
                 fmt_opt(s.collision_reduction, 2),
-                s.hit_collisions.to_string(),
+                format!("{} ({})", s.hit_collisions, s.retriggered_hit_collisions),
                 fmt_opt(s.auc, 3),
             ]
         })

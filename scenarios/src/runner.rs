@@ -1,34 +1,41 @@
-//! The closed-loop runner: episodes in parallel, ground truth, detector traces, closed-loop
-//! escapes and scores.
+//! The closed-loop runner: episodes in parallel, ground truth, escape deadlines, detector traces,
+//! closed-loop escapes, reference rows and scores.
 //!
 //! # One episode
 //! 1. **Open-loop pass** (ground truth and detection). The simulator renders every frame while the
 //!    robot follows its cruise command (no escape); **all detectors of the episode see these same
 //!    frames**. It ends at the first contact of any object with the robot's body or after
-//!    `episode.duration_s`. A contact makes the episode a **threat**, its exact time (parry time
-//!    of impact) is `t_c` and the touching object the *reference object*; without contact the
-//!    reference object is the one that came closest to the camera (projectiles and vehicles before
-//!    scenery). From each detector's trigger-signal trace (θ̂ for hopfield, the output for the
-//!    baselines), the first alarm `t_a` (first frame with `signal >= threshold`) gives
-//!    hit / miss / false alarm / correct rejection, the reference object's true TTC and angular
-//!    size at the alarm, and the ROC score (`crate::metrics`).
-//! 2. **Closed loop, per detector.** Until a detector's first alarm the escape controller only
-//!    passes the cruise command through, so the closed-loop trajectory is *identical* to the
-//!    open-loop one up to that frame. Hence:
-//!    - a detector that never alarms collides iff the episode is a threat;
+//!    `episode.duration_s`. [`crate::truth`] turns it into the threat, its exact contact time
+//!    `t_c` and the reference object.
+//! 2. **Escape deadline** of a threat ([`crate::deadline`]): physics-only replays of the escape
+//!    manoeuvre triggered at candidate frames, with the dodge side each frame's images give.
+//! 3. **Scores** ([`crate::metrics`]): from each row's trigger-signal trace (θ̂ for hopfield, the
+//!    output for the baselines) the first alarm `t_a` (first frame with `signal >= threshold`)
+//!    gives hit / miss / unavoidable / false alarm / correct rejection, the reference object's true
+//!    TTC and angular size at the alarm, the ROC score, the l/|v| quantities of a head-on
+//!    constant-speed threat ([`crate::lv`]) and the θ̂ accuracy of θ̂-triggered rows.
+//! 4. **Closed loop, per row.** Until a row's first alarm the escape controller only passes the
+//!    cruise command through, so the closed-loop trajectory is *identical* to the open-loop one up
+//!    to that frame. Hence:
+//!    - a row that never alarms collides iff the episode is a threat;
 //!    - one that first alarms at or after the contact frame collides;
-//!    - otherwise the runner rebuilds the world without rendering, replays physics up to the alarm
-//!      frame (cheap) while feeding a fresh detector the cached open-loop frames (so its state is
-//!      exactly the open-loop state), attaches a renderer and continues with rendering, the
-//!      detector and the escape controller driving the robot until the first contact
-//!      (**collision**) or the end of the episode (**evaded**). Re-triggers (the controller is
-//!      level-triggered after its cooldown) are simulated.
+//!    - otherwise a detector's tail rebuilds the world without rendering, replays physics up to
+//!      the alarm frame while feeding a fresh [`EscapeAgent`] the cached open-loop frames (so its
+//!      state is exactly the open-loop state), attaches a renderer and continues with rendering,
+//!      the agent driving the robot until the first contact (**collision**) or the end of the
+//!      episode (**evaded**). Re-triggers (the controller is level-triggered after its cooldown)
+//!      are simulated.
 //!
-//!    So the cost of an episode is one rendered open-loop pass plus the post-alarm tails of the
-//!    detectors that alarm, instead of one full rendered pass per detector.
-//! 3. **Dodge direction** comes from the image, not from ground truth: at every controller step
+//!    The reference rows ([`crate::reference`], on by default, [`Runner::with_references`]) are
+//!    scored by the same code: `null` never alarms; `oracle`'s closed loop is the deadline replay
+//!    of its deadline frame; `ideal_theta`'s is physics-only with ground truth as its percept.
+//!
+//!    So the cost of an episode is one rendered open-loop pass, the deadline replays (physics
+//!    only, no ground-truth predictions) and the rendered post-alarm tails of the detectors that
+//!    alarm, instead of one full rendered pass per detector.
+//! 5. **Dodge direction** comes from the image, not from ground truth: at every controller step
 //!    the looming side is the x centroid of the temporal contrast |frame(t) − frame(t−1)|
-//!    ([`temporal_contrast_centroid_x`]); the controller latches it at the trigger.
+//!    ([`loomlab_agents::LoomingSideEstimator`]); the controller latches it at the trigger.
 //!
 //! # Parallelism
 //! Episodes run on a rayon pool of `jobs` workers sharing one [`GpuContext`]; renderers are kept in
@@ -45,8 +52,8 @@ use rayon::prelude::*;
 
 use crate::deadline::{EscapeDeadline, escape_deadline, replay_trigger};
 use crate::error::RunError;
-use crate::metrics::{DetectorEpisode, EpisodeOutcome, GroundTruth, TraceSample, score_detector_episode};
-use crate::reference::{IDEAL_THETA, INDICATOR_THRESHOLD, NULL, ORACLE, ideal_theta_deg};
+use crate::metrics::{DetectorEpisode, EpisodeOutcome, GroundTruth, ThetaAccuracy, TraceSample, score_detector_episode};
+use crate::reference::{IDEAL_THETA, INDICATOR_THRESHOLD, NULL, ORACLE, ideal_percept, ideal_theta_deg};
 use crate::schema::{DetectorSpec, EpisodeSpec};
 use crate::truth::TruthRecorder;
 
@@ -129,6 +136,8 @@ pub struct EpisodeRun {
     pub closed_loop: Vec<ClosedLoop>,
     /// The escape deadline search of a threat.
     pub deadline: Option<EscapeDeadline>,
+    /// Wall time of the deadline search (s).
+    pub deadline_s: f64,
     /// Frames rendered in total (open loop + tails).
     pub frames_rendered: usize,
 }
@@ -304,10 +313,12 @@ impl Runner {
             episode: ep.index,
             source,
         })?;
+        let deadline_started = std::time::Instant::now();
         let deadline = match &episode_truth.contact {
             Some(contact) => Some(escape_deadline(ep, ep.seed, &escape, &sides, &t_s, contact.frame).map_err(|e| c.sim(e))?),
             None => None,
         };
+        let deadline_s = deadline_started.elapsed().as_secs_f64();
         let approach = episode_truth
             .contact
             .as_ref()
@@ -378,14 +389,21 @@ impl Runner {
                         collision_t_s: replay_trigger(ep, ep.seed, &escape, ka, sides[ka]).map_err(|e| c.sim(e))?,
                         frames_rendered: 0,
                     },
-                    tail => self.closed_loop_tail(&c, &row.label, tail, row.threshold, &frames, &truth, ka)?,
+                    Tail::TrueAngularSize => ideal_theta_tail(&c, &row.label, row.threshold, &truth, ka)?,
+                    Tail::Detector(spec) => self.closed_loop_tail(&c, spec, &frames, ka)?,
                 },
             };
             frames_rendered += cl.frames_rendered;
             d.collision = cl.collision_t_s.is_some();
+            d.triggers = cl.triggers as u64;
             if let Some(a) = &approach {
                 d.l_over_v_s = Some(a.l_over_v_s);
                 d.eye_ttc_at_alarm_s = first_alarm.and_then(|k| a.eye_ttc_s(k));
+            }
+            if ground_truth.threat && row.trigger == TriggerSignal::AngularSizeDeg {
+                let pairs: Vec<(f64, f64)> = row.signal.iter().copied().zip(ref_theta.iter().copied()).collect();
+                (d.theta_rel_err_median, d.theta_rel_err_p90, d.theta_at_first_estimate_deg) =
+                    ThetaAccuracy::episode(&pairs);
             }
             scored.push(d);
             closed.push(cl);
@@ -419,22 +437,19 @@ impl Runner {
             trace,
             closed_loop: closed,
             deadline,
+            deadline_s,
             frames_rendered,
         })
     }
 
-    /// Closed loop of one row whose first alarm is open-loop frame `ka` (before any contact): a
-    /// physics-only replay to the alarm frame with the agent on the cached frames, then rendering
-    /// with the agent in the loop (see the module docs).
-    #[allow(clippy::too_many_arguments)]
+    /// Closed loop of one detector whose first alarm is open-loop frame `ka` (before any
+    /// contact): a physics-only replay to the alarm frame with the agent on the cached frames,
+    /// then rendering with the agent in the loop (see the module docs).
     fn closed_loop_tail(
         &self,
         c: &Ctx<'_>,
-        label: &str,
-        tail: &Tail<'_>,
-        threshold: f64,
+        spec: &DetectorSpec,
         frames: &[Frame],
-        truth: &[Vec<ObjectTruth>],
         ka: usize,
     ) -> Result<ClosedLoop, RunError> {
         let ep = c.ep;
@@ -442,40 +457,22 @@ impl Runner {
         let nn = n as usize;
         let total = ep.frames();
         let mut sim = Sim::new_physics_only(&ep.world, ep.seed).map_err(|e| c.sim(e))?;
-        let controller_err = |source| RunError::Controller {
-            scenario: ep.scenario.clone(),
-            episode: ep.index,
-            source,
-        };
-        // The agent: the detector itself, or (ideal_theta) no detector and the true angular size
-        // as its trigger value.
-        let mut agent = match tail {
-            Tail::Detector(spec) => {
-                let detector = spec.build(nn).map_err(|e| c.det(e))?;
-                EscapeAgent::new(vec![detector], spec.controller(&ep.controller)).map_err(controller_err)?
-            }
-            _ => EscapeAgent::new(
-                Vec::new(),
-                EscapeConfig {
-                    trigger: TriggerSignal::AngularSizeDeg,
-                    threshold,
-                    ..ep.controller.clone()
-                },
-            )
-            .map_err(controller_err)?,
-        };
-        let decide = |agent: &mut EscapeAgent, t: f64, frame: &Frame, truth: &[ObjectTruth]| {
-            let cruise = ep.cruise.command_at(t);
-            match tail {
-                Tail::Detector(_) => agent.step(t, frame, cruise).map(|s| s.command).map_err(|e| c.det(e)),
-                _ => Ok(agent.step_with_trigger(t, frame, ideal_theta_deg(truth), cruise).command),
-            }
-        };
+        sim.set_ground_truth(false);
+        let detector = spec.build(nn).map_err(|e| c.det(e))?;
+        let mut agent =
+            EscapeAgent::new(vec![detector], spec.controller(&ep.controller)).map_err(|source| RunError::Controller {
+                scenario: ep.scenario.clone(),
+                episode: ep.index,
+                source,
+            })?;
         // Replay up to and including the alarm frame: physics only, the agent on the cached frames.
         let mut cmd = ep.cruise.command_at(0.0);
-        for (frame, truth) in frames[..=ka].iter().zip(truth) {
+        for frame in &frames[..=ka] {
             let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
-            cmd = decide(&mut agent, out.t_s, frame, truth)?;
+            cmd = agent
+                .step(out.t_s, frame, ep.cruise.command_at(out.t_s))
+                .map_err(|e| c.det(e))?
+                .command;
         }
         // Continue with rendering, the agent in the loop.
         let renderer = self.renderers.take(&self.ctx, n).map_err(|e| c.sim(e))?;
@@ -493,7 +490,10 @@ impl Runner {
                     break;
                 }
                 let frame = Frame::from_f32(nn, std::mem::take(&mut out.frame)).map_err(|e| c.det(e))?;
-                cmd = decide(&mut agent, out.t_s, &frame, &out.truth)?;
+                cmd = agent
+                    .step(out.t_s, &frame, ep.cruise.command_at(out.t_s))
+                    .map_err(|e| c.det(e))?
+                    .command;
             }
             Ok(())
         })();
@@ -502,7 +502,7 @@ impl Runner {
         }
         tail?;
         Ok(ClosedLoop {
-            label: label.to_string(),
+            label: spec.label.clone(),
             simulated: true,
             triggers: agent.controller().triggers(),
             collision_t_s,
@@ -511,11 +511,62 @@ impl Runner {
     }
 }
 
+/// The closed loop of `ideal_theta` (see [`crate::reference`]) whose first alarm is open-loop
+/// frame `ka`: physics only, the escape agent driven by the true angular size and bearing (the
+/// open-loop pass's ground truth up to the alarm, the simulator's after it).
+fn ideal_theta_tail(
+    c: &Ctx<'_>,
+    label: &str,
+    threshold: f64,
+    truth: &[Vec<ObjectTruth>],
+    ka: usize,
+) -> Result<ClosedLoop, RunError> {
+    let ep = c.ep;
+    let mut sim = Sim::new_physics_only(&ep.world, ep.seed).map_err(|e| c.sim(e))?;
+    sim.set_ground_truth(false);
+    let config = EscapeConfig {
+        trigger: TriggerSignal::AngularSizeDeg,
+        threshold,
+        ..ep.controller.clone()
+    };
+    let mut agent = EscapeAgent::new(Vec::new(), config).map_err(|source| RunError::Controller {
+        scenario: ep.scenario.clone(),
+        episode: ep.index,
+        source,
+    })?;
+    let decide = |agent: &mut EscapeAgent, t: f64, truth: &[ObjectTruth]| {
+        let (theta, side) = ideal_percept(truth);
+        agent.decide(t, side, theta, ep.cruise.command_at(t)).command
+    };
+    let mut cmd = ep.cruise.command_at(0.0);
+    for row in &truth[..=ka] {
+        let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
+        cmd = decide(&mut agent, out.t_s, row);
+    }
+    sim.set_ground_truth(true);
+    let mut collision_t_s = None;
+    for _ in ka + 1..ep.frames() {
+        let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
+        if let Some(ct) = out.contacts.first() {
+            collision_t_s = Some(ct.time_s());
+            break;
+        }
+        cmd = decide(&mut agent, out.t_s, &out.truth);
+    }
+    Ok(ClosedLoop {
+        label: label.to_string(),
+        simulated: true,
+        triggers: agent.controller().triggers(),
+        collision_t_s,
+        frames_rendered: 0,
+    })
+}
+
 /// How a row's closed loop after its first alarm is run.
 enum Tail<'a> {
     /// The detector drives the escape agent on rendered frames.
     Detector(&'a DetectorSpec),
-    /// The true angular size drives the escape agent on rendered frames (`ideal_theta`).
+    /// The true angular size and bearing drive the escape agent, physics only (`ideal_theta`).
     TrueAngularSize,
     /// One trigger, then physics only: the escape-deadline replay (`oracle`).
     Replay,

@@ -114,6 +114,8 @@ pub enum Metric {
     HitRate,
     /// Hit rate − false-alarm rate at the point's threshold (Youden's J).
     Youden,
+    /// Closed-loop escape rate: evaded / evadable threats at the point's threshold.
+    EvasionRate,
     /// Closed-loop collision rate (lower is better).
     CollisionRate,
     /// False-alarm rate (lower is better).
@@ -140,6 +142,7 @@ impl Metric {
             Self::Auc => s.auc,
             Self::HitRate => s.hit_rate,
             Self::Youden => Some(s.hit_rate? - s.false_alarm_rate?),
+            Self::EvasionRate => s.evasion_rate,
             Self::CollisionRate => s.collision_rate,
             Self::FalseAlarmRate => s.false_alarm_rate,
         }

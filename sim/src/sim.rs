@@ -101,6 +101,7 @@ pub struct Sim {
     frame: Vec<f32>,
     instances: Vec<RenderInstance>,
     contacts: Vec<Contact>,
+    ground_truth: bool,
 }
 
 impl std::fmt::Debug for Sim {
@@ -253,6 +254,7 @@ impl Sim {
             frame: Vec::with_capacity(n * n),
             instances: Vec::new(),
             contacts: Vec::new(),
+            ground_truth: true,
             world,
         };
         // initial contact state (objects touching the robot at t = 0 are reported by the first step)
@@ -332,10 +334,17 @@ impl Sim {
             frame_index: self.step_index,
             n: self.world.camera.n,
             frame: self.frame.clone(),
-            truth: self.truth(command),
+            truth: if self.ground_truth { self.truth(command) } else { Vec::new() },
             contacts: new_contacts,
             robot: self.robot_state(),
         })
+    }
+
+    /// Whether [`step`](Self::step) computes per-object ground truth ([`StepOutput::truth`]; on by
+    /// default). Replays that only need contacts (escape-deadline searches) turn it off: the
+    /// time-of-impact predictions are most of a physics-only step's cost. Contacts are unaffected.
+    pub fn set_ground_truth(&mut self, on: bool) {
+        self.ground_truth = on;
     }
 
     /// Renders and reports the current state without advancing time (e.g. the frame at t = 0).

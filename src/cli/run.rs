@@ -180,7 +180,13 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
 
     if !args.quiet {
         let frames: usize = runs.iter().map(|r| r.frames_rendered).sum();
+        let replays: usize = runs.iter().filter_map(|r| r.deadline.as_ref()).map(|d| d.replays).sum();
+        let deadline_s: f64 = runs.iter().map(|r| r.deadline_s).sum();
         println!("{}", report.format_table(!args.brief).trim_end());
+        println!(
+            "\nescape deadlines: {replays} physics-only replays for {} threats, {deadline_s:.1} s of worker time",
+            runs.iter().filter(|r| r.deadline.is_some()).count()
+        );
         println!(
             "\n{} episodes, {frames} frames rendered in {wall_time_s:.1} s on {} ({} workers)",
             runs.len(),
@@ -367,6 +373,49 @@ fn write_plots(out: &Path, report: &Report, runs: &[EpisodeRun]) -> anyhow::Resu
         },
         (760, 600),
     )?;
+
+    // θ̂ against the true angular size of the threat, every frame of every threat episode.
+    let mut theta_hat: Vec<Series> = report
+        .detectors
+        .keys()
+        .filter(|id| !loomlab_scenarios::reference::is_reference(id))
+        .filter_map(|id| {
+            let (x, y): (Vec<f64>, Vec<f64>) = runs
+                .iter()
+                .filter(|r| r.outcome.detectors.first().is_some_and(|d| d.threat))
+                .flat_map(|r| {
+                    let tr = &r.trace;
+                    tr.detectors
+                        .iter()
+                        .filter(|d| &d.label == id && d.trigger == loomlab_agents::TriggerSignal::AngularSizeDeg)
+                        .flat_map(move |d| tr.angular_size_deg.iter().copied().zip(d.signal.iter().copied()))
+                })
+                .filter(|(t, e)| t.is_finite() && e.is_finite() && *t <= 90.0)
+                .unzip();
+            // at most ~4000 markers per detector keep the plot readable and quick to draw
+            let every = x.len().div_ceil(4000).max(1);
+            let (x, y): (Vec<f64>, Vec<f64>) = x.into_iter().zip(y).step_by(every).unzip();
+            let acc = report.detectors[id].theta_accuracy.map_or(String::new(), |a| {
+                format!(" (median |θ̂−θ|/θ {:.2}, p90 {:.2})", a.median_rel_err, a.p90_rel_err)
+            });
+            (!x.is_empty()).then(|| Series::new(format!("{id}{acc}"), x, y).scatter(None))
+        })
+        .collect();
+    if !theta_hat.is_empty() {
+        theta_hat.push(Series::new("θ̂ = θ", vec![0.0, 90.0], vec![0.0, 90.0]).dashed());
+        line_chart(
+            &out.join("theta_hat.png"),
+            &LineChart {
+                title: "angular-size estimate θ̂ against the threat's true angular size (threat episodes)".into(),
+                x_label: "true angular size θ (deg)".into(),
+                y_label: "θ̂ (deg)".into(),
+                series: theta_hat,
+                x_range: Some((0.0, 90.0)),
+                y_range: Some((0.0, 90.0)),
+            },
+            (760, 640),
+        )?;
+    }
 
     // A sample episode: the first threat the first detector hits, else the first threat, else the first.
     let sample = runs
