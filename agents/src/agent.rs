@@ -127,7 +127,13 @@ impl EscapeAgent {
 
     /// The decision on `frame` from a trigger value that does not come from the agent's detectors
     /// (they are not stepped; `signals` is empty): the looming side still comes from the frames.
-    pub fn step_with_trigger(&mut self, t_s: f64, frame: &Frame, trigger_value: f64, cruise: VelocityCommand) -> AgentStep {
+    pub fn step_with_trigger(
+        &mut self,
+        t_s: f64,
+        frame: &Frame,
+        trigger_value: f64,
+        cruise: VelocityCommand,
+    ) -> AgentStep {
         let looming_side = self.side.update(frame);
         self.decide(t_s, looming_side, trigger_value, cruise)
     }

@@ -1,8 +1,8 @@
 //! The paper's qualitative findings on the Hopfield model (and its comparison models), turned into
 //! numbers on the same stimuli that `loomlab figures` draws (at n = 128 to keep the test fast).
 
-use loomlab::cli::figures::{FigureDef, paper_figures, run_condition, summarise};
 use loomlab_detector::stimulus::BackgroundKind;
+use loomlab_detector::stimulus::paper::{FigureDef, paper_figures, run_condition, summarise};
 use loomlab_detector::{DetectorSet, HopfieldConfig};
 
 const N: usize = 128;

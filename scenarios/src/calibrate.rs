@@ -62,7 +62,11 @@ pub fn calibrate(episodes: &[EpisodeOutcome], target: f64) -> Vec<Calibration> {
     let mut by: BTreeMap<&str, (Vec<f64>, Vec<f64>)> = BTreeMap::new();
     for e in episodes {
         // reference rows are not calibrated; positives are the evadable threats (the ROC's)
-        for d in e.detectors.iter().filter(|d| !crate::reference::is_reference(&d.detector)) {
+        for d in e
+            .detectors
+            .iter()
+            .filter(|d| !crate::reference::is_reference(&d.detector))
+        {
             let entry = by.entry(&d.detector).or_default();
             if d.evadable() {
                 entry.0.push(d.roc_score());

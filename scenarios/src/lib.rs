@@ -3,9 +3,9 @@
 pub mod calibrate;
 pub mod deadline;
 pub mod episodes_csv;
-pub mod lv;
 pub mod error;
 pub mod expand;
+pub mod lv;
 pub mod metrics;
 pub mod reference;
 pub mod regression;

@@ -203,10 +203,11 @@ pub fn format_summary_table(detectors: &BTreeMap<String, DetectorSummary>) -> St
         "AUC",
     ];
     let is_ref = |id: &str| crate::reference::is_reference(id);
-    let ordered = detectors
-        .iter()
-        .filter(|(id, _)| !is_ref(id))
-        .chain(crate::reference::REFERENCE_LABELS.iter().filter_map(|r| detectors.get_key_value(*r)));
+    let ordered = detectors.iter().filter(|(id, _)| !is_ref(id)).chain(
+        crate::reference::REFERENCE_LABELS
+            .iter()
+            .filter_map(|r| detectors.get_key_value(*r)),
+    );
     let rows: Vec<[String; 9]> = ordered
         .map(|(id, s)| {
             [

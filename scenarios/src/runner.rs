@@ -52,7 +52,9 @@ use rayon::prelude::*;
 
 use crate::deadline::{EscapeDeadline, escape_deadline, replay_trigger};
 use crate::error::RunError;
-use crate::metrics::{DetectorEpisode, EpisodeOutcome, GroundTruth, ThetaAccuracy, TraceSample, score_detector_episode};
+use crate::metrics::{
+    DetectorEpisode, EpisodeOutcome, GroundTruth, ThetaAccuracy, TraceSample, score_detector_episode,
+};
 use crate::reference::{IDEAL_THETA, INDICATOR_THRESHOLD, NULL, ORACLE, ideal_percept, ideal_theta_deg};
 use crate::schema::{DetectorSpec, EpisodeSpec};
 use crate::truth::TruthRecorder;
@@ -315,7 +317,9 @@ impl Runner {
         })?;
         let deadline_started = std::time::Instant::now();
         let deadline = match &episode_truth.contact {
-            Some(contact) => Some(escape_deadline(ep, ep.seed, &escape, &sides, &t_s, contact.frame).map_err(|e| c.sim(e))?),
+            Some(contact) => {
+                Some(escape_deadline(ep, ep.seed, &escape, &sides, &t_s, contact.frame).map_err(|e| c.sim(e))?)
+            }
             None => None,
         };
         let deadline_s = deadline_started.elapsed().as_secs_f64();
@@ -402,8 +406,11 @@ impl Runner {
             }
             if ground_truth.threat && row.trigger == TriggerSignal::AngularSizeDeg {
                 let pairs: Vec<(f64, f64)> = row.signal.iter().copied().zip(ref_theta.iter().copied()).collect();
-                (d.theta_rel_err_median, d.theta_rel_err_p90, d.theta_at_first_estimate_deg) =
-                    ThetaAccuracy::episode(&pairs);
+                (
+                    d.theta_rel_err_median,
+                    d.theta_rel_err_p90,
+                    d.theta_at_first_estimate_deg,
+                ) = ThetaAccuracy::episode(&pairs);
             }
             scored.push(d);
             closed.push(cl);
@@ -459,12 +466,13 @@ impl Runner {
         let mut sim = Sim::new_physics_only(&ep.world, ep.seed).map_err(|e| c.sim(e))?;
         sim.set_ground_truth(false);
         let detector = spec.build(nn).map_err(|e| c.det(e))?;
-        let mut agent =
-            EscapeAgent::new(vec![detector], spec.controller(&ep.controller)).map_err(|source| RunError::Controller {
+        let mut agent = EscapeAgent::new(vec![detector], spec.controller(&ep.controller)).map_err(|source| {
+            RunError::Controller {
                 scenario: ep.scenario.clone(),
                 episode: ep.index,
                 source,
-            })?;
+            }
+        })?;
         // Replay up to and including the alarm frame: physics only, the agent on the cached frames.
         let mut cmd = ep.cruise.command_at(0.0);
         for frame in &frames[..=ka] {
@@ -604,7 +612,13 @@ fn reference_rows<'a>(
         tail,
     };
     vec![
-        row(NULL, TriggerSignal::Output, INDICATOR_THRESHOLD, indicator(None), Tail::Replay),
+        row(
+            NULL,
+            TriggerSignal::Output,
+            INDICATOR_THRESHOLD,
+            indicator(None),
+            Tail::Replay,
+        ),
         row(
             ORACLE,
             TriggerSignal::Output,

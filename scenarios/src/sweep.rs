@@ -339,14 +339,16 @@ impl SweepFile {
                 let label = format!("{prefix}-{k:03}");
                 desc.label = Some(label.clone());
                 // Check the point (values out of range name the point and its values).
-                resolve_detector(&desc, CameraFacts::default_with_size(doc.size.unwrap_or(64) as usize)).map_err(|(key, r)| {
-                    let vals = values
-                        .iter()
-                        .map(|(k, v)| format!("{k} = {v}"))
-                        .collect::<Vec<_>>()
-                        .join(", ");
-                    key_err(path, here(&key), format!("point {label} ({vals}): {r}"))
-                })?;
+                resolve_detector(&desc, CameraFacts::default_with_size(doc.size.unwrap_or(64) as usize)).map_err(
+                    |(key, r)| {
+                        let vals = values
+                            .iter()
+                            .map(|(k, v)| format!("{k} = {v}"))
+                            .collect::<Vec<_>>()
+                            .join(", ");
+                        key_err(path, here(&key), format!("point {label} ({vals}): {r}"))
+                    },
+                )?;
                 if points.iter().any(|p| p.label == label) {
                     return Err(key_err(
                         path,

@@ -26,8 +26,6 @@
 //! # Ok::<(), loomlab_sim::SimError>(())
 //! ```
 
-#![warn(missing_docs)]
-
 pub mod camera;
 mod error;
 pub mod io;

@@ -334,7 +334,11 @@ impl Sim {
             frame_index: self.step_index,
             n: self.world.camera.n,
             frame: self.frame.clone(),
-            truth: if self.ground_truth { self.truth(command) } else { Vec::new() },
+            truth: if self.ground_truth {
+                self.truth(command)
+            } else {
+                Vec::new()
+            },
             contacts: new_contacts,
             robot: self.robot_state(),
         })

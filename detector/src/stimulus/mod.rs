@@ -62,6 +62,7 @@
 
 mod background;
 mod noise;
+pub mod paper;
 mod render;
 pub mod spec;
 mod textures;
