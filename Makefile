@@ -27,7 +27,7 @@ lint: lint-rust lint-python
 lint-rust:
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
-	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --workspace --no-deps
+	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --workspace --no-deps --lib
 
 # pyo3's build script needs an interpreter: the venv's (so clippy reuses maturin's build of pyo3).
 PY_CARGO_ENV = PYO3_PYTHON=$(abspath $(VENV))/bin/python CARGO_TARGET_DIR=$${CARGO_TARGET_DIR:-$(CURDIR)/target}

@@ -110,8 +110,8 @@ pub fn escape_deadline(
 ) -> Result<EscapeDeadline, SimError> {
     let end = contact_frame.min(sides.len()).min(t_s.len());
     let mut evading: Vec<Range<usize>> = Vec::new();
-    for k in 0..end {
-        if replay_trigger(ep, seed, controller, k, sides[k])?.is_some() {
+    for (k, &side) in sides[..end].iter().enumerate() {
+        if replay_trigger(ep, seed, controller, k, side)?.is_some() {
             continue;
         }
         match evading.last_mut() {

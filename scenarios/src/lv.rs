@@ -16,7 +16,7 @@
 //! A detector that really thresholds the angular size has R² near 1; the `ideal_theta` reference
 //! row recovers its own threshold (a built-in check of the analysis).
 //!
-//! Which threats qualify (decided by the runner from ground truth over the last second before
+//! Which threats qualify (decided by the runner from ground truth from 0.5 s to 0.05 s before
 //! contact): the reference object's half-size `l` = d·sin(θ/2) (d the distance to its centre)
 //! varies by less than 5 % (a sphere-like object), its closing speed by less than 5 %, and its
 //! bearing stays within 15° of the optical axis.

@@ -657,9 +657,17 @@ struct HeadOnApproach {
 }
 
 impl HeadOnApproach {
-    /// Largest relative spread of the half-size and closing speed over the last second.
+    /// The window before contact over which the approach must be head-on at constant speed (s):
+    /// long enough to hold every alarm that can still be evaded, short enough for fast projectiles
+    /// (launched only ~1 s before contact) to qualify.
+    const WINDOW_S: f64 = 0.5;
+    /// The end of the window before contact (s): in the last frames the object's centre passes
+    /// the camera off-axis (it is aimed at the body) and the distance stops shrinking at the
+    /// closing speed.
+    const WINDOW_END_S: f64 = 0.05;
+    /// Largest relative spread of the half-size and closing speed over the window.
     const MAX_SPREAD: f64 = 0.05;
-    /// Largest |bearing| over the last second (degrees).
+    /// Largest |bearing| over the window (degrees).
     const MAX_BEARING_DEG: f64 = 15.0;
 
     fn measure(truth: &[Vec<ObjectTruth>], id: usize, contact_frame: usize, dt: f64) -> Option<Self> {
@@ -673,10 +681,11 @@ impl HeadOnApproach {
             }
             Some((distance(a)? - distance(b)?) / ((b - a) as f64 * dt))
         };
-        // the last second before contact, without the contact frame (the object may overlap it)
-        let window = ((1.0 / dt).round() as usize).max(2);
-        let first = last.saturating_sub(window);
-        let ks: Vec<usize> = (first..last).collect();
+        // the window before contact, ending WINDOW_END_S before it
+        let frames = |s: f64| (s / dt).round() as usize;
+        let end = last.saturating_sub(frames(Self::WINDOW_END_S).max(1));
+        let first = last.saturating_sub(frames(Self::WINDOW_S).max(2));
+        let ks: Vec<usize> = (first..end).collect();
         if ks.len() < 2 {
             return None;
         }

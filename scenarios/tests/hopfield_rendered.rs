@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use loomlab_detector::{Detector, Frame};
+use loomlab_detector::Frame;
 use loomlab_scenarios::{LoadOptions, parse_scenario};
 use loomlab_sim::Sim;
 
