@@ -10,17 +10,20 @@
 //!   kind, reward, time limit).
 //!
 //! # Ground truth (as the scenario runner, [`loomlab_scenarios::runner`])
-//! At every reset an **open-loop pass** runs the episode's world in physics-only mode (no
-//! rendering) with the robot following its cruise command for the episode's duration: the first
-//! object that touches the robot makes the episode a **threat**, with its exact contact time
-//! `t_contact_s` (parry time of impact). The *reference object* is the touching one, else the
-//! moving object that came closest. Per step, `info` reports the reference object's true time to
+//! At every reset an **open-loop pass** ([`loomlab_scenarios::truth`]) runs the episode's world in
+//! physics-only mode (no rendering) with the robot following its cruise command for the episode's
+//! duration: the first object that touches the robot makes the episode a **threat**, with its exact
+//! contact time `t_contact_s` (parry time of impact). The *reference object* is the touching one,
+//! else the moving object that came closest. For a threat the reset also finds its **escape
+//! deadline** ([`loomlab_scenarios::deadline`]; the open-loop frames up to the contact are
+//! rendered once more for the looming sides), which decides hit or miss when the episode is
+//! scored. Per step, `info` reports the reference object's true time to
 //! contact (under the robot's current command) and true angular size. Detectors see their first
 //! frame in the first step (the reset observation has the t = 0 frame but zero signals), so an
 //! agent that always cruises gives the detectors exactly the runner's open-loop frames and its
 //! traces. The step that ends the episode scores every detector's alarms over the frames seen with
-//! [`loomlab_scenarios::metrics::score_detector_episode`] (hit / miss / false alarm / correct rejection, with
-//! the *agent's* collision as the closed-loop outcome).
+//! [`loomlab_scenarios::metrics::score_detector_episode`] (hit / miss / unavoidable / false alarm /
+//! correct rejection, with the *agent's* collision as the closed-loop outcome).
 //!
 //! # Episodes, termination, seeds
 //! One step is one camera period. An episode is **terminated** when the robot is touched (any
