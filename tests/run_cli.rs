@@ -125,7 +125,12 @@ fn tiny_suite_writes_report_csv_plots_and_checks_regressions() {
     // episodes.csv: a header and one row per episode and detector
     let csv = std::fs::read_to_string(out.join("episodes.csv")).unwrap();
     assert!(csv.starts_with("scenario,episode,seed,params,detector,threat,"));
-    assert_eq!(csv.lines().count(), 1 + 4 * 2);
+    // two detectors and the three reference rows (null, oracle, ideal_theta)
+    assert_eq!(csv.lines().count(), 1 + 4 * (2 + 3));
+    assert_eq!(report["references"], serde_json::json!(["null", "oracle", "ideal_theta"]));
+    // the oracle alarms at every threat's deadline, the null row never
+    assert_eq!(report["detectors"]["oracle"]["false_alarms"], 0);
+    assert_eq!(report["detectors"]["null"]["hits"], 0);
     for png in ["roc.png", "rates.png", "collisions.png", "trace.png"] {
         assert!(out.join(png).metadata().unwrap().len() > 1000, "{png}");
     }
@@ -259,7 +264,13 @@ fn detectors_file_replaces_every_scenarios_detector_list() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
-    let labels: Vec<&String> = report["detectors"].as_object().unwrap().keys().collect();
+    let references = ["ideal_theta", "null", "oracle"];
+    let labels: Vec<&String> = report["detectors"]
+        .as_object()
+        .unwrap()
+        .keys()
+        .filter(|k| !references.contains(&k.as_str()))
+        .collect();
     assert_eq!(labels, ["soc-low", "soc-never"]);
     // the low threshold alarms in every episode, the other never
     assert_eq!(report["detectors"]["soc-never"]["hits"], 0);
@@ -303,7 +314,7 @@ fn no_suite_argument_runs_the_default_suite() {
 /// The default suite against its committed baseline (minutes: `make suite-check` runs it in a release
 /// build; `cargo test -- --ignored default_suite` here).
 #[test]
-#[ignore = "runs the whole default suite (about 1.5 min in release, 3 in dev on 2 cores); make suite-check"]
+#[ignore = "runs the whole default suite (about 4 min in release on 2 cores); make suite-check"]
 fn default_suite_does_not_regress() {
     let dir = tmp("default-suite");
     let o = loomlab(&[
