@@ -127,7 +127,10 @@ fn tiny_suite_writes_report_csv_plots_and_checks_regressions() {
     assert!(csv.starts_with("scenario,episode,seed,params,detector,threat,"));
     // two detectors and the three reference rows (null, oracle, ideal_theta)
     assert_eq!(csv.lines().count(), 1 + 4 * (2 + 3));
-    assert_eq!(report["references"], serde_json::json!(["null", "oracle", "ideal_theta"]));
+    assert_eq!(
+        report["references"],
+        serde_json::json!(["null", "oracle", "ideal_theta"])
+    );
     // the oracle alarms at every threat's deadline, the null row never
     assert_eq!(report["detectors"]["oracle"]["false_alarms"], 0);
     assert_eq!(report["detectors"]["null"]["hits"], 0);

@@ -19,7 +19,9 @@
 //! Which threats qualify (decided by the runner from ground truth from 0.5 s to 0.05 s before
 //! contact): the reference object's half-size `l` = d·sin(θ/2) (d the distance to its centre)
 //! varies by less than 5 % (a sphere-like object), its closing speed by less than 5 %, and its
-//! bearing stays within 15° of the optical axis.
+//! bearing stays within 15° of the optical axis. An alarm earlier than 0.5 s before contact
+//! counts only if these conditions hold from the alarm on (the approach before the window may be
+//! a throw's arc or a turning vehicle, where θ does not follow the formula).
 
 use serde::{Deserialize, Serialize};
 

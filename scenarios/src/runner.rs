@@ -646,20 +646,23 @@ pub fn ideal_theta_threshold_deg(ep: &EpisodeSpec) -> f64 {
         .map_or(EscapeConfig::default().threshold, |d| d.threshold)
 }
 
-/// A threat approaching head-on at constant speed (see [`crate::lv`]), measured over the last
-/// second before contact from ground truth.
+/// A threat approaching head-on at constant speed (see [`crate::lv`]), measured from ground truth
+/// before contact.
 #[derive(Debug, Clone)]
 struct HeadOnApproach {
-    /// Half-size over closing speed (s).
+    /// Half-size over closing speed (s), averaged over the window.
     l_over_v_s: f64,
+    /// The first open-loop frame from which the approach stays head-on at constant speed until
+    /// the window's end: alarms before it are not on a constant approach and stay out of the fit.
+    constant_from: usize,
     /// Per open-loop frame: distance to the object's centre over its closing speed (s).
     eye_ttc_s: Vec<Option<f64>>,
 }
 
 impl HeadOnApproach {
     /// The window before contact over which the approach must be head-on at constant speed (s):
-    /// long enough to hold every alarm that can still be evaded, short enough for fast projectiles
-    /// (launched only ~1 s before contact) to qualify.
+    /// short enough for fast projectiles (launched only ~1 s before contact) to qualify. An
+    /// earlier alarm counts only if the approach is constant from the alarm on.
     const WINDOW_S: f64 = 0.5;
     /// The end of the window before contact (s): in the last frames the object's centre passes
     /// the camera off-axis (it is aimed at the body) and the distance stops shrinking at the
@@ -685,31 +688,40 @@ impl HeadOnApproach {
         let frames = |s: f64| (s / dt).round() as usize;
         let end = last.saturating_sub(frames(Self::WINDOW_END_S).max(1));
         let first = last.saturating_sub(frames(Self::WINDOW_S).max(2));
-        let ks: Vec<usize> = (first..end).collect();
-        if ks.len() < 2 {
+        if end < first + 2 {
             return None;
         }
-        let mut half = Vec::with_capacity(ks.len());
-        let mut speed = Vec::with_capacity(ks.len());
-        for &k in &ks {
-            let o = get(k)?;
+        // grow the constant stretch backwards from the window's end while the half-size and
+        // closing speed stay within MAX_SPREAD of their running means and the bearing on axis
+        let (mut half, mut speed) = (Spread::default(), Spread::default());
+        let mut constant_from = end;
+        for k in (0..end).rev() {
+            let Some(o) = get(k) else { break };
+            let Some(v) = closing(k) else { break };
             if f64::from(o.bearing_deg).abs() > Self::MAX_BEARING_DEG {
-                return None;
+                break;
             }
-            half.push(f64::from(o.center_distance_m) * (f64::from(o.angular_size_deg).to_radians() / 2.0).sin());
-            speed.push(closing(k)?);
+            let l = f64::from(o.center_distance_m) * (f64::from(o.angular_size_deg).to_radians() / 2.0).sin();
+            let (h, s) = (half.with(l), speed.with(v));
+            let within = |x: &Spread| x.relative().is_some_and(|r| r <= Self::MAX_SPREAD);
+            if !within(&h) || !within(&s) {
+                break;
+            }
+            (half, speed) = (h, s);
+            constant_from = k;
         }
-        let spread = |v: &[f64]| -> Option<f64> {
-            let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
-            let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            let mean = v.iter().sum::<f64>() / v.len() as f64;
-            (mean > 0.0 && lo.is_finite()).then(|| (hi - lo) / mean)
-        };
-        if spread(&half)? > Self::MAX_SPREAD || spread(&speed)? > Self::MAX_SPREAD {
+        if constant_from > first {
             return None;
         }
-        let l = half.iter().sum::<f64>() / half.len() as f64;
-        let v = speed.iter().sum::<f64>() / speed.len() as f64;
+        // l/|v| from the fixed window, so that it does not depend on how far back the stretch goes
+        let mean = |f: &dyn Fn(usize) -> Option<f64>| -> Option<f64> {
+            let v: Vec<f64> = (first..end).map(f).collect::<Option<_>>()?;
+            Some(v.iter().sum::<f64>() / v.len() as f64)
+        };
+        let l = mean(&|k| {
+            get(k).map(|o| f64::from(o.center_distance_m) * (f64::from(o.angular_size_deg).to_radians() / 2.0).sin())
+        })?;
+        let v = mean(&closing)?;
         let eye_ttc_s = (0..truth.len())
             .map(|k| {
                 let v = closing(k)?;
@@ -718,11 +730,117 @@ impl HeadOnApproach {
             .collect();
         Some(Self {
             l_over_v_s: l / v,
+            constant_from,
             eye_ttc_s,
         })
     }
 
+    /// The eye TTC at an alarm in frame `k`; `None` before the constant stretch.
     fn eye_ttc_s(&self, k: usize) -> Option<f64> {
-        self.eye_ttc_s.get(k).copied().flatten()
+        (k >= self.constant_from)
+            .then(|| self.eye_ttc_s.get(k).copied().flatten())
+            .flatten()
+    }
+}
+
+/// Running minimum, maximum and sum of a series (for its relative spread).
+#[derive(Debug, Clone, Copy)]
+struct Spread {
+    lo: f64,
+    hi: f64,
+    sum: f64,
+    n: usize,
+}
+
+impl Default for Spread {
+    fn default() -> Self {
+        Self {
+            lo: f64::INFINITY,
+            hi: f64::NEG_INFINITY,
+            sum: 0.0,
+            n: 0,
+        }
+    }
+}
+
+impl Spread {
+    fn with(self, x: f64) -> Self {
+        Self {
+            lo: self.lo.min(x),
+            hi: self.hi.max(x),
+            sum: self.sum + x,
+            n: self.n + 1,
+        }
+    }
+
+    /// (max − min) / mean; `None` when the mean is not positive or a value is not finite.
+    fn relative(&self) -> Option<f64> {
+        let mean = self.sum / self.n as f64;
+        (mean > 0.0 && self.lo.is_finite() && self.hi.is_finite()).then(|| (self.hi - self.lo) / mean)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use loomlab_sim::ObjectKind;
+
+    /// A ball of half-size 0.15 m on the optical axis whose centre is `distance(k)` away.
+    fn ball(distance: f64) -> ObjectTruth {
+        ObjectTruth {
+            id: 0,
+            name: "ball".into(),
+            kind: ObjectKind::Projectile,
+            distance_m: (distance - 0.15) as f32,
+            center_distance_m: distance as f32,
+            angular_size_deg: (2.0 * (0.15 / distance).asin()).to_degrees() as f32,
+            angular_rate_deg_s: 0.0,
+            tau_s: None,
+            ttc_s: None,
+            on_collision_course: true,
+            bearing: 0.0,
+            bearing_deg: 0.0,
+            elevation_deg: 0.0,
+            in_view: true,
+            in_contact: false,
+        }
+    }
+
+    #[test]
+    fn alarms_before_the_constant_approach_stay_out_of_the_lv_fit() {
+        // 100 Hz: 6 m/s for 0.5 s, then 3 m/s until the centre is 0.2 m away (frame 150)
+        let dt = 0.01;
+        let distance = |k: usize| {
+            let k = k as f64;
+            if k <= 50.0 {
+                0.2 + 3.0 * 1.0 + 6.0 * (50.0 - k) * dt
+            } else {
+                0.2 + 3.0 * (150.0 - k) * dt
+            }
+        };
+        let truth: Vec<Vec<ObjectTruth>> = (0..=150).map(|k| vec![ball(distance(k))]).collect();
+        let a = HeadOnApproach::measure(&truth, 0, 150, dt).expect("constant over the last 0.5 s");
+        assert!((a.l_over_v_s - 0.05).abs() < 0.001, "l/|v| = {}", a.l_over_v_s);
+        // the constant stretch starts where the speed changes (central differences mix 49–51)
+        assert!((50..=52).contains(&a.constant_from), "{}", a.constant_from);
+        assert_eq!(
+            a.eye_ttc_s(30),
+            None,
+            "an alarm at 6 m/s is not on the constant approach"
+        );
+        let eye = a.eye_ttc_s(60).expect("an alarm at 3 m/s");
+        assert!((eye - distance(60) / 3.0).abs() < 1e-3, "{eye}");
+
+        // constant only over the last 0.3 s: no l/|v| at all
+        let distance = |k: usize| {
+            let k = k as f64;
+            if k <= 120.0 {
+                0.2 + 0.9 + 6.0 * (120.0 - k) * dt
+            } else {
+                0.2 + 3.0 * (150.0 - k) * dt
+            }
+        };
+        let truth: Vec<Vec<ObjectTruth>> = (0..=150).map(|k| vec![ball(distance(k))]).collect();
+        assert!(HeadOnApproach::measure(&truth, 0, 150, dt).is_none());
     }
 }
