@@ -159,7 +159,9 @@ fn an_early_alarm_evades_and_no_alarm_collides() {
     let t_ideal = ideal.t_alarm_s.unwrap();
     assert!((t_c - t_ideal - 0.57).abs() < 0.05, "t_c − t_a = {}", t_c - t_ideal);
     assert!(ideal.angular_size_at_alarm_deg.unwrap() >= 10.0 && ideal.angular_size_at_alarm_deg.unwrap() < 11.0);
-    assert!(!ideal.collision && run.closed_loop[4].simulated && run.closed_loop[4].frames_rendered > 0);
+    // perfect perception: a physics-only closed loop, nothing rendered
+    let cl = &run.closed_loop[4];
+    assert!(!ideal.collision && cl.simulated && cl.frames_rendered == 0, "{cl:?}");
     assert_eq!(run.trace.detectors[4].threshold, 10.0);
 
     // the open-loop pass ends at the contact
