@@ -138,7 +138,19 @@ fn tiny_suite_writes_report_csv_plots_and_checks_regressions() {
         assert!(out.join(png).metadata().unwrap().len() > 1000, "{png}");
     }
 
-    // the same run against its own baseline: no regression
+    // the same folder again: refused, nothing changed
+    let before = std::fs::read(out.join("episodes.csv")).unwrap();
+    let o = loomlab(&["run", s(&suite), "--out", s(&out), "--quiet"]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = text(&o.stderr);
+    assert!(
+        e.contains("already holds a complete run") && e.contains("--resume") && e.contains("--overwrite"),
+        "{e}"
+    );
+    assert_eq!(std::fs::read(out.join("episodes.csv")).unwrap(), before);
+
+    // resumed when complete: nothing runs, the report is rebuilt from episodes.csv and has no
+    // regression against the baseline written from the run itself
     let o = loomlab(&[
         "run",
         s(&suite),
@@ -146,9 +158,16 @@ fn tiny_suite_writes_report_csv_plots_and_checks_regressions() {
         s(&out),
         "--baseline",
         s(&baseline),
-        "--quiet",
+        "--resume",
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let stdout = text(&o.stdout);
+    assert!(
+        stdout.contains("4 of 4 episodes were done") && stdout.contains("\n0 episodes (plus 4"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("no regression"), "{stdout}");
+    assert_eq!(std::fs::read(out.join("episodes.csv")).unwrap(), before);
 
     // a baseline that was better: exit 1, every regression listed
     let mut better: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&baseline).unwrap()).unwrap();
@@ -170,6 +189,7 @@ fn tiny_suite_writes_report_csv_plots_and_checks_regressions() {
         s(&worse_base),
         "--quiet",
         "--no-plots",
+        "--overwrite",
     ]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o.stderr));
     let stderr = text(&o.stderr);
@@ -280,6 +300,56 @@ fn detectors_file_replaces_every_scenarios_detector_list() {
     assert_eq!(report["detectors"]["soc-never"]["false_alarms"], 0);
     assert_eq!(report["detectors"]["soc-low"]["false_alarms"], 2);
     assert_eq!(report["detectors"]["soc-low"]["misses"], 0);
+
+    // --detectors filters the file's entries (it never adds a detector the file does not list)
+    let mixed = dir.join("mixed.toml");
+    std::fs::write(
+        &mixed,
+        "[[detectors]]\nid = \"hopfield\"\n[[detectors]]\nid = \"soc\"\nlabel = \"soc-low\"\nthreshold = 0.01\n",
+    )
+    .unwrap();
+    let only_soc = dir.join("only-soc");
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&only_soc),
+        "--quiet",
+        "--no-plots",
+        "--limit",
+        "1",
+        "--detectors-file",
+        s(&mixed),
+        "--detectors",
+        "soc",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(only_soc.join("report.json")).unwrap()).unwrap();
+    let labels: Vec<&String> = report["detectors"]
+        .as_object()
+        .unwrap()
+        .keys()
+        .filter(|k| !references.contains(&k.as_str()))
+        .collect();
+    assert_eq!(labels, ["soc-low"]);
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&dir.join("never")),
+        "--detectors-file",
+        s(&entries),
+        "--detectors",
+        "soc,hopfield",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = text(&o.stderr);
+    assert!(
+        e.contains("--detectors hopfield") && e.contains("detectors.toml has no `hopfield` entry"),
+        "{e}"
+    );
+    assert!(!dir.join("never").exists(), "nothing written for bad input");
 
     // a bad entry is named with its file and key
     std::fs::write(&entries, "[[detectors]]\nid = \"soc\"\nthreshhold = 1.0\n").unwrap();

@@ -8,9 +8,11 @@ use loomlab_sim::{GpuContext, RobotState, Sim, StepOutput};
 use serde::{Deserialize, Serialize};
 
 use super::reward::StepFacts;
-use super::{ActionKind, EnvError, EnvOptions, EnvScenario, EpisodeRng, RewardTerms, shared_gpu_context};
+use super::{
+    ActionKind, EnvError, EnvOptions, EnvScenario, EpisodeRng, RewardTerms, ScenarioEpisodes, shared_gpu_context,
+};
 use loomlab_scenarios::metrics::{DetectorEpisode, GroundTruth, TraceSample, score_detector_episode};
-use loomlab_scenarios::schema::{EpisodeSpec, Scenario};
+use loomlab_scenarios::schema::EpisodeSpec;
 use loomlab_scenarios::truth::{open_loop_truth, threat_deadline};
 
 /// Number of entries of [`Observation::robot`].
@@ -222,7 +224,7 @@ struct Running {
 pub struct EscapeEnv {
     scenario: EnvScenario,
     options: EnvOptions,
-    base: Scenario,
+    base: ScenarioEpisodes,
     resample: bool,
     n: u32,
     ctx: Arc<GpuContext>,

@@ -60,7 +60,7 @@ pub use episode::{
 pub use error::{EnvError, ErrorKind};
 pub use options::{ActionKind, EnvOptions, MAX_FRAME_SIZE};
 pub use reward::{DODGE_TOLERANCE, RewardConfig, RewardTerms};
-pub use scenario::EnvScenario;
+pub use scenario::{EnvScenario, ScenarioEpisodes};
 pub use vector::EscapeVectorEnv;
 
 /// The process-wide GPU context shared by every environment (created on first use; the error,

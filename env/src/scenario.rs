@@ -7,7 +7,7 @@ use loomlab_detector::{DETECTOR_IDS, DetectorError};
 
 use super::{EnvError, EnvOptions};
 use loomlab_scenarios::ScenarioError;
-use loomlab_scenarios::schema::{EpisodeSpec, LoadOptions, Scenario, parse_scenario};
+use loomlab_scenarios::schema::{EpisodeSpec, LoadOptions, parse_scenario};
 
 /// A scenario for environments: TOML text in the scenario schema ([`loomlab_scenarios::schema`]) and the file
 /// name that error messages and the default scenario name use.
@@ -44,7 +44,7 @@ impl EnvScenario {
 
     /// Expands the scenario with the environment's frame size and detector choice; `seed` (0: the
     /// file's) is mixed into the file's seed, which draws the random ranges.
-    pub fn load(&self, options: &EnvOptions, seed: u64) -> Result<Scenario, EnvError> {
+    pub fn load(&self, options: &EnvOptions, seed: u64) -> Result<ScenarioEpisodes, EnvError> {
         if let Some(ids) = &options.detectors {
             for id in ids {
                 if !DETECTOR_IDS.contains(&id.as_str()) {
@@ -58,7 +58,11 @@ impl EnvScenario {
             detectors: options.detectors.clone(),
             detector_entries: None,
         };
-        let sc = parse_scenario(&self.text, &self.path, None, &opts)?;
+        let parsed = parse_scenario(&self.text, &self.path, None, &opts)?;
+        let sc = ScenarioEpisodes {
+            episodes: parsed.expand_all()?,
+            name: parsed.name,
+        };
         if sc.episodes.is_empty() {
             return Err(EnvError::Scenario(format!(
                 "{}: the scenario expands to no episode",
@@ -93,4 +97,13 @@ impl EnvScenario {
         }
         Ok(sc)
     }
+}
+
+/// A scenario's name and its expanded episodes (an environment draws from all of them).
+#[derive(Debug, Clone)]
+pub struct ScenarioEpisodes {
+    /// The scenario's name.
+    pub name: String,
+    /// Its episodes, expanded.
+    pub episodes: Vec<EpisodeSpec>,
 }

@@ -203,10 +203,8 @@ pub fn run_suite(
             detector_entries,
         };
         let s = load_suite(&suite, &opts)?;
-        let mut episodes: Vec<&EpisodeSpec> = s.episodes().collect();
-        if let Some(limit) = limit {
-            episodes.truncate(limit);
-        }
+        let specs: Vec<EpisodeSpec> = s.episodes().take(limit.unwrap_or(usize::MAX)).collect::<Result<_, _>>()?;
+        let episodes: Vec<&EpisodeSpec> = specs.iter().collect();
         let started = std::time::Instant::now();
         let runs = runner(jobs)?.run(&episodes, |_, _| Ok(()))?;
         let outcomes: Vec<_> = runs.into_iter().map(|r| r.outcome).collect();

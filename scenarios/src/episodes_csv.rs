@@ -72,7 +72,7 @@ fn opt(v: Option<f64>) -> String {
 }
 
 /// The header line, with its newline.
-pub(crate) fn header_line() -> String {
+pub fn header_line() -> String {
     HEADER.join(",") + "\n"
 }
 

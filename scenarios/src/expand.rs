@@ -45,8 +45,10 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use toml::{Table, Value};
 
-/// Largest number of episodes one scenario may expand to (guards against typos like `samples = 1e9`).
-pub const MAX_EPISODES_PER_SCENARIO: usize = 100_000;
+/// Largest number of episodes a suite (or one scenario) may expand to: guards against typos like
+/// `samples = 1e9`. Episodes are expanded one at a time as they run, so a large suite costs memory
+/// only for the episodes it runs (`loomlab run --limit N` expands N).
+pub const MAX_EPISODES_PER_SUITE: usize = 10_000_000;
 
 /// One step of a key path.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -398,56 +400,52 @@ impl Variation {
             .saturating_mul(self.samples)
     }
 
-    /// The trees of every parameter point (sweep outer, draw inner) with the parameters they set
-    /// (`key path → TOML value text`).
-    pub fn expand(&self, base: &Table, seed: u64) -> Vec<(Table, BTreeMap<String, String>)> {
-        let draws: Vec<Vec<Value>> = (0..self.samples)
-            .map(|s| {
-                let mut rng = ChaCha8Rng::seed_from_u64(mix_seed(seed ^ 0x52414e44, s as u64));
-                self.random.iter().map(|(_, _, r)| r.draw(&mut rng)).collect()
-            })
-            .collect();
-        let mut out = Vec::with_capacity(self.points());
-        let lens: Vec<usize> = self.sweep.iter().map(|(_, _, v)| v.len()).collect();
-        let mut odometer = vec![0usize; lens.len()];
-        loop {
-            for draw in &draws {
-                let mut tree = base.clone();
-                let mut params = BTreeMap::new();
-                for ((key, paths, values), &i) in self.sweep.iter().zip(&odometer) {
-                    if let [path] = paths.as_slice() {
-                        path.set(&mut tree, values[i].clone()).expect("paths were checked");
-                        params.insert(key.clone(), value_text(&values[i]));
-                    } else {
-                        let Value::Array(zipped) = &values[i] else {
-                            unreachable!("checked")
-                        };
-                        for (path, v) in paths.iter().zip(zipped) {
-                            path.set(&mut tree, v.clone()).expect("paths were checked");
-                            params.insert(path.to_string(), value_text(v));
-                        }
-                    }
-                }
-                for ((key, path, _), v) in self.random.iter().zip(draw) {
+    /// The tree of parameter point `index` (0 ≤ index < [`Self::points`]; sweep outer, draw
+    /// inner) with the parameters it sets (`key path → TOML value text`). Computed on its own, so
+    /// a suite of millions of points is expanded one point at a time.
+    pub fn point(&self, base: &Table, seed: u64, index: usize) -> (Table, BTreeMap<String, String>) {
+        let samples = self.samples.max(1);
+        let (mut sweep_index, draw) = (index / samples, index % samples);
+        // the odometer position of `sweep_index` (last key fastest)
+        let mut odometer = vec![0usize; self.sweep.len()];
+        for (slot, (_, _, values)) in odometer.iter_mut().zip(&self.sweep).rev() {
+            *slot = sweep_index % values.len();
+            sweep_index /= values.len();
+        }
+        let mut tree = base.clone();
+        let mut params = BTreeMap::new();
+        for ((key, paths, values), &i) in self.sweep.iter().zip(&odometer) {
+            if let [path] = paths.as_slice() {
+                path.set(&mut tree, values[i].clone()).expect("paths were checked");
+                params.insert(key.clone(), value_text(&values[i]));
+            } else {
+                let Value::Array(zipped) = &values[i] else {
+                    unreachable!("checked")
+                };
+                for (path, v) in paths.iter().zip(zipped) {
                     path.set(&mut tree, v.clone()).expect("paths were checked");
-                    params.insert(key.clone(), value_text(v));
+                    params.insert(path.to_string(), value_text(v));
                 }
-                out.push((tree, params));
-            }
-            // advance the odometer (last key fastest)
-            let mut k = lens.len();
-            loop {
-                if k == 0 {
-                    return out;
-                }
-                k -= 1;
-                odometer[k] += 1;
-                if odometer[k] < lens[k] {
-                    break;
-                }
-                odometer[k] = 0;
             }
         }
+        if !self.random.is_empty() {
+            let mut rng = ChaCha8Rng::seed_from_u64(mix_seed(seed ^ 0x52414e44, draw as u64));
+            for (key, path, range) in &self.random {
+                let v = range.draw(&mut rng);
+                params.insert(key.clone(), value_text(&v));
+                path.set(&mut tree, v).expect("paths were checked");
+            }
+        }
+        (tree, params)
+    }
+
+    /// The trees of every parameter point, in order (see [`Self::point`]).
+    pub fn expand<'a>(
+        &'a self,
+        base: &'a Table,
+        seed: u64,
+    ) -> impl Iterator<Item = (Table, BTreeMap<String, String>)> + 'a {
+        (0..self.points()).map(move |i| self.point(base, seed, i))
     }
 }
 
@@ -590,10 +588,15 @@ mod tests {
         let v = Variation::take_from(&mut t).unwrap();
         assert!(!t.contains_key("sweep") && !t.contains_key("random"));
         assert_eq!(v.points(), 3 * 2 * 4);
-        let eps = v.expand(&t, 7);
+        let all = |seed| v.expand(&t, seed).collect::<Vec<_>>();
+        let eps = all(7);
         assert_eq!(eps.len(), 24);
-        assert_eq!(eps, v.expand(&t, 7), "same seed, same episodes");
-        assert_ne!(eps, v.expand(&t, 8), "another seed, other draws");
+        assert_eq!(eps, all(7), "same seed, same episodes");
+        assert_ne!(eps, all(8), "another seed, other draws");
+        // any point on its own equals the same point of the whole expansion
+        for i in [0, 5, 13, 23] {
+            assert_eq!(v.point(&t, 7, i), eps[i]);
+        }
         // odometer order: world.a outer, world.b inner, draws innermost
         assert_eq!(eps[0].1["world.a"], "1");
         assert_eq!(eps[0].1["world.b"], "\"p\"");
@@ -621,7 +624,7 @@ mod tests {
             "#,
         );
         let v = Variation::take_from(&mut t).unwrap();
-        let eps = v.expand(&t, 1);
+        let eps: Vec<_> = v.expand(&t, 1).collect();
         assert_eq!(eps.len(), 3);
         for (tree, params) in &eps {
             let a = tree["world"]["a"].as_integer().unwrap();

@@ -5,6 +5,7 @@ pub mod deadline;
 pub mod episodes_csv;
 pub mod error;
 pub mod expand;
+pub mod fingerprint;
 pub mod lv;
 pub mod metrics;
 pub mod reference;

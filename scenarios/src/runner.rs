@@ -43,6 +43,7 @@
 //! Results are handed to a callback as episodes finish (for `episodes.csv` and the progress bar)
 //! and returned in suite order; the run is deterministic whatever the number of workers.
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
 use loomlab_agents::{EscapeAgent, EscapeConfig, EscapeController, LoomingSideEstimator, TriggerSignal};
@@ -144,6 +145,12 @@ pub struct EpisodeRun {
     pub frames_rendered: usize,
 }
 
+/// The most workers a runner uses: the number of CPUs (each worker renders and runs detectors on
+/// one CPU; more only add threads). `Runner::new(Some(jobs))` clamps to it.
+pub fn max_jobs() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
 /// Runs episodes on a shared GPU context and a worker pool.
 pub struct Runner {
     ctx: Arc<GpuContext>,
@@ -191,11 +198,9 @@ impl Runner {
         Self::with_context(ctx, jobs)
     }
 
-    /// A runner on an existing GPU context.
+    /// A runner on an existing GPU context. `jobs` is clamped to [1, [`max_jobs`]].
     pub fn with_context(ctx: Arc<GpuContext>, jobs: Option<usize>) -> Result<Self, RunError> {
-        let jobs = jobs
-            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-            .max(1);
+        let jobs = jobs.unwrap_or(usize::MAX).clamp(1, max_jobs());
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(jobs)
             .thread_name(|i| format!("loomlab-episode-{i}"))
@@ -236,15 +241,33 @@ impl Runner {
     where
         F: Fn(usize, &EpisodeRun) -> Result<(), String> + Sync,
     {
+        let runs = self.run_until(episodes, &AtomicBool::new(false), on_done)?;
+        Ok(runs.into_iter().flatten().collect())
+    }
+
+    /// [`Self::run`] that can be stopped: once `stop` is set no further episode starts (those in
+    /// flight finish and are reported); the episodes that did not run are `None`.
+    pub fn run_until<F>(
+        &self,
+        episodes: &[&EpisodeSpec],
+        stop: &AtomicBool,
+        on_done: F,
+    ) -> Result<Vec<Option<EpisodeRun>>, RunError>
+    where
+        F: Fn(usize, &EpisodeRun) -> Result<(), String> + Sync,
+    {
         self.pool.install(|| {
             episodes
                 .par_iter()
                 .enumerate()
                 .with_max_len(1)
                 .map(|(i, ep)| {
+                    if stop.load(Ordering::SeqCst) {
+                        return Ok(None);
+                    }
                     let run = self.run_episode(ep)?;
                     on_done(i, &run).map_err(RunError::Callback)?;
-                    Ok(run)
+                    Ok(Some(run))
                 })
                 .collect()
         })

@@ -37,6 +37,7 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use loomlab_agents::{EscapeConfig, TriggerSignal, VelocityCommand};
 use loomlab_detector::baselines::BaselineConfigs;
@@ -46,7 +47,7 @@ use serde::{Deserialize, Serialize};
 use toml::{Table, Value};
 
 use crate::error::ScenarioError;
-use crate::expand::{KeyPath, MAX_EPISODES_PER_SCENARIO, Variation, merge_defaults, mix_seed};
+use crate::expand::{KeyPath, MAX_EPISODES_PER_SUITE, Variation, merge_defaults, mix_seed};
 use crate::metrics::ScoringConfig;
 
 /// Default alarm thresholds per detector, used when a scenario's `[[detectors]]` entry gives none.
@@ -355,7 +356,8 @@ fn params_text(p: &BTreeMap<String, String>) -> String {
         .join(", ")
 }
 
-/// A loaded scenario: its episodes.
+/// A loaded scenario. Its episodes are expanded on demand ([`Scenario::episode`],
+/// [`Scenario::episodes`]), so loading costs the same for one episode or millions.
 #[derive(Debug, Clone)]
 pub struct Scenario {
     /// Name (unique within a suite).
@@ -364,8 +366,7 @@ pub struct Scenario {
     pub description: String,
     /// The file it came from.
     pub file: PathBuf,
-    /// The expanded episodes.
-    pub episodes: Vec<EpisodeSpec>,
+    expansion: Arc<Expansion>,
 }
 
 /// Options applied while loading (command-line overrides).
@@ -376,15 +377,30 @@ pub struct LoadOptions {
     /// Frame size n overriding every `world.camera.n`.
     pub size: Option<u32>,
     /// Run exactly these detector ids (the scenario's settings for them when it lists them,
-    /// defaults otherwise); `None`: the scenario's list (default all five).
+    /// defaults otherwise); `None`: the scenario's list (default all five). With
+    /// `detector_entries` it only filters those entries by id.
     pub detectors: Option<Vec<String>>,
     /// Use these `[[detectors]]` entries instead of every scenario's own list (a detectors file,
     /// or the parameter points of a sweep); `detectors` then filters them by id.
     pub detector_entries: Option<Vec<DetectorDesc>>,
 }
 
-/// Reads and expands one scenario file (`defaults`: a suite's `[defaults]` table, merged under it).
-pub fn load_scenario(path: &Path, defaults: Option<&Table>, opts: &LoadOptions) -> Result<Scenario, ScenarioError> {
+/// A suite's `[defaults]` table and the file it is written in (errors at keys that come from it
+/// name that file and `defaults.<key>`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SuiteDefaults {
+    /// The `[defaults]` table.
+    pub table: Table,
+    /// The suite file holding it (`suite.toml` or the list file).
+    pub file: PathBuf,
+}
+
+/// Reads and expands one scenario file (`defaults`: a suite's `[defaults]`, merged under it).
+pub fn load_scenario(
+    path: &Path,
+    defaults: Option<&SuiteDefaults>,
+    opts: &LoadOptions,
+) -> Result<Scenario, ScenarioError> {
     let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
         path: path.into(),
         source,
@@ -412,17 +428,21 @@ pub(crate) fn typed<T: serde::de::DeserializeOwned>(value: Value, prefix: &str) 
 pub fn parse_scenario(
     text: &str,
     path: &Path,
-    defaults: Option<&Table>,
+    defaults: Option<&SuiteDefaults>,
     opts: &LoadOptions,
 ) -> Result<Scenario, ScenarioError> {
     let mut tree: Table = toml::from_str(text).map_err(|e| ScenarioError::Syntax {
         path: path.into(),
         message: e.to_string().trim_end().to_string(),
     })?;
+    let origin = KeyOrigin {
+        file: path.into(),
+        defaults: defaults.map(|d| (tree.clone(), d.clone())),
+    };
     if let Some(d) = defaults {
-        merge_defaults(&mut tree, d);
+        merge_defaults(&mut tree, &d.table);
     }
-    let kerr = |(k, r): (String, String)| ScenarioError::key(path, k, r);
+    let kerr = |(k, r): (String, String)| origin.key_error(k, r);
     if let Some(Value::Table(c)) = tree.get("controller") {
         for k in ["threshold", "trigger"] {
             if c.contains_key(k) {
@@ -464,12 +484,18 @@ pub fn parse_scenario(
     if episode.repeats == 0 {
         return Err(ScenarioError::key(path, "episode.repeats", "must be >= 1"));
     }
-    let total = variation.points().saturating_mul(episode.repeats as usize);
-    if total > MAX_EPISODES_PER_SCENARIO {
+    let count = variation.points().saturating_mul(episode.repeats as usize);
+    if count > MAX_EPISODES_PER_SUITE {
         return Err(ScenarioError::key(
             path,
-            "sweep",
-            format!("expands to {total} episodes (more than {MAX_EPISODES_PER_SCENARIO}); use fewer values or samples"),
+            if variation.points() > 1 {
+                "sweep"
+            } else {
+                "episode.repeats"
+            },
+            format!(
+                "expands to {count} episodes (more than {MAX_EPISODES_PER_SUITE}); use fewer values, samples or repeats"
+            ),
         ));
     }
     let base_seed = if opts.seed == 0 {
@@ -477,64 +503,172 @@ pub fn parse_scenario(
     } else {
         mix_seed(episode.seed, opts.seed)
     };
-    let varied: Vec<String> = variation
-        .sweep
-        .iter()
-        .flat_map(|(_, ps, _)| ps.iter().map(KeyPath::canonical))
-        .chain(variation.random.iter().map(|(_, p, _)| p.canonical()))
-        .collect();
-    let mut episodes = Vec::with_capacity(total);
-    let mut description = String::new();
-    for (point, (t, params)) in variation.expand(&tree, base_seed).into_iter().enumerate() {
-        let first_index = point * episode.repeats as usize;
-        // An error at a varied key is specific to this episode; any other would hit every episode.
+    let expansion = Expansion {
+        file: path.into(),
+        origin,
+        name,
+        varied: variation
+            .sweep
+            .iter()
+            .flat_map(|(_, ps, _)| ps.iter().map(KeyPath::canonical))
+            .chain(variation.random.iter().map(|(_, p, _)| p.canonical()))
+            .collect(),
+        tree,
+        variation,
+        base_seed,
+        repeats: episode.repeats as usize,
+        count,
+        opts: opts.clone(),
+    };
+    // the first point is checked (and gives the description) now; the others as they are expanded
+    let (first, description) = expansion.point(0)?;
+    drop(first);
+    Ok(Scenario {
+        name: expansion.name.clone(),
+        description,
+        file: path.into(),
+        expansion: Arc::new(expansion),
+    })
+}
+
+/// Where a scenario's keys were written: the scenario file, or the suite's `[defaults]`.
+#[derive(Debug)]
+struct KeyOrigin {
+    file: PathBuf,
+    /// The scenario file's own tree (before the merge) and the defaults merged under it.
+    defaults: Option<(Table, SuiteDefaults)>,
+}
+
+impl KeyOrigin {
+    /// The suite's defaults, if `key` was not written in the scenario file but in them.
+    fn from_defaults(&self, key: &str) -> Option<&SuiteDefaults> {
+        let (own, defaults) = self.defaults.as_ref()?;
+        let path = KeyPath::parse(key).ok()?;
+        (path.get(own).is_none() && path.get(&defaults.table).is_some()).then_some(defaults)
+    }
+
+    /// A key error, naming the file the key was written in.
+    fn key_error(&self, key: String, reason: String) -> ScenarioError {
+        match self.from_defaults(&key) {
+            Some(d) => ScenarioError::key(
+                &d.file,
+                format!("defaults.{key}"),
+                format!("{reason} (in [defaults], merged under {})", self.file.display()),
+            ),
+            None => ScenarioError::key(&self.file, key, reason),
+        }
+    }
+}
+
+/// A scenario's tree and variation: expands any one of its episodes on demand.
+#[derive(Debug)]
+struct Expansion {
+    file: PathBuf,
+    origin: KeyOrigin,
+    name: String,
+    /// The file's tree (with the suite's defaults merged, without `[sweep]` and `[random]`).
+    tree: Table,
+    variation: Variation,
+    /// Canonical key paths of the varied keys.
+    varied: Vec<String>,
+    base_seed: u64,
+    repeats: usize,
+    count: usize,
+    opts: LoadOptions,
+}
+
+impl Expansion {
+    /// The episodes of parameter point `point` (all its repeats) and the scenario description.
+    fn point(&self, point: usize) -> Result<(Vec<EpisodeSpec>, String), ScenarioError> {
+        let path = self.file.as_path();
+        let (t, params) = self.variation.point(&self.tree, self.base_seed, point);
+        let first_index = point * self.repeats;
+        // In a scenario with varied keys an error can be specific to this point (also at a key
+        // that is not varied itself, e.g. an arrival time the swept speed cannot reach): the
+        // message names the episode and its parameters.
         let err = |(k, r): (String, String)| {
-            let canonical = KeyPath::parse(&k).map(|p| p.canonical()).unwrap_or(k.clone());
-            if varied.iter().any(|v| canonical.starts_with(v.as_str())) {
+            if self.varied.is_empty() || self.origin.from_defaults(&k).is_some() {
+                self.origin.key_error(k, r)
+            } else {
                 ScenarioError::Episode {
                     path: path.into(),
                     episode: first_index,
                     params: params_text(&params),
                     reason: format!("`{k}`: {r}"),
                 }
-            } else {
-                ScenarioError::key(path, k, r)
             }
         };
         let doc: ScenarioDoc = typed(Value::Table(t), "").map_err(&err)?;
-        description = doc.description.clone();
-        let (world, detectors) = resolve(&doc, opts).map_err(&err)?;
+        let (world, detectors) = resolve(&doc, &self.opts).map_err(&err)?;
         let scoring = ScoringConfig {
             lead_margin_s: doc.scoring.lead_margin_s,
             ..ScoringConfig::default()
         };
-        for r in 0..episode.repeats as usize {
-            let index = first_index + r;
-            let mut params = params.clone();
-            if episode.repeats > 1 {
-                params.insert("repeat".into(), r.to_string());
-            }
-            episodes.push(EpisodeSpec {
-                scenario: name.clone(),
-                file: path.into(),
-                index,
-                seed: mix_seed(base_seed, index as u64),
-                params,
-                world: world.clone(),
-                cruise: doc.robot.clone(),
-                duration_s: doc.episode.duration_s,
-                detectors: detectors.clone(),
-                controller: doc.controller.clone(),
-                scoring: scoring.clone(),
-            });
-        }
+        let episodes = (0..self.repeats)
+            .map(|r| {
+                let index = first_index + r;
+                let mut params = params.clone();
+                if self.repeats > 1 {
+                    params.insert("repeat".into(), r.to_string());
+                }
+                EpisodeSpec {
+                    scenario: self.name.clone(),
+                    file: path.into(),
+                    index,
+                    seed: mix_seed(self.base_seed, index as u64),
+                    params,
+                    world: world.clone(),
+                    cruise: doc.robot.clone(),
+                    duration_s: doc.episode.duration_s,
+                    detectors: detectors.clone(),
+                    controller: doc.controller.clone(),
+                    scoring: scoring.clone(),
+                }
+            })
+            .collect();
+        Ok((episodes, doc.description))
     }
-    Ok(Scenario {
-        name,
-        description,
-        file: path.into(),
-        episodes,
-    })
+}
+
+impl Scenario {
+    /// Number of episodes (Π len(sweep lists) × samples × repeats).
+    pub fn len(&self) -> usize {
+        self.expansion.count
+    }
+
+    /// Whether the scenario has no episodes (never: every scenario has at least one).
+    pub fn is_empty(&self) -> bool {
+        self.expansion.count == 0
+    }
+
+    /// Episode `index` (0 ≤ index < [`Self::len`]), expanded now; an error names the file, the
+    /// episode and its parameters.
+    pub fn episode(&self, index: usize) -> Result<EpisodeSpec, ScenarioError> {
+        if index >= self.len() {
+            return Err(ScenarioError::key(
+                &self.file,
+                "episode",
+                format!("episode {index} does not exist (the scenario has {})", self.len()),
+            ));
+        }
+        let repeats = self.expansion.repeats;
+        let (mut episodes, _) = self.expansion.point(index / repeats)?;
+        Ok(episodes.swap_remove(index % repeats))
+    }
+
+    /// Every episode in order, expanded one parameter point at a time.
+    pub fn episodes(&self) -> impl Iterator<Item = Result<EpisodeSpec, ScenarioError>> + '_ {
+        let points = self.len() / self.expansion.repeats;
+        (0..points).flat_map(move |p| match self.expansion.point(p) {
+            Ok((episodes, _)) => episodes.into_iter().map(Ok).collect::<Vec<_>>(),
+            Err(e) => vec![Err(e)],
+        })
+    }
+
+    /// Every episode, expanded (for small scenarios: tests, the Gymnasium env).
+    pub fn expand_all(&self) -> Result<Vec<EpisodeSpec>, ScenarioError> {
+        self.episodes().collect()
+    }
 }
 
 /// Validates a typed scenario and builds its world and detector specs.
@@ -589,6 +723,12 @@ fn resolve(doc: &ScenarioDoc, opts: &LoadOptions) -> Result<(WorldDesc, Vec<Dete
     let wanted: Vec<(Option<usize>, DetectorDesc)> = match (&opts.detectors, entries) {
         (None, Some(_)) => listed.into_iter().map(|(i, d)| (Some(i), d)).collect(),
         (None, None) => DETECTOR_IDS.iter().map(|id| (None, bare(id))).collect(),
+        // a detectors file: --detectors only filters its entries
+        (Some(ids), Some(_)) if opts.detector_entries.is_some() => listed
+            .into_iter()
+            .filter(|(_, d)| ids.contains(&d.id))
+            .map(|(i, d)| (Some(i), d))
+            .collect(),
         (Some(ids), _) => {
             let mut out = Vec::new();
             for id in ids {

@@ -23,7 +23,8 @@ use serde::Deserialize;
 use toml::{Table, Value};
 
 use crate::error::ScenarioError;
-use crate::schema::{EpisodeSpec, LoadOptions, Scenario, load_scenario};
+use crate::expand::MAX_EPISODES_PER_SUITE;
+use crate::schema::{EpisodeSpec, LoadOptions, Scenario, SuiteDefaults, load_scenario};
 
 /// The default suite, relative to the repository root.
 pub const DEFAULT_SUITE: &str = "scenarios/suites/default";
@@ -54,14 +55,23 @@ pub struct Suite {
 }
 
 impl Suite {
-    /// Every episode, scenario by scenario.
-    pub fn episodes(&self) -> impl Iterator<Item = &EpisodeSpec> {
-        self.scenarios.iter().flat_map(|s| s.episodes.iter())
+    /// Every episode, scenario by scenario, expanded as the iterator advances (memory does not
+    /// grow with the suite; `take(n)` expands n episodes).
+    pub fn episodes(&self) -> impl Iterator<Item = Result<EpisodeSpec, ScenarioError>> + '_ {
+        self.scenarios.iter().flat_map(Scenario::episodes)
     }
 
     /// Number of episodes.
     pub fn episode_count(&self) -> usize {
-        self.scenarios.iter().map(|s| s.episodes.len()).sum()
+        self.scenarios.iter().map(Scenario::len).sum()
+    }
+
+    /// Expands the first `limit` episodes (all with `None`) without keeping them: the first
+    /// invalid one's error, so that a run can refuse bad input before it starts.
+    pub fn check(&self, limit: Option<usize>) -> Result<(), ScenarioError> {
+        self.episodes()
+            .take(limit.unwrap_or(usize::MAX))
+            .try_for_each(|e| e.map(drop))
     }
 }
 
@@ -143,9 +153,17 @@ pub fn load_suite(path: &Path, opts: &LoadOptions) -> Result<Suite, ScenarioErro
             return finish(path, String::new(), vec![scenario]);
         }
     };
+    let defaults = doc.defaults.map(|table| SuiteDefaults {
+        table,
+        file: if meta.is_dir() {
+            path.join(SUITE_FILE)
+        } else {
+            path.into()
+        },
+    });
     let mut scenarios = Vec::with_capacity(files.len());
     for f in &files {
-        scenarios.push(load_scenario(f, doc.defaults.as_ref(), opts)?);
+        scenarios.push(load_scenario(f, defaults.as_ref(), opts)?);
     }
     finish(path, doc.description, scenarios)
 }
@@ -169,6 +187,15 @@ fn finish(path: &Path, description: String, scenarios: Vec<Scenario>) -> Result<
                 ),
             });
         }
+    }
+    let total = scenarios.iter().fold(0usize, |n, s| n.saturating_add(s.len()));
+    if total > MAX_EPISODES_PER_SUITE {
+        return Err(ScenarioError::Suite {
+            path: path.into(),
+            reason: format!(
+                "the suite expands to {total} episodes (more than {MAX_EPISODES_PER_SUITE}); split it or use fewer sweep values"
+            ),
+        });
     }
     Ok(Suite {
         path: path.into(),

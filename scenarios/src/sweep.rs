@@ -46,6 +46,7 @@ use toml::{Table, Value};
 use crate::episodes_csv::{format_rows, header_line, parse_episodes_csv, quote};
 use crate::error::{RunError, ScenarioError};
 use crate::expand::{KeyPath, KeySegment, Variation, mix_seed};
+use crate::fingerprint::Fingerprint;
 use crate::metrics::{DetectorEpisode, DetectorSummary, EpisodeOutcome, ScoringError};
 use crate::reference::is_reference;
 use crate::report::{LOOMLAB_VERSION, Report, ReportMeta};
@@ -435,13 +436,6 @@ pub struct SweepPlan {
     pub fingerprint: String,
 }
 
-/// 64-bit FNV-1a (stable across platforms and versions, unlike `DefaultHasher`).
-fn fnv1a(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
-    })
-}
-
 impl SweepPlan {
     /// Loads the suite of a parsed sweep file and cuts it into shards.
     pub fn new(file: SweepFile) -> Result<Self, SweepError> {
@@ -452,10 +446,10 @@ impl SweepPlan {
             detector_entries: Some(file.points.iter().map(|p| p.detector.clone()).collect()),
         };
         let suite = load_suite(&file.suite, &opts)?;
-        let mut episodes: Vec<EpisodeSpec> = suite.scenarios.into_iter().flat_map(|s| s.episodes).collect();
-        if let Some(limit) = file.limit {
-            episodes.truncate(limit);
-        }
+        let episodes: Vec<EpisodeSpec> = suite
+            .episodes()
+            .take(file.limit.unwrap_or(usize::MAX))
+            .collect::<Result<_, _>>()?;
         let per_points = if file.points_per_shard == 0 {
             file.points.len()
         } else {
@@ -471,25 +465,14 @@ impl SweepPlan {
             }
         }
         // What determines the rows: the version, the points, every episode as built, the shards.
-        let mut text = format!("{LOOMLAB_VERSION}\n");
-        text += &serde_json::to_string(&file.points).unwrap_or_default();
+        let mut fingerprint = Fingerprint::new();
+        fingerprint.add(format!("{LOOMLAB_VERSION}\n").as_bytes());
+        fingerprint.add(serde_json::to_string(&file.points).unwrap_or_default().as_bytes());
         for ep in &episodes {
-            let _ = write!(
-                text,
-                "\n{}|{}|{}|{:?}|{}|{}|{}|{}|{}",
-                ep.scenario,
-                ep.index,
-                ep.seed,
-                ep.params,
-                serde_json::to_string(&ep.world).unwrap_or_default(),
-                serde_json::to_string(&ep.cruise).unwrap_or_default(),
-                ep.duration_s,
-                serde_json::to_string(&ep.controller).unwrap_or_default(),
-                ep.scoring.lead_margin_s,
-            );
+            fingerprint.add_episode(ep);
         }
-        text += &serde_json::to_string(&shards).unwrap_or_default();
-        let fingerprint = format!("{:016x}", fnv1a(text.as_bytes()));
+        fingerprint.add(serde_json::to_string(&shards).unwrap_or_default().as_bytes());
+        let fingerprint = fingerprint.hex();
         Ok(Self {
             file,
             episodes,

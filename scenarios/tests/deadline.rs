@@ -76,15 +76,15 @@ duration_s = 1.0
 id = "soc"
 "#
     );
-    let mut s = parse_scenario(
+    let s = parse_scenario(
         &text,
         Path::new("deadline_geometry.toml"),
         None,
         &LoadOptions::default(),
     )
     .unwrap();
-    assert_eq!(s.episodes.len(), 1);
-    s.episodes.remove(0)
+    assert_eq!(s.len(), 1);
+    s.episode(0).unwrap()
 }
 
 /// Half-width of the robot across a lateral dodge (m), read off the episode's body.

@@ -50,7 +50,7 @@ params = {params}
         &LoadOptions::default(),
     )
     .unwrap();
-    sc.episodes.into_iter().next().unwrap()
+    sc.episode(0).unwrap()
 }
 
 struct Response {

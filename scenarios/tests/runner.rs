@@ -68,7 +68,7 @@ fn runner(jobs: usize) -> Runner {
 }
 
 fn run_one(r: &Runner, s: &Scenario) -> EpisodeRun {
-    r.run_episode(&s.episodes[0]).unwrap()
+    r.run_episode(&s.episode(0).unwrap()).unwrap()
 }
 
 #[test]
@@ -227,7 +227,7 @@ fn all_detectors_see_the_same_frames_and_runs_are_deterministic() {
 
 #[test]
 fn parallel_runs_keep_order_and_results() {
-    let text_scenario = |miss: f64| scenario(miss, EARLY_AND_NEVER).episodes.remove(0);
+    let text_scenario = |miss: f64| scenario(miss, EARLY_AND_NEVER).episode(0).unwrap();
     let mut eps = [text_scenario(0.0), text_scenario(2.0), text_scenario(0.0)];
     for (i, e) in eps.iter_mut().enumerate() {
         e.index = i;
@@ -258,7 +258,10 @@ fn parallel_runs_keep_order_and_results() {
 #[test]
 fn reference_rows_can_be_turned_off() {
     let s = scenario(0.0, EARLY_AND_NEVER);
-    let run = runner(1).with_references(false).run_episode(&s.episodes[0]).unwrap();
+    let run = runner(1)
+        .with_references(false)
+        .run_episode(&s.episode(0).unwrap())
+        .unwrap();
     let labels: Vec<&str> = run.outcome.detectors.iter().map(|d| d.detector.as_str()).collect();
     assert_eq!(labels, ["early", "never"]);
     assert_eq!(run.closed_loop.len(), 2);
@@ -280,8 +283,9 @@ fn reference_suite() -> Vec<loomlab_scenarios::EpisodeSpec> {
         detectors,
         "[sweep]\n\"world.projectiles.0.miss_distance_m\" = [0.0, 0.3, 2.0]\n\"world.projectiles.0.speed_mps\" = [3.0, 5.0]\n",
     )
-    .episodes;
-    let mut close = scenario(0.0, detectors).episodes.remove(0);
+    .expand_all()
+    .unwrap();
+    let mut close = scenario(0.0, detectors).episode(0).unwrap();
     close.scenario = "too_close".into();
     let ball = &mut close.world.projectiles[0];
     ball.launch_distance_m = 0.6;

@@ -22,8 +22,12 @@ speed_mps = 8.0
 forward_mps = 1.0
 "#;
 
+/// Parses and expands every episode (loading checks the first; the others are checked as they
+/// are expanded, as `loomlab run` does for the episodes it runs before starting).
 fn parse(text: &str) -> Result<loomlab_scenarios::Scenario, ScenarioError> {
-    parse_scenario(text, Path::new("dir/test.toml"), None, &LoadOptions::default())
+    let s = parse_scenario(text, Path::new("dir/test.toml"), None, &LoadOptions::default())?;
+    s.expand_all()?;
+    Ok(s)
 }
 
 fn err(text: &str) -> String {
@@ -42,8 +46,8 @@ fn tmp_dir(name: &str) -> PathBuf {
 fn a_plain_scenario_is_one_episode_with_all_detectors() {
     let s = parse(BASE).unwrap();
     assert_eq!(s.name, "ball");
-    assert_eq!(s.episodes.len(), 1);
-    let ep = &s.episodes[0];
+    assert_eq!(s.len(), 1);
+    let ep = &s.episode(0).unwrap();
     assert_eq!(ep.frames(), 120);
     assert_eq!(ep.cruise.command_at(0.5).forward_mps, 1.0);
     let labels: Vec<&str> = ep.detectors.iter().map(|d| d.label.as_str()).collect();
@@ -168,32 +172,38 @@ fn sweeps_and_random_ranges_expand_to_the_product() {
     )
     .replace("seed = 3", "seed = 3\nrepeats = 2");
     let s = parse(&text).unwrap();
-    assert_eq!(s.episodes.len(), 3 * 2 * 4 * 2);
-    for (i, ep) in s.episodes.iter().enumerate() {
+    assert_eq!(s.len(), 3 * 2 * 4 * 2);
+    for (i, ep) in s.expand_all().unwrap().iter().enumerate() {
         assert_eq!(ep.index, i);
     }
     // values land in the typed episodes
-    let speeds: Vec<f32> = s.episodes.iter().map(|e| e.world.projectiles[0].speed_mps).collect();
+    let speeds: Vec<f32> = s
+        .expand_all()
+        .unwrap()
+        .iter()
+        .map(|e| e.world.projectiles[0].speed_mps)
+        .collect();
     // keys in sorted order, the last fastest: robot.forward_mps outer, the speed inner, then draws, repeats
     assert_eq!(speeds[0], 4.0);
     assert_eq!(speeds[8], 8.0);
     assert_eq!(speeds[16], 12.0);
     assert_eq!(speeds[24], 4.0);
-    assert_eq!(s.episodes[24].cruise.forward_mps, 1.0);
+    assert_eq!(s.episode(24).unwrap().cruise.forward_mps, 1.0);
     assert!(
-        s.episodes
+        s.expand_all()
+            .unwrap()
             .iter()
             .all(|e| (0.0..2.0).contains(&e.world.projectiles[0].miss_distance_m))
     );
     // parameters are recorded, repeats have their own simulator seeds
-    let p = &s.episodes[1].params;
+    let p = &s.episode(1).unwrap().params;
     assert_eq!(p["world.projectiles.0.speed_mps"], "4");
     assert_eq!(p["repeat"], "1");
     assert!(p.contains_key("world.projectiles.0.miss_distance_m"));
-    assert_ne!(s.episodes[0].seed, s.episodes[1].seed);
+    assert_ne!(s.episode(0).unwrap().seed, s.episode(1).unwrap().seed);
     // deterministic
     let again = parse(&text).unwrap();
-    let seeds = |s: &loomlab_scenarios::Scenario| s.episodes.iter().map(|e| e.seed).collect::<Vec<_>>();
+    let seeds = |s: &loomlab_scenarios::Scenario| s.expand_all().unwrap().iter().map(|e| e.seed).collect::<Vec<_>>();
     assert_eq!(seeds(&s), seeds(&again));
     // a suite seed changes the draws and the simulator seeds
     let other = parse_scenario(
@@ -208,8 +218,8 @@ fn sweeps_and_random_ranges_expand_to_the_product() {
     .unwrap();
     assert_ne!(seeds(&s), seeds(&other));
     assert_ne!(
-        s.episodes[0].world.projectiles[0].miss_distance_m,
-        other.episodes[0].world.projectiles[0].miss_distance_m
+        s.episode(0).unwrap().world.projectiles[0].miss_distance_m,
+        other.episode(0).unwrap().world.projectiles[0].miss_distance_m
     );
 }
 
@@ -243,7 +253,7 @@ fn sweep_errors_name_the_path_and_the_episode() {
 fn cruise_schedule_changes_the_command() {
     let text = format!("{BASE}\n[[robot.schedule]]\nat_s = 0.5\nforward_mps = 2.0\nyaw_rate_rps = 0.1\n");
     let s = parse(&text).unwrap();
-    let c = &s.episodes[0].cruise;
+    let c = &s.episode(0).unwrap().cruise;
     assert_eq!(c.command_at(0.0).forward_mps, 1.0);
     assert_eq!(c.command_at(0.5).forward_mps, 2.0);
     assert_eq!(c.command_at(0.9).yaw_rate_rps, 0.1);
@@ -262,7 +272,7 @@ fn load_options_override_size_and_detectors() {
         ..LoadOptions::default()
     };
     let s = parse_scenario(&text, Path::new("t.toml"), None, &opts).unwrap();
-    let ep = &s.episodes[0];
+    let ep = &s.episode(0).unwrap();
     assert_eq!(ep.world.camera.n, 48);
     let got: Vec<(&str, f64)> = ep.detectors.iter().map(|d| (d.label.as_str(), d.threshold)).collect();
     assert_eq!(got, [("soc", 3.0), ("fu2020", default_threshold("fu2020").unwrap())]);
@@ -275,7 +285,7 @@ fn labels_let_a_detector_run_twice() {
          [[detectors]]\nid = \"hopfield\"\nlabel = \"hopfield_12\"\nthreshold = 12.0\nparams = {{ beta = 300.0 }}\n"
     );
     let s = parse(&text).unwrap();
-    let d = &s.episodes[0].detectors;
+    let d = &s.episode(0).unwrap().detectors;
     assert_eq!(d[0].label, "hopfield_8");
     assert_eq!(d[1].threshold, 12.0);
     assert_eq!(d[1].params.hopfield.beta, 300.0);
@@ -301,15 +311,17 @@ fn suites_merge_defaults_and_reject_duplicate_names() {
     assert_eq!(suite.scenarios.len(), 2);
     assert_eq!(suite.scenarios[0].name, "a");
     assert_eq!(
-        suite.scenarios[0].episodes[0].world.camera.n, 32,
+        suite.scenarios[0].episode(0).unwrap().world.camera.n,
+        32,
         "the scenario's value wins"
     );
     assert_eq!(
-        suite.scenarios[1].episodes[0].world.camera.n, 40,
+        suite.scenarios[1].episode(0).unwrap().world.camera.n,
+        40,
         "the default fills in"
     );
-    assert_eq!(suite.scenarios[1].episodes[0].scoring.lead_margin_s, 0.3);
-    assert_eq!(suite.scenarios[1].episodes[0].scoring.lead_min_s, None);
+    assert_eq!(suite.scenarios[1].episode(0).unwrap().scoring.lead_margin_s, 0.3);
+    assert_eq!(suite.scenarios[1].episode(0).unwrap().scoring.lead_min_s, None);
     assert_eq!(suite.episode_count(), 2);
 
     // a list file
@@ -321,7 +333,44 @@ fn suites_merge_defaults_and_reject_duplicate_names() {
     .unwrap();
     let suite = load_suite(&list, &LoadOptions::default()).unwrap();
     assert_eq!(suite.scenarios.len(), 1);
-    assert_eq!(suite.scenarios[0].episodes[0].world.camera.n, 24);
+    assert_eq!(suite.scenarios[0].episode(0).unwrap().world.camera.n, 24);
+
+    // a typo in [defaults] is blamed on the file that holds it, with the key as written there
+    std::fs::write(
+        &list,
+        "scenarios = [\"b.toml\"]\n[defaults]\nworld.camra = { n = 24 }\n",
+    )
+    .unwrap();
+    let e = load_suite(&list, &LoadOptions::default()).unwrap_err().to_string();
+    assert!(
+        e.starts_with(&format!("{}: `defaults.world.camra`", list.display())),
+        "{e}"
+    );
+    assert!(e.contains("unknown field") && e.contains("b.toml"), "{e}");
+    std::fs::write(dir.join("suite.toml"), "[defaults]\nscoring.lead_margin_s = \"soon\"\n").unwrap();
+    let e = load_suite(&dir, &LoadOptions::default()).unwrap_err().to_string();
+    assert!(
+        e.starts_with(&format!(
+            "{}: `defaults.scoring.lead_margin_s`",
+            dir.join("suite.toml").display()
+        )),
+        "{e}"
+    );
+    // a value the scenario file writes itself is the scenario file's
+    std::fs::write(dir.join("suite.toml"), "[defaults]\nworld.camera = { n = 40 }\n").unwrap();
+    std::fs::write(
+        dir.join("b.toml"),
+        BASE.replace("camera = { n = 32 }", "camera = { n = -3 }"),
+    )
+    .unwrap();
+    let e = load_suite(&dir, &LoadOptions::default()).unwrap_err().to_string();
+    assert!(e.contains("b.toml: `world.camera.n`"), "{e}");
+    std::fs::write(
+        dir.join("b.toml"),
+        BASE.replace("name = \"ball\"", "")
+            .replace("[world]\ncamera = { n = 32 }", "[world]"),
+    )
+    .unwrap();
 
     // a single scenario file is a suite of one
     let suite = load_suite(&dir.join("a.toml"), &LoadOptions::default()).unwrap();
@@ -360,11 +409,11 @@ fn the_default_suite_loads_with_at_least_300_episodes() {
 #[test]
 fn the_scoring_margin_defaults_to_zero_and_is_checked() {
     let s = parse(BASE).unwrap();
-    assert_eq!(s.episodes[0].scoring.lead_margin_s, 0.0);
-    assert_eq!(s.episodes[0].scoring.lead_min_s, None);
+    assert_eq!(s.episode(0).unwrap().scoring.lead_margin_s, 0.0);
+    assert_eq!(s.episode(0).unwrap().scoring.lead_min_s, None);
     let s = parse(&format!("{BASE}\n[scoring]\nlead_margin_s = 0.05\n")).unwrap();
-    assert_eq!(s.episodes[0].scoring.lead_margin_s, 0.05);
-    s.episodes[0].scoring.validate().unwrap();
+    assert_eq!(s.episode(0).unwrap().scoring.lead_margin_s, 0.05);
+    s.episode(0).unwrap().scoring.validate().unwrap();
     for bad in ["-0.1", "nan", "inf"] {
         let e = err(&format!("{BASE}\n[scoring]\nlead_margin_s = {bad}\n"));
         assert!(
@@ -391,7 +440,10 @@ fn the_removed_lead_min_s_is_an_error_naming_its_replacement() {
     .unwrap();
     std::fs::write(dir.join("a.toml"), BASE).unwrap();
     let e = load_suite(&dir, &LoadOptions::default()).unwrap_err().to_string();
-    assert!(e.contains("`scoring.lead_min_s`") && e.contains("lead_margin_s"), "{e}");
+    assert!(
+        e.contains("suite.toml") && e.contains("`defaults.scoring.lead_min_s`") && e.contains("lead_margin_s"),
+        "{e}"
+    );
     // swept: the error names the episode and the key
     let e = err(&format!(
         "{BASE}\n[scoring]\nlead_margin_s = 0.0\n[sweep]\n\"scoring.lead_min_s\" = [0.1, 0.2]\n"
@@ -445,7 +497,7 @@ fn reference_labels_are_reserved_for_detectors() {
         "{BASE}\n[[detectors]]\nid = \"hopfield\"\nlabel = \"Oracle\"\n"
     ))
     .unwrap();
-    assert_eq!(s.episodes[0].detectors[0].label, "Oracle");
+    assert_eq!(s.episode(0).unwrap().detectors[0].label, "Oracle");
 }
 
 #[test]
@@ -474,4 +526,56 @@ fn detectors_are_built_for_the_camera_facts() {
     );
     let default = CameraFacts::default_with_size(20);
     assert_eq!((default.n, default.fov_deg), (20, 60.0));
+}
+
+#[test]
+fn an_invalid_sweep_point_names_its_episode_and_parameters_at_any_key() {
+    // the swept speed makes a fixed arrival time unreachable: the error is at a key that is not
+    // swept itself, and still names the episode and the swept values
+    let text = format!(
+        "{}\n[sweep]\n\"world.projectiles.0.speed_mps\" = [8.0, 0.5]\n",
+        BASE.replace(
+            "speed_mps = 8.0",
+            "speed_mps = 8.0\nlaunch_distance_m = 10.0\narrival_time_s = 2.0"
+        )
+    );
+    let e = err(&text);
+    assert!(
+        e.contains("episode 1") && e.contains("world.projectiles.0.speed_mps = 0.5"),
+        "{e}"
+    );
+    assert!(e.contains("arrival_time_s"), "{e}");
+}
+
+#[test]
+fn a_million_episode_scenario_loads_lazily() {
+    let values: Vec<String> = (0..1000).map(|i| format!("{}", 5.0 + f64::from(i) * 0.001)).collect();
+    let list = values.join(", ");
+    let text =
+        format!("{BASE}\n[sweep]\n\"world.projectiles.0.speed_mps\" = [{list}]\n\"robot.forward_mps\" = [{list}]\n");
+    let started = std::time::Instant::now();
+    let s = parse_scenario(&text, Path::new("big.toml"), None, &LoadOptions::default()).unwrap();
+    assert_eq!(s.len(), 1_000_000);
+    // any episode on its own, equal to the same episode of an in-order expansion
+    let last = s.episode(999_999).unwrap();
+    assert_eq!(last.index, 999_999);
+    assert_eq!(last.world.projectiles[0].speed_mps, 5.999);
+    assert_eq!(last.cruise.forward_mps, 5.999);
+    let third = s.episodes().nth(2).unwrap().unwrap();
+    assert_eq!(third.seed, s.episode(2).unwrap().seed);
+    assert_eq!(third.params, s.episode(2).unwrap().params);
+    assert!(s.episode(1_000_000).is_err());
+    // loading is not an expansion of every episode (generous bound: this is not a timing test,
+    // an eager expansion takes tens of seconds)
+    assert!(started.elapsed().as_secs() < 10);
+
+    // the suite cap
+    let text = format!(
+        "{}\n[sweep]\n\"world.projectiles.0.speed_mps\" = [{list}]\n\"robot.forward_mps\" = [{list}]\n",
+        BASE.replace("seed = 3", "seed = 3\nrepeats = 11")
+    );
+    let e = parse_scenario(&text, Path::new("big.toml"), None, &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("11000000 episodes") && e.contains("10000000"), "{e}");
 }

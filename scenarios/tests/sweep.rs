@@ -245,7 +245,8 @@ fn merged_reports_equal_a_direct_run_of_each_point() {
             },
         )
         .unwrap();
-        let episodes: Vec<_> = suite.episodes().collect();
+        let specs: Vec<_> = suite.episodes().collect::<Result<_, _>>().unwrap();
+        let episodes: Vec<_> = specs.iter().collect();
         let runs = runner.run(&episodes, |_, _| Ok(())).unwrap();
         let outcomes: Vec<_> = runs.into_iter().map(|r| r.outcome).collect();
         let meta = ReportMeta {

@@ -4,6 +4,8 @@ pub mod detect;
 pub mod figures;
 pub mod render;
 pub mod run;
+pub mod run_dir;
+pub mod run_plots;
 
 use indicatif::{ProgressBar, ProgressStyle};
 

@@ -13,22 +13,28 @@
 //! Exit codes: 0 done (no regression), 1 regressions against `--baseline` (each one listed),
 //! 2 bad input (unreadable or invalid scenario, unknown key, missing file, bad option).
 
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::Args;
 use loomlab_detector::parse_detector_list;
 use loomlab_scenarios::calibrate::calibrate;
-use loomlab_scenarios::episodes_csv::EpisodesCsvWriter;
-use loomlab_scenarios::metrics::{EpisodeOutcome, Outcome};
+use loomlab_scenarios::fingerprint::Fingerprint;
+use loomlab_scenarios::metrics::EpisodeOutcome;
+use loomlab_scenarios::reference::REFERENCE_LABELS;
 use loomlab_scenarios::regression::{Tolerances, compare};
-use loomlab_scenarios::report::{Report, ReportMeta};
-use loomlab_scenarios::schema::load_detector_entries;
+use loomlab_scenarios::report::{LOOMLAB_VERSION, Report, ReportMeta};
+use loomlab_scenarios::schema::{Scenario, load_detector_entries};
 use loomlab_scenarios::{DEFAULT_SUITE, EpisodeRun, EpisodeSpec, LoadOptions, Runner, load_suite};
 
-use crate::plot::{LineChart, Series, line_chart, line_chart_grid, rate_bars};
+use super::run_dir::{
+    EPISODES_CSV, Existing, Manifest, PARTIAL_REPORT, Prepared, REPORT, RunDir, RunState, write_atomic,
+};
+use super::run_plots::{PlotSamples, write_plots, write_trace};
 
 /// Arguments of `loomlab run`.
 #[derive(Debug, Args)]
@@ -37,7 +43,8 @@ pub struct RunArgs {
     /// scenario file. Default: the default suite, scenarios/suites/default.
     #[arg(value_name = "SUITE")]
     pub suite: Option<PathBuf>,
-    /// Output folder for report.json, episodes.csv and the plots (created if missing).
+    /// Output folder for report.json, episodes.csv and the plots (created if missing). A folder
+    /// holding an earlier run is refused unless --resume or --overwrite is given.
     #[arg(long, short, default_value = "out/run", value_name = "DIR")]
     pub out: PathBuf,
     /// Compare with this baseline report.json: exit 1 listing every regression.
@@ -68,6 +75,13 @@ pub struct RunArgs {
     /// Run only the first N episodes of the suite (quick checks).
     #[arg(long, value_name = "N")]
     pub limit: Option<usize>,
+    /// Continue the run in --out (after an interruption): only its missing episodes run, then the
+    /// report is built from all of them. The suite and options must be the same (checked).
+    #[arg(long, conflicts_with = "overwrite")]
+    pub resume: bool,
+    /// Replace the run in --out (its files are deleted first; nothing else in the folder is).
+    #[arg(long)]
+    pub overwrite: bool,
     /// Print only regressions and errors (no progress bar, no table).
     #[arg(long, short)]
     pub quiet: bool,
@@ -98,9 +112,13 @@ fn default_suite() -> PathBuf {
     if built.exists() { built } else { here }
 }
 
+/// Episodes expanded and run at a time (bounds memory; large enough that the workers rarely wait
+/// at a chunk's end).
+const CHUNK: usize = 1024;
+
 /// Runs `loomlab run`.
 pub fn run(args: RunArgs) -> anyhow::Result<i32> {
-    let detectors = match &args.detectors {
+    let detectors: Option<Vec<String>> = match &args.detectors {
         Some(spec) => Some(parse_detector_list(spec)?.into_iter().map(String::from).collect()),
         None => None,
     };
@@ -116,6 +134,19 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
         Some(path) => Some(load_detector_entries(path)?),
         None => None,
     };
+    // --detectors filters a detectors file's entries: every id must be there
+    if let (Some(ids), Some(entries), Some(path)) = (&detectors, &detector_entries, &args.detectors_file) {
+        for id in ids {
+            if !entries.iter().any(|e| &e.id == id) {
+                let have: BTreeSet<&str> = entries.iter().map(|e| e.id.as_str()).collect();
+                bail!(
+                    "--detectors {id}: {} has no `{id}` entry (it has {}); --detectors only filters the file's entries",
+                    path.display(),
+                    have.into_iter().collect::<Vec<_>>().join(", ")
+                );
+            }
+        }
+    }
     let opts = LoadOptions {
         seed: args.seed,
         size: args.size,
@@ -129,74 +160,196 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
         (Some(p), false) => Some(Report::read_json(p)?),
         _ => None,
     };
-    let mut episodes: Vec<&EpisodeSpec> = suite.episodes().collect();
-    if let Some(limit) = args.limit {
-        episodes.truncate(limit);
+
+    // Check every episode to run (expanded one at a time, not kept) and fingerprint them.
+    let limit = args.limit.unwrap_or(usize::MAX);
+    let mut fingerprint = Fingerprint::new();
+    fingerprint.add(format!("{LOOMLAB_VERSION}\nloomlab run\n").as_bytes());
+    let mut lead_margin_s = None;
+    let mut total = 0;
+    for ep in suite.episodes().take(limit) {
+        let ep = ep?;
+        fingerprint.add_episode(&ep);
+        fingerprint.add(format!("{:?}", ep.detectors).as_bytes());
+        lead_margin_s.get_or_insert(ep.scoring.lead_margin_s);
+        total += 1;
     }
-    if episodes.is_empty() {
+    let Some(lead_margin_s) = lead_margin_s else {
         bail!("{}: no episodes to run", suite_path.display());
+    };
+
+    // The output folder: refuse to touch an earlier run unless told to resume or overwrite it.
+    let offsets: BTreeMap<&str, (usize, &Scenario)> = suite
+        .scenarios
+        .iter()
+        .scan(0usize, |offset, s| {
+            let here = *offset;
+            *offset += s.len();
+            Some((s.name.as_str(), (here, s)))
+        })
+        .collect();
+    let position = |scenario: &str, episode: usize| -> Option<usize> {
+        let (offset, s) = offsets.get(scenario)?;
+        (episode < s.len() && offset + episode < total).then_some(offset + episode)
+    };
+    let labels = |scenario: &str, episode: usize| -> Option<BTreeSet<String>> {
+        position(scenario, episode)?;
+        let spec = offsets[scenario].1.episode(episode).ok()?;
+        Some(
+            spec.detectors
+                .iter()
+                .map(|d| d.label.clone())
+                .chain(REFERENCE_LABELS.iter().map(|l| l.to_string()))
+                .collect(),
+        )
+    };
+    let existing = match (args.resume, args.overwrite) {
+        (true, _) => Existing::Resume,
+        (false, true) => Existing::Overwrite,
+        (false, false) => Existing::Refuse,
+    };
+    let manifest = Manifest::new(fingerprint.hex(), &suite_path, total);
+    let Prepared {
+        dir: mut run_dir,
+        done,
+        csv,
+    } = RunDir::prepare(&args.out, manifest, existing, labels)?;
+    let out = run_dir.dir.clone();
+    let mut outcomes: Vec<(usize, EpisodeOutcome)> = done
+        .into_iter()
+        .filter_map(|o| Some((position(&o.scenario, o.episode)?, o)))
+        .collect();
+    let resumed: BTreeSet<usize> = outcomes.iter().map(|(p, _)| *p).collect();
+    if !resumed.is_empty() && !args.quiet {
+        println!(
+            "resuming {}: {} of {total} episodes were done, running the other {}",
+            out.display(),
+            resumed.len(),
+            total - resumed.len()
+        );
     }
 
-    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
-    let csv = Mutex::new(EpisodesCsvWriter::create(&args.out.join("episodes.csv"))?);
     let runner = Runner::new(args.jobs)?;
+    if let Some(jobs) = args.jobs
+        && jobs > runner.jobs()
+        && !args.quiet
+    {
+        eprintln!("note: --jobs {jobs} clamped to {} (the number of CPUs)", runner.jobs());
+    }
+    let stop = interrupt_flag();
+    let csv = Mutex::new(csv);
     let bar = if args.quiet {
         indicatif::ProgressBar::hidden()
     } else {
-        super::progress(episodes.len() as u64, "episodes")
+        super::progress((total - resumed.len()) as u64, "episodes")
     };
     let started = Instant::now();
-    let traces_dir = args.out.join("traces");
+    let traces_dir = out.join("traces");
     if args.traces {
         std::fs::create_dir_all(&traces_dir).with_context(|| format!("cannot create {}", traces_dir.display()))?;
     }
-    let runs = runner.run(&episodes, |_, run| {
-        csv.lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .write_episode(&run.outcome)
-            .map_err(|e| e.to_string())?;
-        if args.traces {
-            write_trace(&traces_dir, run).map_err(|e| e.to_string())?;
+    let mut samples = PlotSamples::default();
+    let mut work = RunWork::default();
+    let mut pending = suite
+        .episodes()
+        .take(total)
+        .enumerate()
+        .filter(|(pos, _)| !resumed.contains(pos));
+    while !stop.load(Ordering::SeqCst) {
+        let chunk: Vec<(usize, EpisodeSpec)> = pending
+            .by_ref()
+            .take(CHUNK)
+            .map(|(pos, ep)| ep.map(|ep| (pos, ep)))
+            .collect::<Result<_, _>>()?;
+        if chunk.is_empty() {
+            break;
         }
-        bar.inc(1);
-        Ok(())
-    })?;
+        let specs: Vec<&EpisodeSpec> = chunk.iter().map(|(_, ep)| ep).collect();
+        let runs = runner.run_until(&specs, &stop, |_, run| {
+            csv.lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .write_episode(&run.outcome)
+                .map_err(|e| e.to_string())?;
+            if args.traces {
+                write_trace(&traces_dir, run).map_err(|e| e.to_string())?;
+            }
+            bar.inc(1);
+            Ok(())
+        })?;
+        for ((pos, _), run) in chunk.iter().zip(runs) {
+            if let Some(run) = run {
+                samples.add(&run);
+                work.add(&run);
+                outcomes.push((*pos, run.outcome));
+            }
+        }
+    }
     bar.finish_and_clear();
-    let wall_time_s = started.elapsed().as_secs_f64();
-
-    let outcomes = runs_outcomes(&runs);
+    let wall_time_s = run_dir.manifest.wall_time_s + started.elapsed().as_secs_f64();
+    outcomes.sort_by_key(|(pos, _)| *pos);
+    let outcomes: Vec<EpisodeOutcome> = outcomes.into_iter().map(|(_, o)| o).collect();
     let meta = ReportMeta {
         suite: suite_path.display().to_string(),
         seed: args.seed,
         wall_time_s,
-        lead_margin_s: episodes[0].scoring.lead_margin_s,
+        lead_margin_s,
     };
+    run_dir.manifest.wall_time_s = wall_time_s;
+
+    if outcomes.len() < total {
+        // interrupted: keep what is done, say how to go on
+        if !outcomes.is_empty() {
+            let partial = Report::from_episodes(&meta, &outcomes);
+            write_atomic(&out.join(PARTIAL_REPORT), (partial.to_json() + "\n").as_bytes())?;
+        }
+        run_dir.set_state(RunState::Interrupted)?;
+        eprintln!(
+            "interrupted: {} of {total} episodes done ({} this time), saved in {}; {} holds their scores. Resume with:\n  {}",
+            outcomes.len(),
+            work.episodes,
+            out.join(EPISODES_CSV).display(),
+            if outcomes.is_empty() {
+                "nothing yet"
+            } else {
+                PARTIAL_REPORT
+            },
+            run_dir.manifest.resume_command()
+        );
+        return Ok(130);
+    }
+
     let report = Report::from_episodes(&meta, &outcomes);
-    let report_path = args.out.join("report.json");
-    report.write_json(&report_path)?;
+    let report_path = out.join(REPORT);
+    write_atomic(&report_path, (report.to_json() + "\n").as_bytes())?;
+    let _ = std::fs::remove_file(out.join(PARTIAL_REPORT));
+    run_dir.set_state(RunState::Complete)?;
     if !args.no_plots {
-        write_plots(&args.out, &report, &runs)?;
+        write_plots(&out, &report, &outcomes, &samples)?;
     }
 
     if !args.quiet {
-        let frames: usize = runs.iter().map(|r| r.frames_rendered).sum();
-        let replays: usize = runs.iter().filter_map(|r| r.deadline.as_ref()).map(|d| d.replays).sum();
-        let deadline_s: f64 = runs.iter().map(|r| r.deadline_s).sum();
         println!("{}", report.format_table(!args.brief).trim_end());
         println!(
-            "\nescape deadlines: {replays} physics-only replays for {} threats, {deadline_s:.1} s of worker time",
-            runs.iter().filter(|r| r.deadline.is_some()).count()
+            "\nescape deadlines: {} physics-only replays for {} threats, {:.1} s of worker time",
+            work.replays, work.deadlines, work.deadline_s
         );
+        let earlier = if resumed.is_empty() {
+            String::new()
+        } else {
+            format!(" (plus {} episodes from the earlier run)", resumed.len())
+        };
         println!(
-            "\n{} episodes, {frames} frames rendered in {wall_time_s:.1} s on {} ({} workers)",
-            runs.len(),
+            "\n{} episodes{earlier}, {} frames rendered in {:.1} s on {} ({} workers)",
+            work.episodes,
+            work.frames,
+            started.elapsed().as_secs_f64(),
             runner.adapter(),
             runner.jobs()
         );
         println!(
             "wrote {} and episodes.csv, plots in {}",
             report_path.display(),
-            args.out.display()
+            out.display()
         );
     }
     if let Some(target) = args.calibrate {
@@ -243,269 +396,48 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
     Ok(0)
 }
 
-/// The scored outcomes of `runs`.
-fn runs_outcomes(runs: &[EpisodeRun]) -> Vec<EpisodeOutcome> {
-    runs.iter().map(|r| r.outcome.clone()).collect()
+/// Work done by this invocation (for the summary lines).
+#[derive(Debug, Default)]
+struct RunWork {
+    episodes: usize,
+    frames: usize,
+    replays: usize,
+    deadlines: usize,
+    deadline_s: f64,
 }
 
-/// Writes one episode's open-loop trace as CSV.
-fn write_trace(dir: &Path, run: &EpisodeRun) -> std::io::Result<()> {
-    use std::fmt::Write as _;
-    let tr = &run.trace;
-    let mut text = String::from("t_s,theta_true_deg,ttc_true_s");
-    for d in &tr.detectors {
-        let _ = write!(text, ",{0}_signal,{0}_output", d.label);
-    }
-    text.push('\n');
-    let opt = |v: Option<f64>| v.filter(|v| v.is_finite()).map_or(String::new(), |v| v.to_string());
-    for k in 0..tr.t_s.len() {
-        let _ = write!(
-            text,
-            "{},{},{}",
-            tr.t_s[k],
-            opt(Some(tr.angular_size_deg[k])),
-            opt(tr.ttc_s[k])
-        );
-        for d in &tr.detectors {
-            let _ = write!(text, ",{},{}", opt(Some(d.signal[k])), opt(Some(d.output[k])));
+impl RunWork {
+    fn add(&mut self, run: &EpisodeRun) {
+        self.episodes += 1;
+        self.frames += run.frames_rendered;
+        self.deadline_s += run.deadline_s;
+        if let Some(d) = &run.deadline {
+            self.replays += d.replays;
+            self.deadlines += 1;
         }
-        text.push('\n');
     }
-    let name = format!("{}_{:04}.csv", run.outcome.scenario, run.outcome.episode);
-    std::fs::write(dir.join(name), text)
 }
 
-fn write_plots(out: &Path, report: &Report, runs: &[EpisodeRun]) -> anyhow::Result<()> {
-    // ROC curves.
-    let mut series: Vec<Series> = report
-        .detectors
-        .iter()
-        .filter(|(_, s)| !s.roc.is_empty())
-        .map(|(id, s)| {
-            let auc = s.auc.map_or(String::new(), |a| format!(" (AUC {a:.2})"));
-            Series::new(
-                format!("{id}{auc}"),
-                s.roc.iter().map(|p| p.fpr).collect(),
-                s.roc.iter().map(|p| p.tpr).collect(),
-            )
-        })
-        .collect();
-    series.push(Series::new("", vec![0.0, 1.0], vec![0.0, 1.0]).dashed());
-    line_chart(
-        &out.join("roc.png"),
-        &LineChart {
-            title: "ROC: threshold sweep over the open-loop alarms".into(),
-            x_label: "false-alarm rate".into(),
-            y_label: "hit rate".into(),
-            series,
-            x_range: Some((0.0, 1.0)),
-            y_range: Some((0.0, 1.0)),
-        },
-        (640, 560),
-    )?;
-
-    // Rates per scenario.
-    let scenarios: Vec<String> = report.scenarios.keys().cloned().collect();
-    let labels: Vec<String> = report.detectors.keys().cloned().collect();
-    let per = |f: &dyn Fn(&loomlab_scenarios::metrics::DetectorSummary) -> Option<f64>| -> Vec<(String, Vec<f64>)> {
-        labels
-            .iter()
-            .map(|id| {
-                let v = scenarios
-                    .iter()
-                    .map(|s| report.scenarios[s].detectors.get(id).and_then(f).unwrap_or(f64::NAN))
-                    .collect();
-                (id.clone(), v)
-            })
-            .collect()
-    };
-    // wide enough for the (horizontal) scenario names under each group of bars
-    let width = (160 + 120 * scenarios.len() as u32).max(640);
-    rate_bars(
-        &out.join("rates.png"),
-        "correct decisions (hits + correct rejections) / decidable episodes, per scenario",
-        &scenarios,
-        &per(&|s| {
-            let decided = s.hits + s.misses + s.false_alarms + s.correct_rejections;
-            (decided > 0).then(|| (s.hits + s.correct_rejections) as f64 / decided as f64)
-        }),
-        (width, 520),
-    )?;
-    rate_bars(
-        &out.join("collisions.png"),
-        "closed-loop collision rate per scenario",
-        &scenarios,
-        &per(&|s| s.collision_rate),
-        (width, 520),
-    )?;
-
-    // The l/|v| analysis: alarm time to collision against half-size / closing speed, with the fit.
-    let outcomes = runs_outcomes(runs);
-    let lv: Vec<Series> = report
-        .detectors
-        .iter()
-        .map(|(id, s)| {
-            let (x, y): (Vec<f64>, Vec<f64>) = loomlab_scenarios::report::detector_episodes(&outcomes, id)
-                .filter_map(|d| Some((d.l_over_v_s?, d.eye_ttc_at_alarm_s?)))
-                .unzip();
-            let name = match &s.lv_fit {
-                Some(f) => format!(
-                    "{id}: θ_th {} δ {:.3} s R² {:.2} (n={})",
-                    f.theta_th_deg.map_or("n/a".into(), |t| format!("{t:.1}°")),
-                    f.delay_s,
-                    f.r2,
-                    f.episodes
-                ),
-                None => format!("{id}: no fit ({} alarms)", x.len()),
-            };
-            Series::new(name, x, y).scatter(s.lv_fit.map(|f| (f.slope, f.intercept_s)))
-        })
-        .collect();
-    line_chart(
-        &out.join("lv.png"),
-        &LineChart {
-            title: "l/|v| analysis: constant-speed head-on threats".into(),
-            x_label: "l/|v|: half-size / closing speed (s)".into(),
-            y_label: "time to collision at the alarm (s)".into(),
-            series: lv,
-            x_range: None,
-            y_range: None,
-        },
-        (760, 600),
-    )?;
-
-    // θ̂ against the true angular size of the threat, every frame of every threat episode.
-    let mut theta_hat: Vec<Series> = report
-        .detectors
-        .keys()
-        .filter(|id| !loomlab_scenarios::reference::is_reference(id))
-        .filter_map(|id| {
-            let (x, y): (Vec<f64>, Vec<f64>) = runs
-                .iter()
-                .filter(|r| r.outcome.detectors.first().is_some_and(|d| d.threat))
-                .flat_map(|r| {
-                    let tr = &r.trace;
-                    tr.detectors
-                        .iter()
-                        .filter(|d| &d.label == id && d.trigger == loomlab_agents::TriggerSignal::AngularSizeDeg)
-                        .flat_map(move |d| tr.angular_size_deg.iter().copied().zip(d.signal.iter().copied()))
-                })
-                .filter(|(t, e)| t.is_finite() && e.is_finite() && *t <= 90.0)
-                .unzip();
-            // at most ~4000 markers per detector keep the plot readable and quick to draw
-            let every = x.len().div_ceil(4000).max(1);
-            let (x, y): (Vec<f64>, Vec<f64>) = x.into_iter().zip(y).step_by(every).unzip();
-            let acc = report.detectors[id].theta_accuracy.map_or(String::new(), |a| {
-                format!(" (median |θ̂−θ|/θ {:.2}, p90 {:.2})", a.median_rel_err, a.p90_rel_err)
-            });
-            (!x.is_empty()).then(|| Series::new(format!("{id}{acc}"), x, y).scatter(None))
-        })
-        .collect();
-    if !theta_hat.is_empty() {
-        theta_hat.push(Series::new("θ̂ = θ", vec![0.0, 90.0], vec![0.0, 90.0]).dashed());
-        line_chart(
-            &out.join("theta_hat.png"),
-            &LineChart {
-                title: "angular-size estimate θ̂ against the threat's true angular size (threat episodes)".into(),
-                x_label: "true angular size θ (deg)".into(),
-                y_label: "θ̂ (deg)".into(),
-                series: theta_hat,
-                x_range: Some((0.0, 90.0)),
-                y_range: Some((0.0, 90.0)),
-            },
-            (760, 640),
-        )?;
-    }
-
-    // A sample episode: the first threat the first detector hits, else the first threat, else the first.
-    let sample = runs
-        .iter()
-        .find(|r| r.outcome.detectors.first().is_some_and(|d| d.outcome == Outcome::Hit))
-        .or_else(|| {
-            runs.iter()
-                .find(|r| r.outcome.detectors.first().is_some_and(|d| d.threat))
-        })
-        .or_else(|| runs.first());
-    if let Some(run) = sample {
-        let tr = &run.trace;
-        let object = tr.reference_object.clone().unwrap_or_else(|| "object".into());
-        let mut over_time = vec![
-            Series::new(
-                format!("true θ ({object})"),
-                tr.t_s.clone(),
-                tr.angular_size_deg.clone(),
-            )
-            .dashed(),
-        ];
-        for d in &tr.detectors {
-            if d.trigger == loomlab_agents::TriggerSignal::AngularSizeDeg {
-                over_time.push(Series::new(format!("{} θ̂", d.label), tr.t_s.clone(), d.signal.clone()));
-                over_time.push(
-                    Series::new(
-                        format!("{} threshold", d.label),
-                        vec![tr.t_s[0], *tr.t_s.last().unwrap_or(&tr.t_s[0])],
-                        vec![d.threshold; 2],
-                    )
-                    .dashed(),
-                );
-            }
+/// A flag set by the first Ctrl-C / SIGTERM: no new episode starts, those in flight finish and
+/// are saved. A second one exits at once (finished episodes are already in episodes.csv).
+fn interrupt_flag() -> Arc<AtomicBool> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    let installed = ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            eprintln!(
+                "
+second interrupt: stopping now; finished episodes are saved in episodes.csv"
+            );
+            std::process::exit(130);
         }
-        let y_max = tr
-            .detectors
-            .iter()
-            .filter(|d| d.trigger == loomlab_agents::TriggerSignal::AngularSizeDeg)
-            .flat_map(|d| d.signal.iter().copied())
-            .chain(tr.angular_size_deg.iter().copied())
-            .filter(|v| v.is_finite())
-            .fold(1.0f64, f64::max)
-            .min(90.0);
-        let responses: Vec<Series> = tr
-            .detectors
-            .iter()
-            .map(|d| {
-                let max = d
-                    .output
-                    .iter()
-                    .copied()
-                    .filter(|v| v.is_finite())
-                    .fold(0.0f64, f64::max);
-                let y = d.output.iter().map(|v| if max > 0.0 { v / max } else { 0.0 }).collect();
-                Series::new(d.label.clone(), tr.angular_size_deg.clone(), y)
-            })
-            .collect();
-        let title = format!(
-            "{} episode {} ({})",
-            run.outcome.scenario,
-            run.outcome.episode,
-            if run.outcome.detectors.first().is_some_and(|d| d.threat) {
-                "threat"
-            } else {
-                "no threat"
-            }
+        eprintln!(
+            "
+interrupt: finishing the episodes in flight (interrupt again to stop at once) ..."
         );
-        line_chart_grid(
-            &out.join("trace.png"),
-            &[
-                LineChart {
-                    title: format!("{title}: angular size"),
-                    x_label: "time (s)".into(),
-                    y_label: "degrees".into(),
-                    series: over_time,
-                    y_range: Some((0.0, y_max * 1.05)),
-                    x_range: None,
-                },
-                LineChart {
-                    title: "detector responses vs true angular size".into(),
-                    x_label: "true angular size (deg)".into(),
-                    y_label: "response / episode maximum".into(),
-                    series: responses,
-                    y_range: Some((0.0, 1.05)),
-                    x_range: Some((0.0, y_max)),
-                },
-            ],
-            2,
-            (640, 480),
-        )?;
+    });
+    if let Err(e) = installed {
+        eprintln!("note: Ctrl-C will not stop the run cleanly: {e}");
     }
-    Ok(())
+    stop
 }

@@ -1,0 +1,333 @@
+//! The plots of `loomlab run` (`roc.png`, `rates.png`, `collisions.png`, `lv.png`,
+//! `theta_hat.png`, `trace.png`) and the per-episode trace CSVs of `--traces`.
+//!
+//! The report's numbers come from every episode; the plots that need per-frame traces (θ̂ against
+//! θ, the sample episode) use [`PlotSamples`], collected as episodes finish so that memory stays
+//! bounded however many episodes run (a resumed run collects them from the episodes it runs).
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use loomlab_agents::TriggerSignal;
+use loomlab_scenarios::EpisodeRun;
+use loomlab_scenarios::metrics::{EpisodeOutcome, Outcome};
+use loomlab_scenarios::report::Report;
+
+use crate::plot::{LineChart, Series, line_chart, line_chart_grid, rate_bars};
+
+/// Most θ̂-against-θ points kept per detector (the plot stays readable and quick to draw).
+const THETA_HAT_POINTS: usize = 4000;
+
+/// What the trace plots need, collected from finished episodes in suite order with bounded memory.
+#[derive(Debug, Default)]
+pub struct PlotSamples {
+    /// Per θ̂-triggered detector: (true θ, θ̂) of threat frames with θ ≤ 90°, every `stride`-th.
+    theta_hat: BTreeMap<String, ThetaHatPoints>,
+    /// The sample episode: the first the first detector hits, else the first threat, else the first.
+    sample: Option<EpisodeRun>,
+}
+
+#[derive(Debug, Default)]
+struct ThetaHatPoints {
+    points: Vec<(f64, f64)>,
+    /// Keep every `stride`-th point offered (doubles whenever the points overflow).
+    stride: usize,
+    offered: usize,
+}
+
+impl ThetaHatPoints {
+    fn offer(&mut self, p: (f64, f64)) {
+        self.stride = self.stride.max(1);
+        if self.offered % self.stride == 0 {
+            self.points.push(p);
+            if self.points.len() >= 2 * THETA_HAT_POINTS {
+                // keep every other point: the same as having kept every (2·stride)-th
+                self.points = self.points.iter().copied().step_by(2).collect();
+                self.stride *= 2;
+            }
+        }
+        self.offered += 1;
+    }
+}
+
+impl PlotSamples {
+    /// Takes what the plots need from a finished episode (call in suite order).
+    pub fn add(&mut self, run: &EpisodeRun) {
+        let first = run.outcome.detectors.first();
+        let threat = first.is_some_and(|d| d.threat);
+        if threat {
+            let tr = &run.trace;
+            for d in tr
+                .detectors
+                .iter()
+                .filter(|d| d.trigger == TriggerSignal::AngularSizeDeg)
+            {
+                let points = self.theta_hat.entry(d.label.clone()).or_default();
+                for (&t, &e) in tr.angular_size_deg.iter().zip(&d.signal) {
+                    if t.is_finite() && e.is_finite() && t <= 90.0 {
+                        points.offer((t, e));
+                    }
+                }
+            }
+        }
+        let rank = |r: &EpisodeRun| {
+            let d = r.outcome.detectors.first();
+            if d.is_some_and(|d| d.outcome == Outcome::Hit) {
+                0
+            } else if d.is_some_and(|d| d.threat) {
+                1
+            } else {
+                2
+            }
+        };
+        if self.sample.as_ref().is_none_or(|s| rank(run) < rank(s)) {
+            self.sample = Some(run.clone());
+        }
+    }
+}
+
+/// Writes one episode's open-loop trace as CSV.
+pub fn write_trace(dir: &Path, run: &EpisodeRun) -> std::io::Result<()> {
+    use std::fmt::Write as _;
+    let tr = &run.trace;
+    let mut text = String::from("t_s,theta_true_deg,ttc_true_s");
+    for d in &tr.detectors {
+        let _ = write!(text, ",{0}_signal,{0}_output", d.label);
+    }
+    text.push('\n');
+    let opt = |v: Option<f64>| v.filter(|v| v.is_finite()).map_or(String::new(), |v| v.to_string());
+    for k in 0..tr.t_s.len() {
+        let _ = write!(
+            text,
+            "{},{},{}",
+            tr.t_s[k],
+            opt(Some(tr.angular_size_deg[k])),
+            opt(tr.ttc_s[k])
+        );
+        for d in &tr.detectors {
+            let _ = write!(text, ",{},{}", opt(Some(d.signal[k])), opt(Some(d.output[k])));
+        }
+        text.push('\n');
+    }
+    let name = format!("{}_{:04}.csv", run.outcome.scenario, run.outcome.episode);
+    std::fs::write(dir.join(name), text)
+}
+
+/// Draws every plot of the run into `out`: the report's and `outcomes`' (every episode) and the
+/// trace plots from `samples`.
+pub fn write_plots(
+    out: &Path,
+    report: &Report,
+    outcomes: &[EpisodeOutcome],
+    samples: &PlotSamples,
+) -> anyhow::Result<()> {
+    // ROC curves.
+    let mut series: Vec<Series> = report
+        .detectors
+        .iter()
+        .filter(|(_, s)| !s.roc.is_empty())
+        .map(|(id, s)| {
+            let auc = s.auc.map_or(String::new(), |a| format!(" (AUC {a:.2})"));
+            Series::new(
+                format!("{id}{auc}"),
+                s.roc.iter().map(|p| p.fpr).collect(),
+                s.roc.iter().map(|p| p.tpr).collect(),
+            )
+        })
+        .collect();
+    series.push(Series::new("", vec![0.0, 1.0], vec![0.0, 1.0]).dashed());
+    line_chart(
+        &out.join("roc.png"),
+        &LineChart {
+            title: "ROC: threshold sweep over the open-loop alarms".into(),
+            x_label: "false-alarm rate".into(),
+            y_label: "hit rate".into(),
+            series,
+            x_range: Some((0.0, 1.0)),
+            y_range: Some((0.0, 1.0)),
+        },
+        (640, 560),
+    )?;
+
+    // Rates per scenario.
+    let scenarios: Vec<String> = report.scenarios.keys().cloned().collect();
+    let labels: Vec<String> = report.detectors.keys().cloned().collect();
+    let per = |f: &dyn Fn(&loomlab_scenarios::metrics::DetectorSummary) -> Option<f64>| -> Vec<(String, Vec<f64>)> {
+        labels
+            .iter()
+            .map(|id| {
+                let v = scenarios
+                    .iter()
+                    .map(|s| report.scenarios[s].detectors.get(id).and_then(f).unwrap_or(f64::NAN))
+                    .collect();
+                (id.clone(), v)
+            })
+            .collect()
+    };
+    // wide enough for the (horizontal) scenario names under each group of bars
+    let width = (160 + 120 * scenarios.len() as u32).max(640);
+    rate_bars(
+        &out.join("rates.png"),
+        "correct decisions (hits + correct rejections) / decidable episodes, per scenario",
+        &scenarios,
+        &per(&|s| {
+            let decided = s.hits + s.misses + s.false_alarms + s.correct_rejections;
+            (decided > 0).then(|| (s.hits + s.correct_rejections) as f64 / decided as f64)
+        }),
+        (width, 520),
+    )?;
+    rate_bars(
+        &out.join("collisions.png"),
+        "closed-loop collision rate per scenario",
+        &scenarios,
+        &per(&|s| s.collision_rate),
+        (width, 520),
+    )?;
+
+    // The l/|v| analysis: alarm time to collision against half-size / closing speed, with the fit.
+    let lv: Vec<Series> = report
+        .detectors
+        .iter()
+        .map(|(id, s)| {
+            let (x, y): (Vec<f64>, Vec<f64>) = loomlab_scenarios::report::detector_episodes(outcomes, id)
+                .filter_map(|d| Some((d.l_over_v_s?, d.eye_ttc_at_alarm_s?)))
+                .unzip();
+            let name = match &s.lv_fit {
+                Some(f) => format!(
+                    "{id}: θ_th {} δ {:.3} s R² {:.2} (n={})",
+                    f.theta_th_deg.map_or("n/a".into(), |t| format!("{t:.1}°")),
+                    f.delay_s,
+                    f.r2,
+                    f.episodes
+                ),
+                None => format!("{id}: no fit ({} alarms)", x.len()),
+            };
+            Series::new(name, x, y).scatter(s.lv_fit.map(|f| (f.slope, f.intercept_s)))
+        })
+        .collect();
+    line_chart(
+        &out.join("lv.png"),
+        &LineChart {
+            title: "l/|v| analysis: constant-speed head-on threats".into(),
+            x_label: "l/|v|: half-size / closing speed (s)".into(),
+            y_label: "time to collision at the alarm (s)".into(),
+            series: lv,
+            x_range: None,
+            y_range: None,
+        },
+        (760, 600),
+    )?;
+
+    // θ̂ against the true angular size of the threat, every frame of every threat episode.
+    let mut theta_hat: Vec<Series> = report
+        .detectors
+        .keys()
+        .filter(|id| !loomlab_scenarios::reference::is_reference(id))
+        .filter_map(|id| {
+            let (x, y): (Vec<f64>, Vec<f64>) = samples.theta_hat.get(id)?.points.iter().copied().unzip();
+            let acc = report.detectors[id].theta_accuracy.map_or(String::new(), |a| {
+                format!(" (median |θ̂−θ|/θ {:.2}, p90 {:.2})", a.median_rel_err, a.p90_rel_err)
+            });
+            (!x.is_empty()).then(|| Series::new(format!("{id}{acc}"), x, y).scatter(None))
+        })
+        .collect();
+    if !theta_hat.is_empty() {
+        theta_hat.push(Series::new("θ̂ = θ", vec![0.0, 90.0], vec![0.0, 90.0]).dashed());
+        line_chart(
+            &out.join("theta_hat.png"),
+            &LineChart {
+                title: "angular-size estimate θ̂ against the threat's true angular size (threat episodes)".into(),
+                x_label: "true angular size θ (deg)".into(),
+                y_label: "θ̂ (deg)".into(),
+                series: theta_hat,
+                x_range: Some((0.0, 90.0)),
+                y_range: Some((0.0, 90.0)),
+            },
+            (760, 640),
+        )?;
+    }
+
+    // The sample episode.
+    if let Some(run) = &samples.sample {
+        let tr = &run.trace;
+        let object = tr.reference_object.clone().unwrap_or_else(|| "object".into());
+        let mut over_time = vec![
+            Series::new(
+                format!("true θ ({object})"),
+                tr.t_s.clone(),
+                tr.angular_size_deg.clone(),
+            )
+            .dashed(),
+        ];
+        for d in &tr.detectors {
+            if d.trigger == TriggerSignal::AngularSizeDeg {
+                over_time.push(Series::new(format!("{} θ̂", d.label), tr.t_s.clone(), d.signal.clone()));
+                over_time.push(
+                    Series::new(
+                        format!("{} threshold", d.label),
+                        vec![tr.t_s[0], *tr.t_s.last().unwrap_or(&tr.t_s[0])],
+                        vec![d.threshold; 2],
+                    )
+                    .dashed(),
+                );
+            }
+        }
+        let y_max = tr
+            .detectors
+            .iter()
+            .filter(|d| d.trigger == TriggerSignal::AngularSizeDeg)
+            .flat_map(|d| d.signal.iter().copied())
+            .chain(tr.angular_size_deg.iter().copied())
+            .filter(|v| v.is_finite())
+            .fold(1.0f64, f64::max)
+            .min(90.0);
+        let responses: Vec<Series> = tr
+            .detectors
+            .iter()
+            .map(|d| {
+                let max = d
+                    .output
+                    .iter()
+                    .copied()
+                    .filter(|v| v.is_finite())
+                    .fold(0.0f64, f64::max);
+                let y = d.output.iter().map(|v| if max > 0.0 { v / max } else { 0.0 }).collect();
+                Series::new(d.label.clone(), tr.angular_size_deg.clone(), y)
+            })
+            .collect();
+        let title = format!(
+            "{} episode {} ({})",
+            run.outcome.scenario,
+            run.outcome.episode,
+            if run.outcome.detectors.first().is_some_and(|d| d.threat) {
+                "threat"
+            } else {
+                "no threat"
+            }
+        );
+        line_chart_grid(
+            &out.join("trace.png"),
+            &[
+                LineChart {
+                    title: format!("{title}: angular size"),
+                    x_label: "time (s)".into(),
+                    y_label: "degrees".into(),
+                    series: over_time,
+                    y_range: Some((0.0, y_max * 1.05)),
+                    x_range: None,
+                },
+                LineChart {
+                    title: "detector responses vs true angular size".into(),
+                    x_label: "true angular size (deg)".into(),
+                    y_label: "response / episode maximum".into(),
+                    series: responses,
+                    y_range: Some((0.0, 1.05)),
+                    x_range: Some((0.0, y_max)),
+                },
+            ],
+            2,
+            (640, 480),
+        )?;
+    }
+    Ok(())
+}
