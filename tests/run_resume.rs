@@ -107,7 +107,7 @@ fn an_interrupted_run_resumes_to_the_uninterrupted_report() {
 
     // interrupt after the first finished episode
     let part = dir.join("part");
-    let mut child = loomlab()
+    let child = loomlab()
         .args([&["run", s(&suite), "--out", s(&part)][..], &common].concat())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -135,7 +135,7 @@ fn an_interrupted_run_resumes_to_the_uninterrupted_report() {
     let done_rows = rows(&part);
     let done = done_rows.len() / rows_per_episode;
     assert_eq!(done_rows.len() % rows_per_episode, 0, "whole episodes only");
-    assert!(done >= 1 && done < EPISODES, "{done} episodes done");
+    assert!((1..EPISODES).contains(&done), "{done} episodes done");
     assert_eq!(report(&part, "report.partial.json")["episodes"], done);
 
     // a plain rerun is refused, and so is a resume with other options

@@ -541,7 +541,7 @@ struct KeyOrigin {
 
 impl KeyOrigin {
     /// The suite's defaults, if `key` was not written in the scenario file but in them.
-    fn from_defaults(&self, key: &str) -> Option<&SuiteDefaults> {
+    fn defaults_of(&self, key: &str) -> Option<&SuiteDefaults> {
         let (own, defaults) = self.defaults.as_ref()?;
         let path = KeyPath::parse(key).ok()?;
         (path.get(own).is_none() && path.get(&defaults.table).is_some()).then_some(defaults)
@@ -549,7 +549,7 @@ impl KeyOrigin {
 
     /// A key error, naming the file the key was written in.
     fn key_error(&self, key: String, reason: String) -> ScenarioError {
-        match self.from_defaults(&key) {
+        match self.defaults_of(&key) {
             Some(d) => ScenarioError::key(
                 &d.file,
                 format!("defaults.{key}"),
@@ -587,7 +587,7 @@ impl Expansion {
         // that is not varied itself, e.g. an arrival time the swept speed cannot reach): the
         // message names the episode and its parameters.
         let err = |(k, r): (String, String)| {
-            if self.varied.is_empty() || self.origin.from_defaults(&k).is_some() {
+            if self.varied.is_empty() || self.origin.defaults_of(&k).is_some() {
                 self.origin.key_error(k, r)
             } else {
                 ScenarioError::Episode {

@@ -332,7 +332,6 @@ impl SweepFile {
             };
             for (k, (table, values)) in variation
                 .expand(&entry, mix_seed(doc.search_seed, i as u64))
-                .into_iter()
                 .enumerate()
             {
                 let mut desc: DetectorDesc =
