@@ -251,8 +251,7 @@ impl PyEscapeEnv {
     /// Drops the environment (its renderer, frames and episode); later calls raise Gymnasium's
     /// `ClosedEnvironmentError`. Closing twice is allowed.
     fn close(&self, py: Python<'_>) {
-        let env = py.detach(|| lock(&self.inner).take());
-        py.detach(|| drop(env));
+        py.detach(|| drop(lock(&self.inner).take()));
     }
 
     /// Whether `close()` was called.
@@ -353,8 +352,7 @@ impl PyEscapeVectorEnv {
     /// Drops the environments (their renderers, frames and episodes); later calls raise
     /// Gymnasium's `ClosedEnvironmentError`. Closing twice is allowed.
     fn close(&self, py: Python<'_>) {
-        let vec = py.detach(|| lock(&self.inner).take());
-        py.detach(|| drop(vec));
+        py.detach(|| drop(lock(&self.inner).take()));
     }
 
     /// Whether `close()` was called.
