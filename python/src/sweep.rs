@@ -166,6 +166,7 @@ impl SweepPlan {
 #[pyfunction]
 #[allow(clippy::too_many_arguments)] // the Python keyword arguments
 #[pyo3(signature = (suite, seed = Seed(0), size = None, limit = None, detectors = None, detectors_file = None, jobs = None))]
+#[pyo3(text_signature = "(suite, seed=0, size=None, limit=None, detectors=None, detectors_file=None, jobs=None)")]
 pub fn run_suite(
     py: Python<'_>,
     suite: PathBuf,
