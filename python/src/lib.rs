@@ -8,8 +8,10 @@
 //! (`REWARD_DEFAULTS`, `ACTION_DEFAULTS`, `DISCRETE_ACTIONS`, `CONTINUOUS_ACTION_NAMES`) so that the
 //! Python side restates none of them.
 //! The GIL is released while Rust steps. Errors map to the exception tree `loomlab.LoomlabError` ⊃
-//! `ScenarioError`, `RenderError`, `DetectorError`, `ActionError`. The Gymnasium classes live in the
-//! pure-Python part of the package (`python/loomlab`).
+//! `ScenarioError`, `RenderError`, `DetectorError`, `ActionError`; a seed outside [0, 2^64) is a
+//! `ValueError` (seeds never wrap around) and a call on a closed environment Gymnasium's
+//! `ClosedEnvironmentError`. The Gymnasium classes live in the pure-Python part of the package
+//! (`python/loomlab`).
 
 mod convert;
 mod errors;
