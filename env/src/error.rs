@@ -60,6 +60,22 @@ pub enum EnvError {
     /// `step` was called before `reset` or after the episode ended.
     #[error("{0}")]
     State(&'static str),
+    /// An error of one environment of an [`EscapeVectorEnv`](crate::EscapeVectorEnv), with its index.
+    #[error("environment {index} of the vector environment: {source}")]
+    InEnv {
+        /// The environment's index in the vector environment (0-based).
+        index: usize,
+        /// What went wrong there.
+        source: Box<EnvError>,
+    },
+    /// A seed outside the range of seeds (`u64`), e.g. a vector environment's `seed + i`.
+    #[error("seed {seed} is out of range: {reason}")]
+    Seed {
+        /// The seed as given.
+        seed: String,
+        /// Why it is out of range and how to fix it.
+        reason: String,
+    },
 }
 
 /// Coarse classes of [`EnvError`], one per Python exception class.
@@ -73,6 +89,8 @@ pub enum ErrorKind {
     Detector,
     /// A malformed action.
     Action,
+    /// A seed out of range (Python `ValueError`).
+    Seed,
     /// Anything else (scoring, calling `step` in the wrong state).
     Other,
 }
@@ -86,7 +104,25 @@ impl EnvError {
             EnvError::Sim(_) => ErrorKind::Render,
             EnvError::Detector(_) => ErrorKind::Detector,
             EnvError::Action(_) | EnvError::ActionCount { .. } | EnvError::ActionKind { .. } => ErrorKind::Action,
+            EnvError::Seed { .. } => ErrorKind::Seed,
+            EnvError::InEnv { source, .. } => source.kind(),
             EnvError::Scoring(_) | EnvError::State(_) => ErrorKind::Other,
+        }
+    }
+
+    /// This error as one of environment `index` of a vector environment (the message names it).
+    pub fn in_env(self, index: usize) -> Self {
+        EnvError::InEnv {
+            index,
+            source: Box::new(self),
+        }
+    }
+
+    /// The index of the vector environment's sub-environment this error comes from, if any.
+    pub fn env_index(&self) -> Option<usize> {
+        match self {
+            EnvError::InEnv { index, .. } => Some(*index),
+            _ => None,
         }
     }
 

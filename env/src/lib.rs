@@ -61,7 +61,7 @@ pub use error::{EnvError, ErrorKind};
 pub use options::{ActionKind, EnvOptions, MAX_FRAME_SIZE};
 pub use reward::{DODGE_TOLERANCE, RewardConfig, RewardTerms};
 pub use scenario::{EnvScenario, ScenarioEpisodes};
-pub use vector::EscapeVectorEnv;
+pub use vector::{EscapeVectorEnv, VectorSnapshot};
 
 /// The process-wide GPU context shared by every environment (created on first use; the error,
 /// e.g. no adapter, is remembered and reported again).

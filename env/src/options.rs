@@ -76,12 +76,22 @@ impl Default for EnvOptions {
 }
 
 impl EnvOptions {
-    /// Parses options from JSON (unknown keys are errors that name the key).
+    /// Parses options from JSON. Errors name the key path (`reward.effort_per_s`), the value
+    /// found there and what is expected; unknown keys are errors. JSON has no NaN or infinity, so
+    /// text holding them is rejected as a whole (the Python side names the option first).
     pub fn from_json(text: &str) -> Result<Self, EnvError> {
-        let de = &mut serde_json::Deserializer::from_str(text);
-        serde_path_to_error::deserialize(de).map_err(|e| {
-            let path = e.path().to_string();
-            EnvError::option(path, "(json)", e.into_inner().to_string())
+        let value: serde_json::Value = serde_json::from_str(text).map_err(|e| {
+            EnvError::option(
+                "(options)",
+                "(not JSON)",
+                format!(
+                    "the options must be a JSON object of finite numbers, strings, booleans, lists and objects ({e})"
+                ),
+            )
+        })?;
+        serde_path_to_error::deserialize(&value).map_err(|e| {
+            let shown = value_at(&value, e.path()).map_or_else(|| "(missing)".to_string(), |v| v.to_string());
+            EnvError::option(e.path().to_string(), shown, e.into_inner().to_string())
         })
     }
 
@@ -116,4 +126,14 @@ impl EnvOptions {
         self.action.validate()?;
         self.reward.validate()
     }
+}
+
+/// The JSON value at a deserialisation error's path (`None` where the path leads nowhere).
+fn value_at<'a>(root: &'a serde_json::Value, path: &serde_path_to_error::Path) -> Option<&'a serde_json::Value> {
+    use serde_path_to_error::Segment;
+    path.iter().try_fold(root, |v, seg| match seg {
+        Segment::Seq { index } => v.get(index),
+        Segment::Map { key } | Segment::Enum { variant: key } => v.get(key),
+        Segment::Unknown => None,
+    })
 }

@@ -361,3 +361,75 @@ fn dodging_without_a_threat_costs_the_unnecessary_dodge_penalty() {
     assert!(dodge.info.dodging);
     assert!((dodge.info.reward_terms.unnecessary_dodge + env.dt()).abs() < 1e-12);
 }
+
+#[test]
+fn option_errors_name_the_key_the_value_and_what_is_expected() {
+    let e = EnvOptions::from_json(r#"{"reward": {"effort_per_s": "abc"}}"#)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("`reward.effort_per_s` = \"abc\""), "{e}");
+    assert!(e.contains("expected f64") && !e.contains("(json)"), "{e}");
+    let e = EnvOptions::from_json(r#"{"frame_size": 2.5}"#).unwrap_err().to_string();
+    assert!(e.contains("`frame_size` = 2.5") && e.contains("expected u32"), "{e}");
+    let e = EnvOptions::from_json(r#"{"thresholds": {"hopfield": NaN}}"#).unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::Scenario);
+    assert!(e.to_string().contains("finite numbers"), "{e}");
+}
+
+#[test]
+fn vector_seeds_never_wrap_around() {
+    let mut vec = EscapeVectorEnv::new(scenario(), options(ActionKind::Continuous), 2).unwrap();
+    assert_eq!(vec.seeds(u64::MAX - 1).unwrap(), vec![u64::MAX - 1, u64::MAX]);
+    let e = vec.reset(Some(u64::MAX)).unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::Seed);
+    let msg = e.to_string();
+    assert!(
+        msg.contains(&u64::MAX.to_string()) && msg.contains("2 environments"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn vector_errors_name_the_environment() {
+    let mut vec = EscapeVectorEnv::new(scenario(), options(ActionKind::Continuous), 3).unwrap();
+    let e = vec.step(&[Action::Continuous([0.0; 3]); 3]).unwrap_err();
+    assert!(e.kind() == ErrorKind::Other && e.env_index().is_some(), "{e}");
+    vec.reset(Some(1)).unwrap();
+    let mut actions = [Action::Continuous([0.0; 3]); 3];
+    actions[2] = Action::Continuous([0.0, 2.0, 0.0]);
+    let e = vec.step(&actions).unwrap_err();
+    assert_eq!((e.kind(), e.env_index()), (ErrorKind::Action, Some(2)), "{e}");
+    assert!(
+        e.to_string().starts_with("environment 2 of the vector environment: "),
+        "{e}"
+    );
+}
+
+#[test]
+fn vector_snapshots_replay_every_environment() {
+    let opts = EnvOptions {
+        max_episode_steps: Some(12),
+        ..options(ActionKind::Continuous)
+    };
+    let action = |t: usize, i: usize| Action::Continuous([0.3, 0.1 * i as f32, (t as f32 * 0.7).sin()]);
+    let mut a = EscapeVectorEnv::new(scenario(), opts.clone(), 2).unwrap();
+    a.reset(Some(40)).unwrap();
+    for t in 0..12 {
+        a.step(&[action(t, 0), action(t, 1)]).unwrap();
+    }
+    let snap = a.snapshot();
+    assert_eq!(
+        snap.autoreset,
+        vec![true, true],
+        "both episodes were truncated in the last step"
+    );
+    let mut b = EscapeVectorEnv::new(scenario(), opts.clone(), 2).unwrap();
+    let last = b.restore(&snap).unwrap();
+    assert!(last.iter().all(Option::is_some));
+    for t in 12..30 {
+        let actions = [action(t, 0), action(t, 1)];
+        assert_eq!(b.step(&actions).unwrap(), a.step(&actions).unwrap(), "step {t}");
+    }
+    let mut wrong = EscapeVectorEnv::new(scenario(), opts, 3).unwrap();
+    assert_eq!(wrong.restore(&snap).unwrap_err().kind(), ErrorKind::Scenario);
+}

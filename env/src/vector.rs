@@ -1,8 +1,19 @@
 //! [`EscapeVectorEnv`]: N environments stepped in parallel on Rust threads.
 
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 
-use super::{Action, EnvError, EnvOptions, EnvScenario, EscapeEnv, Observation, StepInfo, StepResult};
+use super::{Action, EnvError, EnvOptions, EnvScenario, EpisodeSnapshot, EscapeEnv, Observation, StepInfo, StepResult};
+
+/// The state that reproduces a vector environment exactly (pickling in Python): each
+/// environment's [`EpisodeSnapshot`] and which of them reset on their next step.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct VectorSnapshot {
+    /// Per-environment snapshots, in order.
+    pub envs: Vec<EpisodeSnapshot>,
+    /// Whether each environment's episode ended in the last step (so its next step resets it).
+    pub autoreset: Vec<bool>,
+}
 
 /// N [`EscapeEnv`]s stepped in parallel (rayon), with Gymnasium's **next-step** auto-reset:
 /// after an environment's episode ends (terminated or truncated), its next `step` ignores the action,
@@ -42,21 +53,44 @@ impl EscapeVectorEnv {
         &self.envs
     }
 
+    /// The seeds `seed + i` of the environments, or [`EnvError::Seed`] when the last one would
+    /// pass `u64::MAX` (seeds never wrap around: that would repeat environment 0's episodes).
+    pub fn seeds(&self, seed: u64) -> Result<Vec<u64>, EnvError> {
+        let n = self.envs.len() as u64;
+        if seed.checked_add(n - 1).is_none() {
+            return Err(EnvError::Seed {
+                seed: seed.to_string(),
+                reason: format!(
+                    "environment i gets seed + i, so with {n} environments the seed must be <= {} (2^64 - {n})",
+                    u64::MAX - (n - 1)
+                ),
+            });
+        }
+        Ok((0..n).map(|i| seed + i).collect())
+    }
+
     /// Resets every environment; with `Some(seed)` environment i gets seed `seed + i` (Gymnasium's
-    /// convention), with `None` each continues its own seed stream.
+    /// convention; [`EnvError::Seed`] if that passes `u64::MAX`), with `None` each continues its own
+    /// seed stream. An environment's error names its index ([`EnvError::InEnv`]).
     pub fn reset(&mut self, seed: Option<u64>) -> Result<Vec<(Observation, StepInfo)>, EnvError> {
+        let seeds = match seed {
+            Some(s) => self.seeds(s)?.into_iter().map(Some).collect(),
+            None => vec![None; self.envs.len()],
+        };
         let out = self
             .envs
             .par_iter_mut()
+            .zip(seeds)
             .enumerate()
-            .map(|(i, env)| env.reset(seed.map(|s| s.wrapping_add(i as u64))))
+            .map(|(i, (env, seed))| env.reset(seed).map_err(|e| e.in_env(i)))
             .collect::<Result<Vec<_>, _>>()?;
         self.autoreset.fill(false);
         Ok(out)
     }
 
     /// Steps every environment with its action (one per environment, validated before any
-    /// environment moves, so a bad action changes nothing).
+    /// environment moves, so a bad action changes nothing). An environment's error names its index
+    /// ([`EnvError::InEnv`]).
     pub fn step(&mut self, actions: &[Action]) -> Result<Vec<StepResult>, EnvError> {
         if actions.len() != self.envs.len() {
             return Err(EnvError::ActionCount {
@@ -64,9 +98,9 @@ impl EscapeVectorEnv {
                 got: actions.len(),
             });
         }
-        for ((env, &a), &auto) in self.envs.iter().zip(actions).zip(&self.autoreset) {
+        for (i, ((env, &a), &auto)) in self.envs.iter().zip(actions).zip(&self.autoreset).enumerate() {
             if !auto {
-                env.command_for(a)?;
+                env.command_for(a).map_err(|e| e.in_env(i))?;
             }
         }
         let results = self
@@ -74,9 +108,10 @@ impl EscapeVectorEnv {
             .par_iter_mut()
             .zip(actions.par_iter())
             .zip(self.autoreset.par_iter())
-            .map(|((env, &a), &auto)| {
+            .enumerate()
+            .map(|(i, ((env, &a), &auto))| {
                 if auto {
-                    let (obs, info) = env.reset(None)?;
+                    let (obs, info) = env.reset(None).map_err(|e| e.in_env(i))?;
                     Ok(StepResult {
                         obs,
                         reward: 0.0,
@@ -85,7 +120,7 @@ impl EscapeVectorEnv {
                         info,
                     })
                 } else {
-                    env.step(a)
+                    env.step(a).map_err(|e| e.in_env(i))
                 }
             })
             .collect::<Result<Vec<_>, EnvError>>()?;
@@ -93,5 +128,36 @@ impl EscapeVectorEnv {
             *auto = r.terminated || r.truncated;
         }
         Ok(results)
+    }
+
+    /// The state that reproduces every environment: see [`VectorSnapshot`].
+    pub fn snapshot(&self) -> VectorSnapshot {
+        VectorSnapshot {
+            envs: self.envs.iter().map(EscapeEnv::snapshot).collect(),
+            autoreset: self.autoreset.clone(),
+        }
+    }
+
+    /// Restores a snapshot by replaying each environment's episode (in parallel); returns each
+    /// environment's last observation and info (`None` for one that was never reset).
+    pub fn restore(&mut self, snapshot: &VectorSnapshot) -> Result<Vec<Option<(Observation, StepInfo)>>, EnvError> {
+        let n = self.envs.len();
+        if snapshot.envs.len() != n || snapshot.autoreset.len() != n {
+            return Err(EnvError::Scenario(format!(
+                "the snapshot holds {} environments ({} autoreset flags), this vector environment {n}; \
+                 restore it into a vector environment of the same size",
+                snapshot.envs.len(),
+                snapshot.autoreset.len()
+            )));
+        }
+        let out = self
+            .envs
+            .par_iter_mut()
+            .zip(snapshot.envs.par_iter())
+            .enumerate()
+            .map(|(i, (env, snap))| env.restore(snap).map_err(|e| e.in_env(i)))
+            .collect::<Result<Vec<_>, _>>()?;
+        self.autoreset.clone_from(&snapshot.autoreset);
+        Ok(out)
     }
 }

@@ -8,8 +8,10 @@
 //! (`REWARD_DEFAULTS`, `ACTION_DEFAULTS`, `DISCRETE_ACTIONS`, `CONTINUOUS_ACTION_NAMES`) so that the
 //! Python side restates none of them.
 //! The GIL is released while Rust steps. Errors map to the exception tree `loomlab.LoomlabError` ⊃
-//! `ScenarioError`, `RenderError`, `DetectorError`, `ActionError`. The Gymnasium classes live in the
-//! pure-Python part of the package (`python/loomlab`).
+//! `ScenarioError`, `RenderError`, `DetectorError`, `ActionError`; a seed outside [0, 2^64) is a
+//! `ValueError` (seeds never wrap around) and a call on a closed environment Gymnasium's
+//! `ClosedEnvironmentError`. The Gymnasium classes live in the pure-Python part of the package
+//! (`python/loomlab`).
 
 mod convert;
 mod errors;
@@ -25,12 +27,34 @@ use pyo3::types::{PyDict, PyList, PyTuple};
 use loomlab_agents::{ActionConfig, ContinuousAction, DiscreteAction};
 use loomlab_env::{
     Action, ActionKind, EnvError, EnvOptions, EscapeEnv, EscapeVectorEnv, ROBOT_FIELDS, RewardConfig, StepResult,
+    VectorSnapshot,
 };
 
-use crate::errors::to_py;
+use crate::errors::{Seed, to_py};
 
 fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// An environment that `close()` drops (releasing its renderer, frames and episode).
+type Slot<T> = Mutex<Option<T>>;
+
+/// Runs `f` on the environment in `slot` with the GIL released; `what` (e.g. `step()`) names the
+/// call in the error of a closed environment.
+fn with_open<T, R: Send>(
+    py: Python<'_>,
+    slot: &Slot<T>,
+    what: &str,
+    f: impl FnOnce(&mut T) -> Result<R, EnvError> + Send,
+) -> PyResult<R>
+where
+    T: Send,
+{
+    let r = py.detach(|| lock(slot).as_mut().map(f));
+    match r {
+        Some(r) => r.map_err(to_py),
+        None => Err(errors::closed(py, what)),
+    }
 }
 
 fn parse_options(options_json: &str) -> PyResult<EnvOptions> {
@@ -143,7 +167,7 @@ macro_rules! meta_getters {
 /// One environment (the engine of the Gymnasium class `loomlab.EscapeEnv`).
 #[pyclass(name = "EscapeEnv", module = "loomlab._native")]
 struct PyEscapeEnv {
-    inner: Mutex<EscapeEnv>,
+    inner: Slot<EscapeEnv>,
     meta: Meta,
 }
 
@@ -170,14 +194,14 @@ impl PyEscapeEnv {
             .map_err(to_py)?;
         Ok(Self {
             meta: Meta::of(&env),
-            inner: Mutex::new(env),
+            inner: Mutex::new(Some(env)),
         })
     }
 
-    /// Starts an episode: `(obs, info)`.
+    /// Starts an episode: `(obs, info)`. The seed is an integer in [0, 2**64) (else `ValueError`).
     #[pyo3(signature = (seed=None))]
-    fn reset<'py>(&self, py: Python<'py>, seed: Option<u64>) -> PyResult<Bound<'py, PyTuple>> {
-        let (obs, info) = py.detach(|| lock(&self.inner).reset(seed)).map_err(to_py)?;
+    fn reset<'py>(&self, py: Python<'py>, seed: Option<Seed>) -> PyResult<Bound<'py, PyTuple>> {
+        let (obs, info) = with_open(py, &self.inner, "reset()", |env| env.reset(seed.map(|s| s.0)))?;
         let n = self.meta.frame_size as usize;
         let o = convert::obs_dict(py, &self.meta.detector_labels, &obs, n)?;
         let i = convert::info_dict(py, &info, self.meta.action_kind)?;
@@ -196,7 +220,7 @@ impl PyEscapeEnv {
 
     /// The latest frame, `(n, n)` uint8.
     fn frame<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let data = lock(&self.inner).frame_u8();
+        let data = with_open(py, &self.inner, "render()", |env| Ok(env.frame_u8()))?;
         let n = self.meta.frame_size as usize;
         if data.is_empty() {
             return Ok(PyArray1::<u8>::zeros(py, [n * n], false).reshape([n, n])?.into_any());
@@ -205,8 +229,8 @@ impl PyEscapeEnv {
     }
 
     /// The state that reproduces the current episode, as JSON (for pickling).
-    fn snapshot(&self) -> PyResult<String> {
-        let snap = lock(&self.inner).snapshot();
+    fn snapshot(&self, py: Python<'_>) -> PyResult<String> {
+        let snap = with_open(py, &self.inner, "snapshot()", |env| Ok(env.snapshot()))?;
         serde_json::to_string(&snap).map_err(|e| errors::LoomlabError::new_err(e.to_string()))
     }
 
@@ -214,7 +238,7 @@ impl PyEscapeEnv {
     fn restore<'py>(&self, py: Python<'py>, snapshot_json: &str) -> PyResult<Option<Bound<'py, PyTuple>>> {
         let snap = serde_json::from_str(snapshot_json)
             .map_err(|e| errors::LoomlabError::new_err(format!("invalid snapshot: {e}")))?;
-        let last = py.detach(|| lock(&self.inner).restore(&snap)).map_err(to_py)?;
+        let last = with_open(py, &self.inner, "restore()", |env| env.restore(&snap))?;
         match last {
             None => Ok(None),
             Some((obs, info)) => {
@@ -225,11 +249,23 @@ impl PyEscapeEnv {
             }
         }
     }
+
+    /// Drops the environment (its renderer, frames and episode); later calls raise Gymnasium's
+    /// `ClosedEnvironmentError`. Closing twice is allowed.
+    fn close(&self, py: Python<'_>) {
+        py.detach(|| drop(lock(&self.inner).take()));
+    }
+
+    /// Whether `close()` was called.
+    #[getter]
+    fn closed(&self) -> bool {
+        lock(&self.inner).is_none()
+    }
 }
 
 impl PyEscapeEnv {
     fn step<'py>(&self, py: Python<'py>, action: Action) -> PyResult<Bound<'py, PyTuple>> {
-        let r: StepResult = py.detach(|| lock(&self.inner).step(action)).map_err(to_py)?;
+        let r: StepResult = with_open(py, &self.inner, "step()", |env| env.step(action))?;
         let n = self.meta.frame_size as usize;
         let o = convert::obs_dict(py, &self.meta.detector_labels, &r.obs, n)?;
         let i = convert::info_dict(py, &r.info, self.meta.action_kind)?;
@@ -250,7 +286,7 @@ impl PyEscapeEnv {
 /// `loomlab.EscapeVectorEnv`).
 #[pyclass(name = "EscapeVectorEnv", module = "loomlab._native")]
 struct PyEscapeVectorEnv {
-    inner: Mutex<EscapeVectorEnv>,
+    inner: Slot<EscapeVectorEnv>,
     meta: Meta,
     num_envs: usize,
 }
@@ -279,7 +315,7 @@ impl PyEscapeVectorEnv {
         Ok(Self {
             meta: Meta::of(&vec.envs()[0]),
             num_envs: vec.num_envs(),
-            inner: Mutex::new(vec),
+            inner: Mutex::new(Some(vec)),
         })
     }
 
@@ -289,22 +325,42 @@ impl PyEscapeVectorEnv {
         self.num_envs
     }
 
-    /// Resets every environment (env i gets `seed + i`): `(obs, info)` batched.
+    /// Resets every environment (env i gets `seed + i`, which must stay below 2**64, else
+    /// `ValueError`): `(obs, info)` batched.
     #[pyo3(signature = (seed=None))]
-    fn reset<'py>(&self, py: Python<'py>, seed: Option<u64>) -> PyResult<Bound<'py, PyTuple>> {
-        let out = py.detach(|| lock(&self.inner).reset(seed)).map_err(to_py)?;
-        let results: Vec<StepResult> = out
-            .into_iter()
-            .map(|(obs, info)| StepResult {
-                obs,
-                reward: 0.0,
-                terminated: false,
-                truncated: false,
-                info,
-            })
-            .collect();
-        let batch = convert::Batch::new(py, &self.meta, &results)?;
-        PyTuple::new(py, [batch.obs.into_any(), batch.info.into_any()])
+    fn reset<'py>(&self, py: Python<'py>, seed: Option<Seed>) -> PyResult<Bound<'py, PyTuple>> {
+        let out = with_open(py, &self.inner, "reset()", |vec| vec.reset(seed.map(|s| s.0)))?;
+        self.reset_batch(py, out.into_iter().map(Some).collect())
+    }
+
+    /// The state that reproduces every environment, as JSON (for pickling).
+    fn snapshot(&self, py: Python<'_>) -> PyResult<String> {
+        let snap = with_open(py, &self.inner, "snapshot()", |vec| Ok(vec.snapshot()))?;
+        serde_json::to_string(&snap).map_err(|e| errors::LoomlabError::new_err(e.to_string()))
+    }
+
+    /// Restores a snapshot by replaying every environment's episode; returns the batched last
+    /// `(obs, info)` when every environment had an episode running, else `None`.
+    fn restore<'py>(&self, py: Python<'py>, snapshot_json: &str) -> PyResult<Option<Bound<'py, PyTuple>>> {
+        let snap: VectorSnapshot = serde_json::from_str(snapshot_json)
+            .map_err(|e| errors::LoomlabError::new_err(format!("invalid snapshot: {e}")))?;
+        let last = with_open(py, &self.inner, "restore()", |vec| vec.restore(&snap))?;
+        if last.iter().any(Option::is_none) {
+            return Ok(None);
+        }
+        self.reset_batch(py, last).map(Some)
+    }
+
+    /// Drops the environments (their renderers, frames and episodes); later calls raise
+    /// Gymnasium's `ClosedEnvironmentError`. Closing twice is allowed.
+    fn close(&self, py: Python<'_>) {
+        py.detach(|| drop(lock(&self.inner).take()));
+    }
+
+    /// Whether `close()` was called.
+    #[getter]
+    fn closed(&self) -> bool {
+        lock(&self.inner).is_none()
     }
 
     /// Steps with continuous actions, `(num_envs, 3)` float32.
@@ -350,22 +406,46 @@ impl PyEscapeVectorEnv {
     /// The latest frames, `(num_envs, n, n)` uint8.
     fn frames<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let n = self.meta.frame_size as usize;
-        let mut data = Vec::with_capacity(self.num_envs * n * n);
-        for env in lock(&self.inner).envs() {
-            let f = env.frame_u8();
-            if f.len() == n * n {
-                data.extend_from_slice(&f);
-            } else {
-                data.resize(data.len() + n * n, 0);
+        let data = with_open(py, &self.inner, "render()", |vec| {
+            let mut data = Vec::with_capacity(vec.num_envs() * n * n);
+            for env in vec.envs() {
+                let f = env.frame_u8();
+                if f.len() == n * n {
+                    data.extend_from_slice(&f);
+                } else {
+                    data.resize(data.len() + n * n, 0);
+                }
             }
-        }
+            Ok(data)
+        })?;
         Ok(PyArray1::from_vec(py, data).reshape([self.num_envs, n, n])?.into_any())
     }
 }
 
 impl PyEscapeVectorEnv {
+    /// Batched `(obs, info)` of a reset (every entry `Some`).
+    fn reset_batch<'py>(
+        &self,
+        py: Python<'py>,
+        out: Vec<Option<(loomlab_env::Observation, loomlab_env::StepInfo)>>,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let results: Vec<StepResult> = out
+            .into_iter()
+            .flatten()
+            .map(|(obs, info)| StepResult {
+                obs,
+                reward: 0.0,
+                terminated: false,
+                truncated: false,
+                info,
+            })
+            .collect();
+        let batch = convert::Batch::new(py, &self.meta, &results)?;
+        PyTuple::new(py, [batch.obs.into_any(), batch.info.into_any()])
+    }
+
     fn step<'py>(&self, py: Python<'py>, actions: Vec<Action>) -> PyResult<Bound<'py, PyTuple>> {
-        let results = py.detach(|| lock(&self.inner).step(&actions)).map_err(to_py)?;
+        let results = with_open(py, &self.inner, "step()", |vec| vec.step(&actions))?;
         let batch = convert::Batch::new(py, &self.meta, &results)?;
         PyTuple::new(
             py,
@@ -406,6 +486,10 @@ fn _raise(kind: &str) -> PyResult<()> {
         "render" => EnvError::Sim(loomlab_sim::SimError::NoRenderer),
         "detector" => EnvError::Detector(loomlab_detector::DetectorError::UnknownDetector("test".into())),
         "action" => EnvError::ActionCount { expected: 1, got: 2 },
+        "seed" => EnvError::Seed {
+            seed: "test".into(),
+            reason: "test".into(),
+        },
         _ => EnvError::State("test"),
     };
     Err(to_py(e))

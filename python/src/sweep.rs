@@ -13,7 +13,7 @@ use loomlab_scenarios::schema::load_detector_entries;
 use loomlab_scenarios::sweep::{SweepDir, SweepError, format_ranking};
 use loomlab_scenarios::{EpisodeSpec, LoadOptions, RunError, Runner, load_suite};
 
-use crate::errors;
+use crate::errors::{self, Seed};
 
 /// Maps a sweep error to its Python exception.
 fn to_py(e: SweepError) -> PyErr {
@@ -165,17 +165,19 @@ impl SweepPlan {
 /// --seed --size --limit --detectors --detectors-file` writes to report.json.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)] // the Python keyword arguments
-#[pyo3(signature = (suite, seed = 0, size = None, limit = None, detectors = None, detectors_file = None, jobs = None))]
+#[pyo3(signature = (suite, seed = Seed(0), size = None, limit = None, detectors = None, detectors_file = None, jobs = None))]
+#[pyo3(text_signature = "(suite, seed=0, size=None, limit=None, detectors=None, detectors_file=None, jobs=None)")]
 pub fn run_suite(
     py: Python<'_>,
     suite: PathBuf,
-    seed: u64,
+    seed: Seed,
     size: Option<u32>,
     limit: Option<usize>,
     detectors: Option<Vec<String>>,
     detectors_file: Option<PathBuf>,
     jobs: Option<usize>,
 ) -> PyResult<String> {
+    let Seed(seed) = seed;
     py.detach(|| -> Result<String, SweepError> {
         let detector_entries = match &detectors_file {
             Some(p) => Some(load_detector_entries(p)?),

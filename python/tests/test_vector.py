@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import pickle
+import re
+
 import gymnasium as gym
 import numpy as np
 import pytest
+from gymnasium.error import ClosedEnvironmentError
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 
 import loomlab
@@ -77,3 +81,71 @@ def test_vector_bad_actions_raise(short_kwargs):
         d.step(np.array([0.5, 1.0]))
     with pytest.raises(loomlab.ActionError, match="0..4"):
         d.step(np.array([0, 9]))
+
+
+def test_vector_seeds_never_wrap_around(short_kwargs):
+    envs = EscapeVectorEnv(2, **short_kwargs)
+    for seed in (2**64 - 1, 2**64, -1):  # 2**64 - 1: env 1 would get 2**64
+        with pytest.raises(ValueError, match=rf"got {seed}"):
+            envs.reset(seed=seed)
+    with pytest.raises(ValueError, match=r"environment 1 gets|2 environments"):
+        envs._native.reset(2**64 - 1)  # the native class checks too
+    obs, info = envs.reset(seed=2**64 - 2)
+    np.testing.assert_array_equal(info["step"], [0, 0])
+
+
+def test_vector_non_real_actions_raise_action_error(short_kwargs):
+    envs = EscapeVectorEnv(2, **short_kwargs)
+    envs.reset(seed=0)
+    for bad, given in [(np.zeros((2, 3), dtype=np.complex64), "complex64"), ([["0"] * 3] * 2, "<U1")]:
+        with pytest.raises(loomlab.ActionError, match=rf"\(2, 3\) float array .*got {re.escape(given)}"):
+            envs.step(bad)
+
+
+def test_vector_errors_name_the_environment(short_kwargs):
+    envs = EscapeVectorEnv(3, **short_kwargs)
+    with pytest.raises(loomlab.LoomlabError, match=r"^environment \d of the vector environment: .*reset"):
+        envs.step(np.zeros((3, 3), dtype=np.float32))  # before reset
+    envs.reset(seed=0)
+    bad = np.zeros((3, 3), dtype=np.float32)
+    bad[2, 1] = 2.0
+    with pytest.raises(loomlab.ActionError, match=r"^environment 2 of the vector environment: .*outside"):
+        envs.step(bad)
+    bad[2, 1] = np.nan
+    with pytest.raises(loomlab.ActionError, match=r"^environment 2 of the vector environment: .*NaN"):
+        envs.step(bad)
+
+
+def test_closed_vector_env_raises_closed_environment_error(short_kwargs):
+    envs = EscapeVectorEnv(2, render_mode="rgb_array", **short_kwargs)
+    envs.reset(seed=0)
+    envs.close()
+    assert envs.closed and envs._native.closed
+    for call in (
+        lambda: envs.step(np.zeros((2, 3), dtype=np.float32)),
+        lambda: envs.reset(seed=0),
+        envs.render,
+        lambda: envs._native.step_continuous(np.zeros((2, 3), dtype=np.float32)),
+    ):
+        with pytest.raises(ClosedEnvironmentError, match="closed environment"):
+            call()
+    envs.close()  # closing twice is allowed
+    assert pickle.loads(pickle.dumps(envs)).closed
+
+
+@pytest.mark.parametrize("action_type", ["continuous", "discrete"])
+def test_vector_pickle_round_trip_continues_every_environment(short_kwargs, action_type):
+    kwargs = dict(short_kwargs, max_episode_steps=15, observe_frames=True, action_type=action_type)
+    envs = EscapeVectorEnv(3, **kwargs)
+    envs.reset(seed=11)
+    envs.action_space.seed(2)
+    for _ in range(15):  # every episode is truncated in the last step: the next step auto-resets
+        envs.step(envs.action_space.sample())
+    clone = pickle.loads(pickle.dumps(envs))
+    assert clone.num_envs == 3 and clone.observation_space == envs.observation_space
+    for _ in range(25):
+        actions = envs.action_space.sample()
+        np.testing.assert_equal(clone.step(actions), envs.step(actions))
+    # a fresh (never reset) vector environment pickles too: same observations for the same seed
+    fresh = pickle.loads(pickle.dumps(EscapeVectorEnv(3, **kwargs)))
+    np.testing.assert_equal(fresh.reset(seed=4), EscapeVectorEnv(3, **kwargs).reset(seed=4))

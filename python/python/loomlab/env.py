@@ -10,6 +10,7 @@ See the package README for the observation, action and reward definitions.
 from __future__ import annotations
 
 import json
+import math
 import os
 from dataclasses import asdict, dataclass
 from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
@@ -17,6 +18,7 @@ from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.error import ClosedEnvironmentError
 
 from . import _native
 from ._native import ActionError, ScenarioError
@@ -72,6 +74,48 @@ def _as_dict(x: Any) -> Optional[Dict[str, Any]]:
     return asdict(x)
 
 
+def _option_error(key: str, value: Any, fix: str) -> ScenarioError:
+    """An invalid option, worded as Rust's ``EnvError::InvalidOption``: the key, the value, the fix."""
+    return ScenarioError(f"invalid environment option `{key}` = {value!r}: {fix}")
+
+
+def _bool_option(key: str, value: Any) -> bool:
+    """A boolean option: only ``True``/``False`` (``bool`` or ``numpy.bool_``); ``bool('no')`` is true."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise _option_error(key, value, "must be True or False (a bool; strings and numbers are not read as booleans)")
+    return bool(value)
+
+
+def _json_option(key: str, value: Any) -> Any:
+    """An option value as plain JSON data (numpy scalars unwrapped), checked on the way: floats must be
+    finite, mapping keys strings. ``key`` is the option's path as the caller wrote it (``reward.effort_per_s``)."""
+    if value is None or isinstance(value, str):
+        return value
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        if not math.isfinite(value):
+            raise _option_error(key, value, "must be a finite number (NaN and infinities are never valid options)")
+        return float(value)
+    if isinstance(value, Mapping):
+        out = {}
+        for k, v in value.items():
+            if not isinstance(k, str):
+                raise _option_error(f"{key}[{k!r}]", v, f"keys of `{key}` must be strings, got {type(k).__name__}")
+            out[k] = _json_option(f"{key}.{k}", v)
+        return out
+    if isinstance(value, (list, tuple)):
+        return [_json_option(f"{key}[{i}]", v) for i, v in enumerate(value)]
+    raise _option_error(key, value, f"expected a real number, string, bool, list or dict, got {type(value).__name__}")
+
+
+def options_json(options: Mapping[str, Any]) -> str:
+    """The JSON text of :func:`build_options`' dict, as the native environments take it."""
+    return json.dumps(options, allow_nan=False)
+
+
 def build_options(
     *,
     detectors: Union[str, Sequence[str], None] = None,
@@ -84,7 +128,14 @@ def build_options(
     reward: Union[RewardConfig, Mapping[str, float], None] = None,
     max_episode_steps: Optional[int] = None,
 ) -> Dict[str, Any]:
-    """The options dict passed (as JSON) to the native environment; validated in Rust."""
+    """The options dict passed (as JSON, :func:`options_json`) to the native environment.
+
+    Checked here as far as Python sees them (booleans are bools, numbers real and finite; errors name
+    the option as passed, e.g. ``reward.effort_per_s``), then validated in Rust.
+
+    Raises:
+        ScenarioError: an option is invalid; the message names the option, the value and the fix.
+    """
     if isinstance(detectors, str):
         detectors = [d.strip() for d in detectors.split(",") if d.strip()]
         if detectors == ["all"]:
@@ -92,18 +143,18 @@ def build_options(
     if action_type not in ("continuous", "discrete"):
         raise ScenarioError(f"action_type must be 'continuous' or 'discrete', got {action_type!r}")
     opts: Dict[str, Any] = {
-        "detectors": list(detectors) if detectors is not None else None,
-        "thresholds": dict(thresholds or {}),
-        "frame_size": frame_size,
-        "observe_frames": bool(observe_frames),
+        "detectors": _json_option("detectors", list(detectors) if detectors is not None else None),
+        "thresholds": _json_option("thresholds", dict(thresholds or {})),
+        "frame_size": _json_option("frame_size", frame_size),
+        "observe_frames": _bool_option("observe_frames", observe_frames),
         "action_kind": action_type,
-        "clip_actions": bool(clip_actions),
-        "max_episode_steps": max_episode_steps,
+        "clip_actions": _bool_option("clip_actions", clip_actions),
+        "max_episode_steps": _json_option("max_episode_steps", max_episode_steps),
     }
     if action_config is not None:
-        opts["action"] = _as_dict(action_config)
+        opts["action"] = _json_option("action_config", _as_dict(action_config))
     if reward is not None:
-        opts["reward"] = _as_dict(reward)
+        opts["reward"] = _json_option("reward", _as_dict(reward))
     return opts
 
 
@@ -133,12 +184,29 @@ def _scenario_arg(scenario: Union[str, os.PathLike, None]) -> Optional[str]:
     return os.fspath(scenario)
 
 
-def _seed_arg(seed: Optional[int]) -> Optional[int]:
+SEED_END = 1 << 64
+"""Seeds are integers in ``[0, SEED_END)`` (Rust ``u64``); they never wrap around."""
+
+
+def _seed_arg(seed: Optional[int], num_envs: int = 1) -> Optional[int]:
+    """A seed checked to lie in [0, 2**64); with ``num_envs`` environments (seeded ``seed + i``),
+    ``seed + num_envs - 1`` must too.
+
+    Raises:
+        ValueError: naming the seed and the valid range.
+    """
     if seed is None:
         return None
-    if not isinstance(seed, (int, np.integer)) or int(seed) < 0:
-        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
-    return int(seed) % (1 << 64)
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+        raise ValueError(f"seed must be an integer in [0, 2**64) or None, got {seed!r}")
+    end = SEED_END - (num_envs - 1)
+    if not 0 <= int(seed) < end:
+        per_env = f" (environment i gets seed + i: with {num_envs} environments, at most 2**64 - {num_envs})"
+        raise ValueError(
+            f"seed must be an integer in [0, 2**64){per_env if num_envs > 1 else ''}, got {seed!r}; "
+            "seeds never wrap around"
+        )
+    return int(seed)
 
 
 class EscapeEnv(gym.Env):
@@ -208,7 +276,7 @@ class EscapeEnv(gym.Env):
             reward=reward,
             max_episode_steps=max_episode_steps,
         )
-        self._native = _native.EscapeEnv(self._kwargs["scenario"], scenario_toml, json.dumps(options))
+        self._native = _native.EscapeEnv(self._kwargs["scenario"], scenario_toml, options_json(options))
         self.observation_space, self.action_space = make_spaces(self._native)
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=int(round(1.0 / self._native.dt)))
@@ -248,12 +316,37 @@ class EscapeEnv(gym.Env):
 
     # --- Gymnasium API ----------------------------------------------------------------------------
     def reset(self, *, seed: Optional[int] = None, options: Optional[Dict[str, Any]] = None):
+        """Starts an episode.
+
+        Args:
+            seed: an integer in [0, 2**64) restarting the seed stream; ``None`` continues it.
+            options: not supported (must be empty).
+
+        Returns:
+            ``(observation, info)``.
+
+        Raises:
+            ValueError: the seed is not an integer in [0, 2**64).
+            gymnasium.error.ClosedEnvironmentError: the environment was closed.
+        """
+        seed = _seed_arg(seed)
+        self._check_open("reset()")
         super().reset(seed=seed)
         if options:
             raise ScenarioError(f"reset() takes no options, got {sorted(options)}")
-        return self._native.reset(_seed_arg(seed))
+        return self._native.reset(seed)
 
     def step(self, action: Any):
+        """Applies an action for one camera period.
+
+        Returns:
+            ``(observation, reward, terminated, truncated, info)``.
+
+        Raises:
+            ActionError: the action is malformed (wrong shape or type, not real, out of range, NaN).
+            gymnasium.error.ClosedEnvironmentError: the environment was closed.
+        """
+        self._check_open("step()")
         if self._discrete:
             return self._native.step_discrete(_discrete_action(action))
         a0, a1, a2 = _continuous_action(action)
@@ -262,21 +355,46 @@ class EscapeEnv(gym.Env):
     def render(self) -> Optional[np.ndarray]:
         if self.render_mode != "rgb_array":
             return None
+        self._check_open("render()")
         frame = self._native.frame()
         return np.repeat(frame[:, :, None], 3, axis=2)
 
     def close(self) -> None:
-        pass
+        """Releases the renderer and the episode; ``reset``, ``step`` and ``render`` then raise
+        ``gymnasium.error.ClosedEnvironmentError``. Closing twice is allowed."""
+        self._native.close()
+
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` was called."""
+        return bool(self._native.closed)
+
+    def _check_open(self, what: str) -> None:
+        if self._native.closed:
+            raise ClosedEnvironmentError(
+                f"{what} called on a closed environment; close() released it, so make a new environment"
+            )
 
     # --- pickling: the constructor arguments plus the episode's seed stream and actions (replayed) --
     def __getstate__(self) -> Dict[str, Any]:
-        return {"kwargs": self._kwargs, "snapshot": self._native.snapshot(), "np_random": self._np_random}
+        closed = self._native.closed
+        return {
+            "kwargs": self._kwargs,
+            "snapshot": None if closed else self._native.snapshot(),
+            "closed": closed,
+            "np_random": self._np_random,
+            "np_random_seed": self._np_random_seed,
+        }
 
     def __setstate__(self, state: Dict[str, Any]) -> None:
         kwargs = dict(state["kwargs"])
         self.__init__(**kwargs)
-        self._native.restore(state["snapshot"])
+        if state.get("closed"):
+            self.close()
+        else:
+            self._native.restore(state["snapshot"])
         self._np_random = state.get("np_random")
+        self._np_random_seed = state.get("np_random_seed")
 
 
 def _discrete_action(action: Any) -> int:
@@ -291,11 +409,20 @@ def _discrete_action(action: Any) -> int:
     return int(a)
 
 
-def _continuous_action(action: Any) -> Tuple[float, float, float]:
+def _real_array(action: Any, expected: str) -> np.ndarray:
+    """``action`` as a float32 array, if it holds real numbers (bool, integer or float dtype): complex
+    numbers, strings and other objects are :class:`ActionError` (never silently converted)."""
     try:
-        a = np.asarray(action, dtype=np.float32)
+        a = np.asarray(action)
     except (TypeError, ValueError) as e:
-        raise ActionError(f"continuous action must be 3 numbers [forward, yaw_rate, lateral], got {action!r}") from e
+        raise ActionError(f"{expected}, got {action!r}") from e
+    if a.dtype.kind not in "biuf":
+        raise ActionError(f"{expected} (real numbers: a bool, integer or float dtype), got {a.dtype} array {action!r}")
+    return a.astype(np.float32)
+
+
+def _continuous_action(action: Any) -> Tuple[float, float, float]:
+    a = _real_array(action, "continuous action must be 3 numbers [forward, yaw_rate, lateral] in [-1, 1]")
     if a.shape != (3,):
         raise ActionError(
             f"continuous action must have shape (3,) [forward, yaw_rate, lateral] in [-1, 1], got shape {a.shape}"

@@ -11,17 +11,27 @@ results equal those of N :class:`~loomlab.EscapeEnv` in a ``SyncVectorEnv`` with
 
 from __future__ import annotations
 
-import json
 import os
 from typing import Any, Dict, Mapping, Optional, Sequence, Union
 
 import numpy as np
+from gymnasium.error import ClosedEnvironmentError
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from . import _native
 from ._native import ActionError, ScenarioError
-from .env import ActionConfig, RewardConfig, _scenario_arg, _seed_arg, build_options, make_spaces
+from .env import (
+    ActionConfig,
+    RewardConfig,
+    _as_dict,
+    _real_array,
+    _scenario_arg,
+    _seed_arg,
+    build_options,
+    make_spaces,
+    options_json,
+)
 
 __all__ = ["EscapeVectorEnv"]
 
@@ -32,7 +42,11 @@ class EscapeVectorEnv(VectorEnv):
     ``reset(seed=s)`` seeds environment i with ``s + i``. ``step(actions)`` takes a ``(num_envs, 3)``
     float array (continuous) or a ``(num_envs,)`` integer array (discrete). Observations are dicts of
     ``(num_envs, …)`` arrays; ``info`` follows Gymnasium's vector convention (arrays plus ``_key``
-    masks), with ``info["outcome"]`` for the environments whose episode just ended.
+    masks), with ``info["outcome"]`` for the environments whose episode just ended. An error of one
+    environment names its index (``environment 2 of the vector environment: …``).
+
+    It pickles like :class:`~loomlab.EscapeEnv`: the constructor arguments plus every environment's
+    seed stream and actions, replayed on unpickling, so the copy continues exactly as the original.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 120, "autoreset_mode": AutoresetMode.NEXT_STEP}
@@ -58,6 +72,21 @@ class EscapeVectorEnv(VectorEnv):
             raise ScenarioError(f"num_envs must be an integer >= 1, got {num_envs!r}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        self._kwargs: Dict[str, Any] = dict(
+            num_envs=int(num_envs),
+            scenario=_scenario_arg(scenario),
+            scenario_toml=scenario_toml,
+            detectors=list(detectors) if detectors is not None and not isinstance(detectors, str) else detectors,
+            thresholds=dict(thresholds) if thresholds is not None else None,
+            frame_size=frame_size,
+            observe_frames=observe_frames,
+            action_type=action_type,
+            action_config=_as_dict(action_config),
+            clip_actions=clip_actions,
+            reward=_as_dict(reward),
+            max_episode_steps=max_episode_steps,
+            render_mode=render_mode,
+        )
         options = build_options(
             detectors=detectors,
             thresholds=thresholds,
@@ -70,7 +99,7 @@ class EscapeVectorEnv(VectorEnv):
             max_episode_steps=max_episode_steps,
         )
         self._native = _native.EscapeVectorEnv(
-            int(num_envs), _scenario_arg(scenario), scenario_toml, json.dumps(options)
+            int(num_envs), self._kwargs["scenario"], scenario_toml, options_json(options)
         )
         self.num_envs = int(num_envs)
         self.single_observation_space, self.single_action_space = make_spaces(self._native)
@@ -91,13 +120,39 @@ class EscapeVectorEnv(VectorEnv):
         return list(self._native.detector_labels)
 
     def reset(self, *, seed: Optional[int] = None, options: Optional[Dict[str, Any]] = None):
+        """Resets every environment.
+
+        Args:
+            seed: environment i gets ``seed + i``, which must lie in [0, 2**64); ``None``: each
+                environment continues its seed stream.
+            options: not supported (must be empty).
+
+        Returns:
+            ``(observations, infos)``, batched.
+
+        Raises:
+            ValueError: ``seed`` (or ``seed + num_envs - 1``) is not an integer in [0, 2**64).
+            gymnasium.error.ClosedEnvironmentError: the environment was closed.
+        """
+        seed = _seed_arg(seed, self.num_envs)
+        self._check_open("reset()")
         super().reset(seed=seed)
         if options:
             raise ScenarioError(f"reset() takes no options, got {sorted(options)}")
-        obs, info = self._native.reset(_seed_arg(seed))
+        obs, info = self._native.reset(seed)
         return obs, self._merge_outcomes(info)
 
     def step(self, actions: Any):
+        """Steps every environment (those whose episode ended in the last step are reset instead).
+
+        Returns:
+            ``(observations, rewards, terminations, truncations, infos)``, batched.
+
+        Raises:
+            ActionError: the actions are malformed; an error of one environment names its index.
+            gymnasium.error.ClosedEnvironmentError: the environment was closed.
+        """
+        self._check_open("step()")
         if self._discrete:
             a = np.asarray(actions)
             if a.shape != (self.num_envs,) or not (np.issubdtype(a.dtype, np.integer) or a.dtype == np.bool_):
@@ -107,10 +162,7 @@ class EscapeVectorEnv(VectorEnv):
                 )
             result = self._native.step_discrete(np.ascontiguousarray(a, dtype=np.int64))
         else:
-            try:
-                a = np.asarray(actions, dtype=np.float32)
-            except (TypeError, ValueError) as e:
-                raise ActionError(f"continuous actions must be a ({self.num_envs}, 3) float array") from e
+            a = _real_array(actions, f"continuous actions must be a ({self.num_envs}, 3) float array")
             if a.shape != (self.num_envs, 3):
                 raise ActionError(
                     f"continuous actions must have shape ({self.num_envs}, 3) [forward, yaw_rate, lateral], "
@@ -124,11 +176,39 @@ class EscapeVectorEnv(VectorEnv):
         """The latest frames as ``(num_envs, n, n, 3)`` uint8 (``render_mode="rgb_array"``)."""
         if self.render_mode != "rgb_array":
             return None
+        self._check_open("render()")
         frames = self._native.frames()
         return np.repeat(frames[..., None], 3, axis=3)
 
     def close_extras(self, **kwargs: Any) -> None:
-        pass
+        """Releases every environment's renderer and episode (``close()`` calls it once)."""
+        self._native.close()
+
+    def _check_open(self, what: str) -> None:
+        if self.closed or self._native.closed:
+            raise ClosedEnvironmentError(
+                f"{what} called on a closed environment; close() released it, so make a new environment"
+            )
+
+    # --- pickling: the constructor arguments plus every environment's seed stream and actions ------
+    def __getstate__(self) -> Dict[str, Any]:
+        closed = bool(self.closed or self._native.closed)
+        return {
+            "kwargs": self._kwargs,
+            "snapshot": None if closed else self._native.snapshot(),
+            "closed": closed,
+            "np_random": self._np_random,
+            "np_random_seed": self._np_random_seed,
+        }
+
+    def __setstate__(self, state: Dict[str, Any]) -> None:
+        self.__init__(**state["kwargs"])
+        if state.get("closed"):
+            self.close()
+        else:
+            self._native.restore(state["snapshot"])
+        self._np_random = state.get("np_random")
+        self._np_random_seed = state.get("np_random_seed")
 
     def _merge_outcomes(self, info: Dict[str, Any]) -> Dict[str, Any]:
         for i, outcome in info.pop("_outcomes"):
