@@ -10,7 +10,10 @@ export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 
 .PHONY: run test deps lint lint-rust lint-python rust-test python-test python-env python-examples suite-check sweep bless bench figures fmt
 
 ## Run the default scenario suite: prints the results table, writes $(OUT)/report.json and plots.
+## A previous run in $(OUT) is kept: moved to $(OUT)-<time of its last episode> first (`loomlab run`
+## itself refuses to write over a run; `loomlab run --resume` continues an interrupted one).
 run: deps
+	@if [ -e $(OUT)/manifest.json ] || [ -e $(OUT)/episodes.csv ]; then 	  old=$(OUT)-$$(date -r $(OUT)/episodes.csv +%Y%m%d-%H%M%S 2>/dev/null || date +%Y%m%d-%H%M%S); 	  while [ -e $$old ]; do old=$$old-1; done; 	  mv $(OUT) $$old && echo "make run: the previous run in $(OUT) is now in $$old"; 	fi
 	$(CARGO) run --release -- run --out $(OUT)
 
 ## Install system packages: Mesa's lavapipe (software Vulkan) so wgpu renders without a GPU.
@@ -80,11 +83,11 @@ sweep: python-env
 ## regression; tolerances in scenarios/README.md).
 BASELINE ?= scenarios/baseline/default-report.json
 suite-check: deps
-	$(CARGO) run -- run --out out/suite-check --baseline $(BASELINE) --brief --no-plots
+	$(CARGO) run -- run --out out/suite-check --overwrite --baseline $(BASELINE) --brief --no-plots
 
 ## Re-run the default suite and make its report the new baseline (after an intended change).
 bless: deps
-	$(CARGO) run --release -- run --out $(OUT) --baseline $(BASELINE) --bless
+	$(CARGO) run --release -- run --out out/bless --overwrite --baseline $(BASELINE) --bless
 
 ## Everything CI runs.
 test: deps lint rust-test suite-check python-test
