@@ -37,7 +37,7 @@ pub struct StimulusSpec {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct StimulusSection {
-    /// Frame side n in pixels (frames are n×n). Default 256.
+    /// Frame side n in pixels (frames are n×n), [`crate::MIN_FRAME_SIZE`]`..=`[`MAX_SIZE`] (20..=8192). Default 256.
     pub size: usize,
     /// Frame rate in frames per second. Default 120.
     pub fps: f64,
@@ -296,11 +296,15 @@ impl StimulusSpec {
             reason: format!("`{key}` = {value}: {fix}"),
         };
         let s = &self.stimulus;
-        if s.size == 0 || s.size > MAX_SIZE {
+        if !(crate::MIN_FRAME_SIZE..=MAX_SIZE).contains(&s.size) {
             return Err(err(
                 "stimulus.size",
                 s.size.to_string(),
-                &format!("must be 1..={MAX_SIZE} pixels"),
+                &format!(
+                    "must be {}..={MAX_SIZE} pixels (the detectors need frames of at least {0}×{0}, \
+                     loomlab_detector::MIN_FRAME_SIZE)",
+                    crate::MIN_FRAME_SIZE
+                ),
             ));
         }
         positive(s.fps, "stimulus.fps", "frames per second", &err)?;

@@ -1,0 +1,40 @@
+//! The smallest frame every detector takes ([`loomlab_detector::MIN_FRAME_SIZE`]) is what the
+//! Hopfield detector's default (paper) template schedule needs, and the stimulus loader enforces it.
+
+use std::path::Path;
+
+use loomlab_detector::stimulus::StimulusSpec;
+use loomlab_detector::{DETECTOR_IDS, DetectorSet, HopfieldConfig, MIN_FRAME_SIZE};
+
+#[test]
+fn min_frame_size_is_what_the_default_detectors_need() {
+    let ok = HopfieldConfig {
+        n: MIN_FRAME_SIZE,
+        ..HopfieldConfig::default()
+    };
+    ok.validate().unwrap();
+    let too_small = HopfieldConfig {
+        n: MIN_FRAME_SIZE - 1,
+        ..HopfieldConfig::default()
+    };
+    let e = too_small.validate().unwrap_err().to_string();
+    assert!(e.contains("n ≥ 20") && e.contains("MIN_FRAME_SIZE"), "{e}");
+    for id in DETECTOR_IDS {
+        DetectorSet::default().build(id, MIN_FRAME_SIZE).unwrap();
+    }
+}
+
+#[test]
+fn stimulus_rejects_frames_smaller_than_the_detectors_take() {
+    let origin = Path::new("small.toml");
+    for n in [1, 8, MIN_FRAME_SIZE - 1] {
+        let e = StimulusSpec::from_toml_str(&format!("[stimulus]\nsize = {n}\n"), origin)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("small.toml") && e.contains(&format!("`stimulus.size` = {n}:")) && e.contains("20..=8192"),
+            "{e}"
+        );
+    }
+    StimulusSpec::from_toml_str(&format!("[stimulus]\nsize = {MIN_FRAME_SIZE}\n"), origin).unwrap();
+}
