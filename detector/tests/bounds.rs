@@ -38,3 +38,20 @@ fn stimulus_rejects_frames_smaller_than_the_detectors_take() {
     }
     StimulusSpec::from_toml_str(&format!("[stimulus]\nsize = {MIN_FRAME_SIZE}\n"), origin).unwrap();
 }
+
+#[test]
+fn stimulus_video_size_is_bounded() {
+    // 8192² pixels × 1e6 frames passed validation and `loomlab detect` tried to hold it in memory.
+    let text = "[stimulus]\nsize = 8192\nfps = 100000.0\n[object]\nspeed_kmh = 36.0\nstart_distance_m = 100.0\n";
+    let e = StimulusSpec::from_toml_str(text, Path::new("huge.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("huge.toml") && e.contains("`stimulus.size` = 8192") && e.contains("MAX_TOTAL_PIXELS"),
+        "{e}"
+    );
+    for f in ["stimuli/fig1_uniform_disk.toml", "stimuli/white_disk_black.toml"] {
+        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(f);
+        StimulusSpec::load(&p).unwrap();
+    }
+}

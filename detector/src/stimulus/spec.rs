@@ -16,6 +16,9 @@ use crate::DetectorError;
 pub const MAX_SIZE: usize = 8192;
 /// Largest accepted number of frames of one stimulus.
 pub const MAX_FRAMES: usize = 1_000_000;
+/// Largest accepted video of one stimulus, `size² × frames` pixels: 2³⁰ (4 GiB of `f32` frames, as
+/// `loomlab detect` holds them), e.g. 2000 frames of 724×724 or 16 384 frames of 256×256.
+pub const MAX_TOTAL_PIXELS: usize = 1 << 30;
 
 /// One artificial approach video, as described by a stimulus TOML file (docs/design.md §4).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -386,6 +389,19 @@ impl StimulusSpec {
                 &format!(
                     "must give at most {MAX_FRAMES} frames, but the approach would take {frames:.0}; raise the \
                      speed, lower `stimulus.fps` or shorten the distance"
+                ),
+            ));
+        }
+        let pixels = (s.size as f64).powi(2) * frames;
+        if pixels > MAX_TOTAL_PIXELS as f64 {
+            return Err(err(
+                "stimulus.size",
+                s.size.to_string(),
+                &format!(
+                    "{frames:.0} frames of {0}×{0} pixels are {pixels:.0} pixels, more than the {MAX_TOTAL_PIXELS} \
+                     of one stimulus (MAX_TOTAL_PIXELS, 4 GiB of frames); lower `stimulus.size` or `stimulus.fps`, \
+                     raise `object.speed_kmh` or shorten the distance",
+                    s.size
                 ),
             ));
         }
