@@ -55,3 +55,14 @@ fn stimulus_video_size_is_bounded() {
         StimulusSpec::load(&p).unwrap();
     }
 }
+
+#[test]
+fn a_tiny_template_step_is_an_error_not_an_overflow() {
+    // Found by scenarios/tests/parser_fuzz.rs: 1 + (∞ as usize) overflowed in template_count.
+    for step in ["5e-324", "1e-300"] {
+        let e = HopfieldConfig::from_toml_str(&format!("[template]\nscale_step = {step}\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("template"), "{e}");
+    }
+}

@@ -294,7 +294,9 @@ impl TemplateConfig {
     pub fn template_count(&self, n: usize) -> usize {
         let steps = (self.scale_end - self.scale_start_for(n)) / self.scale_step_for(n);
         // The epsilon makes exact multiples (n divisible by 5 with the paper's schedule) count.
-        1 + (steps + 1e-9).floor().max(0.0) as usize
+        // `as usize` saturates (a huge or infinite count is then rejected by `validate`, which
+        // checks it against MAX_TEMPLATES); NaN counts as 0.
+        ((steps + 1e-9).floor().max(0.0) as usize).saturating_add(1)
     }
 
     /// Scale s_i of template i (1-based, as in the paper): s_1 + (i − 1)·Δs.
