@@ -23,7 +23,10 @@ fn detect(stimulus: &Path, out: &Path, extra: &[&str]) -> (Option<i32>, String) 
         out.to_str().unwrap(),
     ];
     args.extend_from_slice(extra);
-    let o = Command::new(env!("CARGO_BIN_EXE_loomlab")).args(&args).output().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_loomlab"))
+        .args(&args)
+        .output()
+        .unwrap();
     (o.status.code(), String::from_utf8_lossy(&o.stderr).into_owned())
 }
 
@@ -64,7 +67,10 @@ fn detect_hopfield_config_keeps_the_stimulus_field_of_view() {
     assert_eq!(code, Some(0), "{err}");
     let plain = std::fs::read_to_string(tmp.join("plain").join("responses.csv")).unwrap();
     let with_cfg = std::fs::read_to_string(tmp.join("cfg").join("responses.csv")).unwrap();
-    assert_eq!(plain, with_cfg, "a config of default values changes nothing (θ̂ uses the stimulus's 20°)");
+    assert_eq!(
+        plain, with_cfg,
+        "a config of default values changes nothing (θ̂ uses the stimulus's 20°)"
+    );
 }
 
 #[test]

@@ -80,7 +80,10 @@ fn render_no_gpu(scene: &std::path::Path, out: &std::path::Path, extra: &[&str])
         "--no-render",
     ];
     args.extend_from_slice(extra);
-    let o = Command::new(env!("CARGO_BIN_EXE_loomlab")).args(&args).output().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_loomlab"))
+        .args(&args)
+        .output()
+        .unwrap();
     (o.status.code(), String::from_utf8_lossy(&o.stderr).into_owned())
 }
 
@@ -92,7 +95,8 @@ fn scratch(name: &str) -> PathBuf {
 }
 
 /// A 32×32 world with one pole (one truth.csv row per frame). `[robot_command]` may follow.
-const SMALL_SCENE: &str = "[episode]\nduration_s = 0.1\n\n[world]\ncamera = { n = 32 }\n\n[[world.scenery]]\nkind = \"pole\"\n";
+const SMALL_SCENE: &str =
+    "[episode]\nduration_s = 0.1\n\n[world]\ncamera = { n = 32 }\n\n[[world.scenery]]\nkind = \"pole\"\n";
 
 #[test]
 fn render_caps_the_number_of_frames() {
@@ -102,7 +106,13 @@ fn render_caps_the_number_of_frames() {
     let out = tmp.join("o");
     let (code, err) = render_no_gpu(&huge, &out, &[]);
     assert_eq!(code, Some(2), "{err}");
-    for part in ["huge.toml", "episode.duration_s", "1000000000", "432000", "MAX_EPISODE_FRAMES"] {
+    for part in [
+        "huge.toml",
+        "episode.duration_s",
+        "1000000000",
+        "432000",
+        "MAX_EPISODE_FRAMES",
+    ] {
         assert!(err.contains(part), "missing `{part}` in: {err}");
     }
     assert!(!out.exists(), "nothing may be written");
@@ -157,6 +167,9 @@ fn render_rejects_frames_smaller_than_the_detectors_take() {
     std::fs::write(&ok, SMALL_SCENE).unwrap();
     let (code, err) = render_no_gpu(&ok, &out, &["--size", "19"]);
     assert_eq!(code, Some(2), "{err}");
-    assert!(err.contains("--size") && err.contains("19") && err.contains("20"), "{err}");
+    assert!(
+        err.contains("--size") && err.contains("19") && err.contains("20"),
+        "{err}"
+    );
     assert!(!out.exists());
 }

@@ -174,7 +174,9 @@ fn guarded(
                     .unwrap_or_default(),
                 Ok(()) => String::new(),
             };
-            Err(TestCaseError::fail(format!("{what} panicked ({msg}) on input:\n{input}")))
+            Err(TestCaseError::fail(format!(
+                "{what} panicked ({msg}) on input:\n{input}"
+            )))
         }
         Err(std::sync::mpsc::RecvTimeoutError::Timeout) => Err(TestCaseError::fail(format!(
             "{what}: no answer within {CASE_TIME_LIMIT:?} (hang?) on input:\n{input}"
@@ -308,7 +310,10 @@ fn load_as_suite(text: &str) -> Result<Outcome, TestCaseError> {
 // Seeds: the real example files, their keys, and awkward values.
 
 fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_path_buf()
 }
 
 fn read_dir_toml(dir: &str) -> Vec<String> {
@@ -381,8 +386,21 @@ fn vocabulary() -> &'static Vec<String> {
         }
         words.extend(
             [
-                "keil2004", "cizek2019", "fu2020", "soc", "samples", "repeats", "sweep", "random", "params", "tau_sfa",
-                "w_i", "kernel_off", "absolute_summation", "integer_frame_interval", "pooling",
+                "keil2004",
+                "cizek2019",
+                "fu2020",
+                "soc",
+                "samples",
+                "repeats",
+                "sweep",
+                "random",
+                "params",
+                "tau_sfa",
+                "w_i",
+                "kernel_off",
+                "absolute_summation",
+                "integer_frame_interval",
+                "pooling",
             ]
             .map(String::from),
         );
@@ -720,35 +738,50 @@ fn examples_parse() {
 
 #[test]
 fn fuzz_scenario_files() {
-    fuzz("scenario/toml_ish", 150, toml_ish(), parse_as_scenario);
-    fuzz("scenario/mutated", 250, mutated(scenario_examples()), parse_as_scenario);
+    fuzz("scenario/toml_ish", 500, toml_ish(), parse_as_scenario);
+    fuzz(
+        "scenario/mutated",
+        1000,
+        mutated(scenario_examples()),
+        parse_as_scenario,
+    );
 }
 
 #[test]
 fn fuzz_suite_files() {
-    fuzz("suite/mutated", 60, mutated(suite_examples()), load_as_suite);
+    fuzz("suite/mutated", 500, mutated(suite_examples()), load_as_suite);
 }
 
 #[test]
 fn fuzz_sweep_files() {
-    fuzz("sweep/toml_ish", 150, toml_ish(), parse_as_sweep);
-    fuzz("sweep/mutated", 250, mutated(read_dir_toml("sweeps")), parse_as_sweep);
+    fuzz("sweep/toml_ish", 500, toml_ish(), parse_as_sweep);
+    fuzz("sweep/mutated", 1000, mutated(read_dir_toml("sweeps")), parse_as_sweep);
 }
 
 #[test]
 fn fuzz_stimulus_files() {
-    fuzz("stimulus/toml_ish", 200, toml_ish(), parse_as_stimulus);
-    fuzz("stimulus/mutated", 300, mutated(read_dir_toml("stimuli")), parse_as_stimulus);
+    fuzz("stimulus/toml_ish", 500, toml_ish(), parse_as_stimulus);
+    fuzz(
+        "stimulus/mutated",
+        1000,
+        mutated(read_dir_toml("stimuli")),
+        parse_as_stimulus,
+    );
 }
 
 #[test]
 fn fuzz_detector_configs() {
     let hopfield: Vec<String> = HOPFIELD_EXAMPLES.iter().map(|s| s.to_string()).collect();
-    fuzz("hopfield/toml_ish", 200, toml_ish(), parse_as_hopfield);
-    fuzz("hopfield/mutated", 300, mutated(hopfield), parse_as_hopfield);
+    fuzz("hopfield/toml_ish", 500, toml_ish(), parse_as_hopfield);
+    fuzz("hopfield/mutated", 1000, mutated(hopfield), parse_as_hopfield);
     let baselines: Vec<String> = BASELINE_EXAMPLES.iter().map(|s| s.to_string()).collect();
-    fuzz("baselines/toml_ish", 200, toml_ish(), parse_as_baselines);
-    fuzz("baselines/mutated", 300, mutated(baselines), parse_as_baselines);
-    fuzz("detectors/toml_ish", 150, toml_ish(), parse_as_detectors);
-    fuzz("detectors/mutated", 250, mutated(detectors_examples()), parse_as_detectors);
+    fuzz("baselines/toml_ish", 500, toml_ish(), parse_as_baselines);
+    fuzz("baselines/mutated", 1000, mutated(baselines), parse_as_baselines);
+    fuzz("detectors/toml_ish", 500, toml_ish(), parse_as_detectors);
+    fuzz(
+        "detectors/mutated",
+        1000,
+        mutated(detectors_examples()),
+        parse_as_detectors,
+    );
 }

@@ -76,13 +76,19 @@ mod tests {
         let dt = 1.0 / 120.0;
         assert_eq!(episode_frames("episode.duration_s", 3.0, dt).unwrap(), 360);
         assert_eq!(episode_frames("episode.duration_s", 1e-6, dt).unwrap(), 1);
-        assert_eq!(episode_frames("episode.duration_s", 3600.0, dt).unwrap(), MAX_EPISODE_FRAMES);
+        assert_eq!(
+            episode_frames("episode.duration_s", 3600.0, dt).unwrap(),
+            MAX_EPISODE_FRAMES
+        );
         for bad in [f64::NAN, f64::INFINITY, -1.0, 0.0, 1e9, 3600.1] {
             let e = episode_frames("--seconds", bad, dt).unwrap_err().to_string();
             assert!(e.contains("--seconds") && e.contains(&bad.to_string()), "{e}");
         }
         let e = episode_frames("episode.duration_s", 1e9, dt).unwrap_err().to_string();
-        assert!(e.contains("432000") && e.contains("MAX_EPISODE_FRAMES") && e.contains("3600.0 s"), "{e}");
+        assert!(
+            e.contains("432000") && e.contains("MAX_EPISODE_FRAMES") && e.contains("3600.0 s"),
+            "{e}"
+        );
         assert!(episode_frames("d", 1.0, 0.0).is_err());
         assert!(check_frame_count("--frames", MAX_EPISODE_FRAMES).is_ok());
         assert!(check_frame_count("--frames", MAX_EPISODE_FRAMES + 1).is_err());

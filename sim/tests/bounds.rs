@@ -25,7 +25,15 @@ fn camera_rejects_frames_smaller_than_the_detectors_take() {
 #[test]
 fn episode_cap_is_one_hour_at_the_default_camera_rate() {
     let w = WorldDesc::empty();
-    assert_eq!(episode_frames("episode.duration_s", 3600.0, w.dt()).unwrap(), MAX_EPISODE_FRAMES);
-    let e = episode_frames("episode.duration_s", 3600.5, w.dt()).unwrap_err().to_string();
-    assert!(e.starts_with("episode.duration_s = 3600.5:") && e.contains("432000"), "{e}");
+    assert_eq!(
+        episode_frames("episode.duration_s", 3600.0, w.dt()).unwrap(),
+        MAX_EPISODE_FRAMES
+    );
+    let e = episode_frames("episode.duration_s", 3600.5, w.dt())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("episode.duration_s = 3600.5:") && e.contains("432000"),
+        "{e}"
+    );
 }

@@ -13,9 +13,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, anyhow, bail};
 use clap::Args;
 use loomlab_sim::io::{GifWriter, TruthCsv, write_png};
-use loomlab_sim::{
-    Command, MAX_N, MIN_FRAME_SIZE, Sim, SimError, WorldDesc, check_frame_count, episode_frames,
-};
+use loomlab_sim::{Command, MAX_N, MIN_FRAME_SIZE, Sim, SimError, WorldDesc, check_frame_count, episode_frames};
 use serde::Deserialize;
 
 /// Arguments of `loomlab render`.
