@@ -69,3 +69,107 @@ fn render_rejects_unknown_keys_with_exit_code_2() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("colour") && err.contains("bad.toml"), "{err}");
 }
+
+/// Runs `loomlab render SCENE --out OUT --no-render EXTRA…` and returns (exit code, stderr).
+fn render_no_gpu(scene: &std::path::Path, out: &std::path::Path, extra: &[&str]) -> (Option<i32>, String) {
+    let mut args = vec![
+        "render",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--no-render",
+    ];
+    args.extend_from_slice(extra);
+    let o = Command::new(env!("CARGO_BIN_EXE_loomlab"))
+        .args(&args)
+        .output()
+        .unwrap();
+    (o.status.code(), String::from_utf8_lossy(&o.stderr).into_owned())
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A 32×32 world with one pole (one truth.csv row per frame). `[robot_command]` may follow.
+const SMALL_SCENE: &str =
+    "[episode]\nduration_s = 0.1\n\n[world]\ncamera = { n = 32 }\n\n[[world.scenery]]\nkind = \"pole\"\n";
+
+#[test]
+fn render_caps_the_number_of_frames() {
+    let tmp = scratch("render_cli_cap");
+    let huge = tmp.join("huge.toml");
+    std::fs::write(&huge, "[episode]\nduration_s = 1e9\n\n[world]\n").unwrap();
+    let out = tmp.join("o");
+    let (code, err) = render_no_gpu(&huge, &out, &[]);
+    assert_eq!(code, Some(2), "{err}");
+    for part in [
+        "huge.toml",
+        "episode.duration_s",
+        "1000000000",
+        "432000",
+        "MAX_EPISODE_FRAMES",
+    ] {
+        assert!(err.contains(part), "missing `{part}` in: {err}");
+    }
+    assert!(!out.exists(), "nothing may be written");
+
+    let ok = tmp.join("ok.toml");
+    std::fs::write(&ok, SMALL_SCENE).unwrap();
+    for seconds in ["inf", "nan", "-1", "0", "1e9"] {
+        let (code, err) = render_no_gpu(&ok, &out, &[&format!("--seconds={seconds}")]);
+        assert_eq!(code, Some(2), "--seconds={seconds}: {err}");
+        assert!(err.contains("--seconds"), "--seconds={seconds}: {err}");
+        assert!(!out.exists(), "--seconds={seconds}: nothing may be written");
+    }
+    let (code, err) = render_no_gpu(&ok, &out, &["--frames", "432001"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("--frames") && err.contains("432000"), "{err}");
+    assert!(!out.exists());
+
+    let (code, err) = render_no_gpu(&ok, &out, &["--seconds", "0.05"]);
+    assert_eq!(code, Some(0), "{err}");
+    let rows = std::fs::read_to_string(out.join("truth.csv")).unwrap().lines().count();
+    assert_eq!(rows, 1 + 7, "header + frames 0..=6 (one pole)");
+}
+
+#[test]
+fn render_validates_everything_before_writing() {
+    let tmp = scratch("render_cli_validate");
+    let out = tmp.join("o");
+    let nan = tmp.join("nan_command.toml");
+    std::fs::write(&nan, format!("[robot_command]\nforward_mps = nan\n\n{SMALL_SCENE}")).unwrap();
+    let (code, err) = render_no_gpu(&nan, &out, &[]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("nan_command.toml") && err.contains("robot_command.forward_mps"),
+        "the error names the file and the key as written: {err}"
+    );
+    assert!(!out.exists(), "no frames, truth.csv or GIF may be left behind");
+}
+
+#[test]
+fn render_rejects_frames_smaller_than_the_detectors_take() {
+    let tmp = scratch("render_cli_min_size");
+    let out = tmp.join("o");
+    let small = tmp.join("small.toml");
+    std::fs::write(&small, "[world]\ncamera = { n = 8 }\n").unwrap();
+    let (code, err) = render_no_gpu(&small, &out, &[]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("small.toml") && err.contains("world.camera.n") && err.contains("= 8") && err.contains("20"),
+        "{err}"
+    );
+    let ok = tmp.join("ok.toml");
+    std::fs::write(&ok, SMALL_SCENE).unwrap();
+    let (code, err) = render_no_gpu(&ok, &out, &["--size", "19"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("--size") && err.contains("19") && err.contains("20"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}

@@ -17,7 +17,7 @@ use crate::trajectory::Pose64;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct CameraDesc {
-    /// Image size in pixels (n × n). Default 128.
+    /// Image size in pixels (n × n), [`MIN_FRAME_SIZE`]`..=`[`MAX_N`] (20..=2048). Default 128.
     pub n: u32,
     /// Full field of view across the image (degrees). Default 60.
     pub fov_deg: f32,
@@ -77,6 +77,15 @@ impl Default for ShakeDesc {
 /// Largest supported image size.
 pub const MAX_N: u32 = 2048;
 
+/// Smallest camera image side (pixels) that every detector of loomlab accepts: 20.
+///
+/// The requirement is the detectors' (`loomlab_detector::MIN_FRAME_SIZE`, where it is derived from
+/// the Hopfield detector's paper template schedule: its first template disk is 0.1·n wide and needs
+/// at least 2 pixels). The simulator does not depend on the detector crate (both are level 0, see
+/// docs/architecture.md), so this is the simulator's statement of that one number; a test of this
+/// crate (`tests/bounds.rs`, with the detector crate as a dev-dependency) fails if they ever differ.
+pub const MIN_FRAME_SIZE: u32 = 20;
+
 /// A validated camera, ready to compute poses and projections.
 #[derive(Clone, Debug)]
 pub struct Camera {
@@ -109,11 +118,14 @@ pub struct Projection {
 impl CameraDesc {
     /// Validates the description; `seed` draws the shake phases.
     pub fn build(&self, seed: u64) -> Result<Camera, SimError> {
-        if !(1..=MAX_N).contains(&self.n) {
+        if !(MIN_FRAME_SIZE..=MAX_N).contains(&self.n) {
             return Err(SimError::invalid(
                 "world.camera.n",
                 self.n,
-                format!("must be in 1..={MAX_N}"),
+                format!(
+                    "must be in {MIN_FRAME_SIZE}..={MAX_N} pixels (the detectors need frames of at least \
+                     {MIN_FRAME_SIZE}×{MIN_FRAME_SIZE})"
+                ),
             ));
         }
         if !(self.fov_deg.is_finite() && self.fov_deg > 0.5 && self.fov_deg < 170.0) {

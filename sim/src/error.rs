@@ -13,6 +13,17 @@ pub enum SimError {
         /// Why it is rejected and what would be accepted.
         reason: String,
     },
+    /// An episode duration (or frame count) is not a finite positive number or exceeds
+    /// [`crate::MAX_EPISODE_FRAMES`].
+    #[error("{key} = {value}: {reason}")]
+    Duration {
+        /// The key or flag as the user wrote it, e.g. `episode.duration_s` or `--seconds`.
+        key: String,
+        /// The offending value.
+        value: String,
+        /// Why it is rejected and what to give instead.
+        reason: String,
+    },
     /// No GPU adapter (not even a software one) could be found.
     #[error(
         "no GPU adapter found for offscreen rendering ({detail}). On Debian/Ubuntu install the Mesa software \

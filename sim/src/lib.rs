@@ -29,6 +29,7 @@
 pub mod camera;
 mod error;
 pub mod io;
+mod limits;
 mod object;
 pub mod projectile;
 pub mod render;
@@ -45,8 +46,9 @@ mod world;
 /// The glam version rapier3d uses (re-exported so that callers need no second math crate).
 pub use rapier3d::glamx::glam;
 
-pub use camera::{Camera, CameraDesc, ShakeDesc};
+pub use camera::{Camera, CameraDesc, MAX_N, MIN_FRAME_SIZE, ShakeDesc};
 pub use error::SimError;
+pub use limits::{MAX_EPISODE_FRAMES, check_frame_count, episode_frames};
 pub use object::ObjectKind;
 pub use projectile::{NamedTarget, ProjectileDesc, Target};
 pub use render::{GpuContext, Renderer, frame_to_u8};

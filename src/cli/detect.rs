@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
+use loomlab_detector::hopfield::config::CAMERA_KEYS;
 use loomlab_detector::hopfield::{HopfieldConfig, Implementation};
 use loomlab_detector::stimulus::StimulusSpec;
 use loomlab_detector::video::load_video;
@@ -48,7 +49,8 @@ pub struct DetectArgs {
     #[arg(long = "impl", value_enum, default_value = "fast")]
     pub implementation: ImplArg,
     /// Hopfield parameters as a TOML file (keys of HopfieldConfig; unknown keys are errors).
-    /// `n` is always taken from the frames.
+    /// `n`, `fov_deg` and `frame_rate_hz` come from the input (stimulus file or video and
+    /// `--fov-deg`/`--fps`) and are rejected here.
     #[arg(long, value_name = "FILE.toml")]
     pub hopfield_config: Option<PathBuf>,
     /// Camera field of view in degrees for the angular-size readout of videos (stimuli carry their own).
@@ -71,7 +73,32 @@ struct Input {
     t_s: Vec<f64>,
     theta_true_deg: Option<Vec<f64>>,
     fov_deg: f64,
+    /// Frame rate (frames per second).
+    fps: f64,
+    /// Where `fov_deg`, `fps` and the frame size come from, for error messages.
+    camera_source: CameraSource,
     label: String,
+}
+
+/// Where the camera facts (frame size, field of view, frame rate) of the input come from.
+enum CameraSource {
+    Stimulus,
+    Video { gif_fps: bool },
+}
+
+impl CameraSource {
+    /// Where the value of the Hopfield key `key` (one of [`CAMERA_KEYS`]) comes from.
+    fn origin_of(&self, key: &str) -> &'static str {
+        match (self, key) {
+            (CameraSource::Stimulus, "n") => "the stimulus file's `stimulus.size`",
+            (CameraSource::Stimulus, "fov_deg") => "the stimulus file's `stimulus.fov_deg`",
+            (CameraSource::Stimulus, _) => "the stimulus file's `stimulus.fps`",
+            (CameraSource::Video { .. }, "n") => "the video's frame size (see --non-square)",
+            (CameraSource::Video { .. }, "fov_deg") => "the --fov-deg flag",
+            (CameraSource::Video { gif_fps: true }, _) => "the GIF's frame delays",
+            (CameraSource::Video { gif_fps: false }, _) => "the --fps flag",
+        }
+    }
 }
 
 fn load_input(args: &DetectArgs) -> anyhow::Result<Input> {
@@ -83,6 +110,8 @@ fn load_input(args: &DetectArgs) -> anyhow::Result<Input> {
             theta_true_deg: Some(rendered.iter().map(|f| f.theta_true_deg).collect()),
             frames: rendered.into_iter().map(|f| f.frame).collect(),
             fov_deg: spec.stimulus.fov_deg,
+            fps: spec.stimulus.fps,
+            camera_source: CameraSource::Stimulus,
             label: path.display().to_string(),
         });
     }
@@ -91,10 +120,16 @@ fn load_input(args: &DetectArgs) -> anyhow::Result<Input> {
         NonSquareArg::Embed => NonSquare::Embed,
         NonSquareArg::Crop => NonSquare::Crop,
     };
+    if !(args.fov_deg.is_finite() && args.fov_deg > 0.0 && args.fov_deg < 180.0) {
+        bail!(
+            "--fov-deg = {}: the field of view must be in (0, 180) degrees, e.g. 60",
+            args.fov_deg
+        );
+    }
     let video = load_video(path, mode)?;
     let fps = video.fps.unwrap_or(args.fps);
     if !(fps.is_finite() && fps > 0.0) {
-        bail!("--fps must be a positive number of frames per second, got {fps}");
+        bail!("--fps = {fps}: must be a positive number of frames per second, e.g. 120");
     }
     let invalid: usize = video.frames.iter().map(Frame::invalid_pixels).sum();
     if invalid > 0 {
@@ -108,6 +143,10 @@ fn load_input(args: &DetectArgs) -> anyhow::Result<Input> {
         theta_true_deg: None,
         frames: video.frames,
         fov_deg: args.fov_deg,
+        fps,
+        camera_source: CameraSource::Video {
+            gif_fps: video.fps.is_some(),
+        },
         label: path.display().to_string(),
     })
 }
@@ -124,19 +163,18 @@ pub fn run(args: DetectArgs) -> anyhow::Result<i32> {
     let input = load_input(&args)?;
     let n = input.frames.first().map(Frame::n).context("the input has no frames")?;
 
-    let mut hopfield = match &args.hopfield_config {
-        Some(p) => {
-            let text = std::fs::read_to_string(p).with_context(|| format!("cannot read {}", p.display()))?;
-            HopfieldConfig::from_toml_str(&text).with_context(|| format!("in {}", p.display()))?
-        }
-        None => HopfieldConfig {
-            fov_deg: input.fov_deg,
-            ..HopfieldConfig::default()
-        },
+    let hopfield = match &args.hopfield_config {
+        Some(p) => load_hopfield_config(p, &input)?,
+        None => HopfieldConfig::default(),
     };
-    hopfield.implementation = match args.implementation {
-        ImplArg::Reference => Implementation::Reference,
-        ImplArg::Fast => Implementation::Fast,
+    let hopfield = HopfieldConfig {
+        fov_deg: input.fov_deg,
+        frame_rate_hz: input.fps,
+        implementation: match args.implementation {
+            ImplArg::Reference => Implementation::Reference,
+            ImplArg::Fast => Implementation::Fast,
+        },
+        ..hopfield
     };
     let set = DetectorSet {
         hopfield,
@@ -144,18 +182,14 @@ pub fn run(args: DetectArgs) -> anyhow::Result<i32> {
     };
     let mut detectors = ids.iter().map(|id| set.build(id, n)).collect::<Result<Vec<_>, _>>()?;
 
-    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
-    let csv_path = args.out.join("responses.csv");
-    let mut csv =
-        BufWriter::new(File::create(&csv_path).with_context(|| format!("cannot create {}", csv_path.display()))?);
+    // Everything is computed before anything is written: an error leaves no partial output.
     let has_hopfield = ids.contains(&"hopfield");
     let mut header = vec!["frame".to_string(), "t_s".into(), "theta_true_deg".into()];
     header.extend(ids.iter().map(|s| s.to_string()));
     if has_hopfield {
         header.extend(["hopfield_on".into(), "hopfield_off".into(), "hopfield_theta_deg".into()]);
     }
-    writeln!(csv, "{}", header.join(","))?;
-
+    let mut lines = vec![header.join(",")];
     let mut columns: Vec<Column> = ids
         .iter()
         .map(|id| Column {
@@ -188,10 +222,18 @@ pub fn run(args: DetectArgs) -> anyhow::Result<i32> {
             }
         }
         row.extend(extra);
-        writeln!(csv, "{}", row.join(","))?;
+        lines.push(row.join(","));
         bar.inc(1);
     }
     bar.finish_and_clear();
+
+    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    let csv_path = args.out.join("responses.csv");
+    let mut csv =
+        BufWriter::new(File::create(&csv_path).with_context(|| format!("cannot create {}", csv_path.display()))?);
+    for line in &lines {
+        writeln!(csv, "{line}")?;
+    }
     csv.flush()?;
 
     let plot_path = args.out.join("responses.png");
@@ -223,6 +265,23 @@ pub fn run(args: DetectArgs) -> anyhow::Result<i32> {
     );
     println!("wrote {} and {}", csv_path.display(), plot_path.display());
     Ok(0)
+}
+
+/// Reads `--hopfield-config`: the keys of [`HopfieldConfig`] except the camera's ([`CAMERA_KEYS`]),
+/// which come from the input. Errors name the file and the key.
+fn load_hopfield_config(path: &Path, input: &Input) -> anyhow::Result<HopfieldConfig> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let table: toml::Table = toml::from_str(&text).with_context(|| format!("in {}", path.display()))?;
+    if let Some(key) = CAMERA_KEYS.iter().find(|k| table.contains_key(**k)) {
+        bail!(
+            "{}: `{key}` = {} is not a detector parameter: it comes from {} (as in scenario files, where it \
+             comes from world.camera); remove it here",
+            path.display(),
+            table[*key],
+            input.camera_source.origin_of(key)
+        );
+    }
+    HopfieldConfig::from_toml_str(&text).with_context(|| format!("in {}", path.display()))
 }
 
 fn plot_responses(path: &Path, input: &Input, columns: &[Column], memory_columns: usize) -> anyhow::Result<()> {

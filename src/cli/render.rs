@@ -10,10 +10,10 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, bail};
+use anyhow::{Context, anyhow, bail};
 use clap::Args;
 use loomlab_sim::io::{GifWriter, TruthCsv, write_png};
-use loomlab_sim::{Command, Sim, WorldDesc};
+use loomlab_sim::{Command, MAX_N, MIN_FRAME_SIZE, Sim, SimError, WorldDesc, check_frame_count, episode_frames};
 use serde::Deserialize;
 
 /// Arguments of `loomlab render`.
@@ -25,16 +25,18 @@ pub struct RenderArgs {
     /// Output folder (created if missing).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Number of steps to simulate (overrides `episode.duration_s`).
+    /// Number of steps to simulate (overrides `episode.duration_s`); at most
+    /// `loomlab_sim::MAX_EPISODE_FRAMES` (432000).
     #[arg(long, conflicts_with = "seconds")]
     pub frames: Option<u64>,
-    /// Simulated duration in seconds (overrides `episode.duration_s`).
-    #[arg(long)]
+    /// Simulated duration in seconds (overrides `episode.duration_s`): finite, > 0 and at most
+    /// `loomlab_sim::MAX_EPISODE_FRAMES` camera frames.
+    #[arg(long, allow_negative_numbers = true)]
     pub seconds: Option<f64>,
     /// Seed (camera shake, noise textures); overrides `episode.seed`.
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Frame size n (overrides `world.camera.n`).
+    /// Frame size n (overrides `world.camera.n`), 20..=2048 (`loomlab_sim::MIN_FRAME_SIZE`..=`MAX_N`).
     #[arg(long)]
     pub size: Option<u32>,
     /// Do not write the animated GIF.
@@ -58,10 +60,10 @@ pub struct RenderArgs {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct EpisodeSection {
-    /// Simulated duration (s).
+    /// Simulated duration (s), > 0 and at most `loomlab_sim::MAX_EPISODE_FRAMES` camera frames. Default 3.
     #[serde(default = "default_duration")]
     duration_s: f64,
-    /// Seed.
+    /// Seed (camera shake, noise textures). Default 0.
     #[serde(default)]
     seed: u64,
 }
@@ -93,33 +95,65 @@ struct SceneFile {
 fn load_scene(path: &Path) -> anyhow::Result<SceneFile> {
     let text = std::fs::read_to_string(path).with_context(|| format!("reading scene file {}", path.display()))?;
     let scene: SceneFile = toml::from_str(&text).with_context(|| format!("parsing scene file {}", path.display()))?;
-    scene
-        .world
-        .validate()
-        .with_context(|| format!("in scene file {}", path.display()))?;
     Ok(scene)
+}
+
+/// A simulator error about the scene file, naming the file; keys the simulator reports under its own
+/// name (`command.forward_mps`) are renamed to the key path of the scene file (`robot_command.forward_mps`).
+fn scene_error(path: &Path, e: SimError) -> anyhow::Error {
+    match e {
+        SimError::InvalidDesc { key, value, reason } => {
+            let key = match key.strip_prefix("command.") {
+                Some(rest) => format!("robot_command.{rest}"),
+                None => key,
+            };
+            anyhow!("{}: {key} = {value}: {reason}", path.display())
+        }
+        SimError::Duration { .. } => anyhow!("{}: {e}", path.display()),
+        other => anyhow::Error::new(other).context(format!("in scene file {}", path.display())),
+    }
+}
+
+/// Everything `render` needs, validated: nothing is written before this succeeds.
+struct Plan {
+    scene: SceneFile,
+    seed: u64,
+    steps: u64,
+}
+
+/// Reads the scene file and checks it and every flag; the errors name the file (for keys of the
+/// file) or the flag, the value and the fix.
+fn plan(args: &RenderArgs) -> anyhow::Result<Plan> {
+    let mut scene = load_scene(&args.scene)?;
+    let file = &args.scene;
+    let dt = scene.world.dt();
+    // The file's duration is checked even when a flag overrides it: the file is wrong either way.
+    let file_steps =
+        episode_frames("episode.duration_s", scene.episode.duration_s, dt).map_err(|e| scene_error(file, e))?;
+    if let Some(n) = args.size {
+        if !(MIN_FRAME_SIZE..=MAX_N).contains(&n) {
+            bail!(
+                "--size = {n}: the frame size must be in {MIN_FRAME_SIZE}..={MAX_N} pixels (the detectors need \
+                 frames of at least {MIN_FRAME_SIZE}×{MIN_FRAME_SIZE})"
+            );
+        }
+        scene.world.camera.n = n;
+    }
+    scene.world.validate().map_err(|e| scene_error(file, e))?;
+    scene.robot_command.validate().map_err(|e| scene_error(file, e))?;
+    let steps = match (args.frames, args.seconds) {
+        (Some(f), _) => check_frame_count("--frames", f)?,
+        (None, Some(s)) => episode_frames("--seconds", s, dt)?,
+        (None, None) => file_steps,
+    };
+    let seed = args.seed.unwrap_or(scene.episode.seed);
+    Ok(Plan { scene, seed, steps })
 }
 
 /// Runs `loomlab render`; returns the exit code.
 pub fn run(args: RenderArgs) -> anyhow::Result<i32> {
-    let mut scene = load_scene(&args.scene)?;
-    if let Some(n) = args.size {
-        scene.world.camera.n = n;
-    }
-    let seed = args.seed.unwrap_or(scene.episode.seed);
+    let Plan { scene, seed, steps } = plan(&args)?;
     let dt = scene.world.dt();
-    let steps = match (args.frames, args.seconds) {
-        (Some(f), _) => f,
-        (None, Some(s)) => (s / dt).round() as u64,
-        (None, None) => (scene.episode.duration_s / dt).round() as u64,
-    };
-    if !(scene.episode.duration_s.is_finite() && scene.episode.duration_s >= 0.0) {
-        bail!(
-            "{}: episode.duration_s = {} must be >= 0",
-            args.scene.display(),
-            scene.episode.duration_s
-        );
-    }
     let mut sim = if args.no_render {
         Sim::new_physics_only(&scene.world, seed)?
     } else {

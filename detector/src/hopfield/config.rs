@@ -294,7 +294,9 @@ impl TemplateConfig {
     pub fn template_count(&self, n: usize) -> usize {
         let steps = (self.scale_end - self.scale_start_for(n)) / self.scale_step_for(n);
         // The epsilon makes exact multiples (n divisible by 5 with the paper's schedule) count.
-        1 + (steps + 1e-9).floor().max(0.0) as usize
+        // `as usize` saturates (a huge or infinite count is then rejected by `validate`, which
+        // checks it against MAX_TEMPLATES); NaN counts as 0.
+        ((steps + 1e-9).floor().max(0.0) as usize).saturating_add(1)
     }
 
     /// Scale s_i of template i (1-based, as in the paper): s_1 + (i − 1)·Δs.
@@ -340,6 +342,13 @@ pub enum Readout {
     /// OFF), optionally low-passed with `readout_alpha`.
     Winner,
 }
+
+/// Keys of [`HopfieldConfig`] that describe the camera rather than the detector: the frame side
+/// `n`, the field of view `fov_deg` and the frame rate `frame_rate_hz`. Wherever the detector runs
+/// on frames from a camera, a stimulus or a video, these come from that source, and files of
+/// detector parameters (scenario `[[detectors]] params`, `loomlab detect --hopfield-config`) reject
+/// them.
+pub const CAMERA_KEYS: [&str; 3] = ["n", "fov_deg", "frame_rate_hz"];
 
 /// All parameters of the Hopfield detector. `Default` = the paper's values for 256×256 frames.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
@@ -675,9 +684,10 @@ impl HopfieldConfig {
                         "too small for the paper's template schedule: its smallest template disk is \
                          scale_start·n = 0.1·{n} = {:.1} pixels wide, and a disk narrower than 2 pixels is at \
                          most one pixel row, with no disk outline to match, so the paper's schedule needs \
-                         n ≥ 20; for smaller frames (down to 16) set template.schedule = \"footnote\" \
+                         n ≥ {} (loomlab_detector::MIN_FRAME_SIZE); for smaller frames (down to 16) set template.schedule = \"footnote\" \
                          (7-pixel first disk) or template.scale_start_px (e.g. 4)",
-                        start * n as f64
+                        start * n as f64,
+                        crate::MIN_FRAME_SIZE
                     ),
                 ));
             }

@@ -16,6 +16,9 @@ use crate::DetectorError;
 pub const MAX_SIZE: usize = 8192;
 /// Largest accepted number of frames of one stimulus.
 pub const MAX_FRAMES: usize = 1_000_000;
+/// Largest accepted video of one stimulus, `size² × frames` pixels: 2³⁰ (4 GiB of `f32` frames, as
+/// `loomlab detect` holds them), e.g. 2000 frames of 724×724 or 16 384 frames of 256×256.
+pub const MAX_TOTAL_PIXELS: usize = 1 << 30;
 
 /// One artificial approach video, as described by a stimulus TOML file (docs/design.md §4).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -37,7 +40,7 @@ pub struct StimulusSpec {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct StimulusSection {
-    /// Frame side n in pixels (frames are n×n). Default 256.
+    /// Frame side n in pixels (frames are n×n), [`crate::MIN_FRAME_SIZE`]`..=`[`MAX_SIZE`] (20..=8192). Default 256.
     pub size: usize,
     /// Frame rate in frames per second. Default 120.
     pub fps: f64,
@@ -296,11 +299,15 @@ impl StimulusSpec {
             reason: format!("`{key}` = {value}: {fix}"),
         };
         let s = &self.stimulus;
-        if s.size == 0 || s.size > MAX_SIZE {
+        if !(crate::MIN_FRAME_SIZE..=MAX_SIZE).contains(&s.size) {
             return Err(err(
                 "stimulus.size",
                 s.size.to_string(),
-                &format!("must be 1..={MAX_SIZE} pixels"),
+                &format!(
+                    "must be {}..={MAX_SIZE} pixels (the detectors need frames of at least {0}×{0}, \
+                     loomlab_detector::MIN_FRAME_SIZE)",
+                    crate::MIN_FRAME_SIZE
+                ),
             ));
         }
         positive(s.fps, "stimulus.fps", "frames per second", &err)?;
@@ -382,6 +389,19 @@ impl StimulusSpec {
                 &format!(
                     "must give at most {MAX_FRAMES} frames, but the approach would take {frames:.0}; raise the \
                      speed, lower `stimulus.fps` or shorten the distance"
+                ),
+            ));
+        }
+        let pixels = (s.size as f64).powi(2) * frames;
+        if pixels > MAX_TOTAL_PIXELS as f64 {
+            return Err(err(
+                "stimulus.size",
+                s.size.to_string(),
+                &format!(
+                    "{frames:.0} frames of {0}×{0} pixels are {pixels:.0} pixels, more than the {MAX_TOTAL_PIXELS} \
+                     of one stimulus (MAX_TOTAL_PIXELS, 4 GiB of frames); lower `stimulus.size` or `stimulus.fps`, \
+                     raise `object.speed_kmh` or shorten the distance",
+                    s.size
                 ),
             ));
         }

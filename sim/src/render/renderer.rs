@@ -286,11 +286,15 @@ impl Renderer {
 
     /// Creates a renderer for n × n frames on an existing GPU context.
     pub fn with_context(ctx: Arc<GpuContext>, n: u32) -> Result<Renderer, SimError> {
-        if !(1..=crate::camera::MAX_N).contains(&n) {
+        use crate::camera::{MAX_N, MIN_FRAME_SIZE};
+        if !(MIN_FRAME_SIZE..=MAX_N).contains(&n) {
             return Err(SimError::invalid(
                 "world.camera.n",
                 n,
-                format!("must be in 1..={}", crate::camera::MAX_N),
+                format!(
+                    "must be in {MIN_FRAME_SIZE}..={MAX_N} pixels (the detectors need frames of at least \
+                     {MIN_FRAME_SIZE}×{MIN_FRAME_SIZE})"
+                ),
             ));
         }
         let device = &ctx.device;
