@@ -98,12 +98,15 @@ impl EnvOptions {
     /// Checks every value.
     pub fn validate(&self) -> Result<(), EnvError> {
         if let Some(n) = self.frame_size
-            && !(8..=MAX_FRAME_SIZE).contains(&n)
+            && !(loomlab_sim::MIN_FRAME_SIZE..=MAX_FRAME_SIZE).contains(&n)
         {
             return Err(EnvError::option(
                 "frame_size",
                 n,
-                format!("must be in 8..={MAX_FRAME_SIZE} pixels (64 is fast for RL)"),
+                format!(
+                    "must be in {}..={MAX_FRAME_SIZE} pixels (the detectors need at least {0}; 64 is fast for RL)",
+                    loomlab_sim::MIN_FRAME_SIZE
+                ),
             ));
         }
         if let Some(d) = &self.detectors

@@ -474,11 +474,11 @@ pub fn parse_scenario(
         "episode",
     )
     .map_err(kerr)?;
-    if !(episode.duration_s.is_finite() && episode.duration_s > 0.0 && episode.duration_s <= 3600.0) {
+    if !(episode.duration_s.is_finite() && episode.duration_s > 0.0) {
         return Err(ScenarioError::key(
             path,
             "episode.duration_s",
-            format!("{} must be in (0, 3600] seconds", episode.duration_s),
+            format!("{} must be a finite number of seconds > 0", episode.duration_s),
         ));
     }
     if episode.repeats == 0 {
@@ -688,12 +688,11 @@ fn resolve(doc: &ScenarioDoc, opts: &LoadOptions) -> Result<(WorldDesc, Vec<Dete
         }
         other => ("world".to_string(), other.to_string()),
     })?;
-    if !(doc.episode.duration_s.is_finite() && doc.episode.duration_s > 0.0 && doc.episode.duration_s <= 3600.0) {
-        return Err((
-            "episode.duration_s".into(),
-            format!("{} must be in (0, 3600] seconds", doc.episode.duration_s),
-        ));
-    }
+    // one cap on frames per episode, shared with `loomlab render`
+    loomlab_sim::episode_frames("episode.duration_s", doc.episode.duration_s, world.dt()).map_err(|e| match e {
+        loomlab_sim::SimError::Duration { key, value, reason } => (key, format!("{value}: {reason}")),
+        other => ("episode.duration_s".into(), other.to_string()),
+    })?;
     doc.robot.validate()?;
     doc.controller
         .validate()

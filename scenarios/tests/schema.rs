@@ -103,6 +103,16 @@ fn wrong_types_and_values_name_the_key() {
 
     let e = err(&BASE.replace("duration_s = 1.0", "duration_s = -1.0"));
     assert!(e.contains("`episode.duration_s`") && e.contains("-1"), "{e}");
+    // one cap on frames per episode, shared with `loomlab render`
+    let e = err(&BASE.replace("duration_s = 1.0", "duration_s = 1e9"));
+    assert!(
+        e.contains("`episode.duration_s`") && e.contains("MAX_EPISODE_FRAMES"),
+        "{e}"
+    );
+    let e = err(&BASE
+        .replace("duration_s = 1.0", "duration_s = 3000.0")
+        .replace("[world]", "[world]\ncamera_hz = 240.0"));
+    assert!(e.contains("720000 frames at 240 Hz"), "{e}");
 
     let e = err(&BASE.replace("speed_mps = 8.0", "speed_mps = -8.0"));
     assert!(

@@ -1307,7 +1307,7 @@ fn hit_collisions_and_false_alarm_collisions_are_counted() {
     // the table shows the hits that collided
     let table = report::format_summary_table(&std::collections::BTreeMap::from([("hopfield".to_string(), s)]));
     assert!(table.lines().nth(1).unwrap().contains("hit+coll"), "{table}");
-    assert!(table.lines().nth(3).unwrap().contains("  2  "), "{table}");
+    assert!(table.lines().nth(3).unwrap().contains("  2 (0)  "), "{table}");
 }
 
 /// One episode with a `null` row (no alarm) and a detector row, both scored from `truth`.
