@@ -216,7 +216,11 @@ fn parse_as_scenario(text: &str) -> Result<Outcome, TestCaseError> {
     let t = text.to_string();
     let o = guarded("parse_scenario", text, true, move || {
         match parse_scenario(&t, Path::new(FILE), None, &LoadOptions::default()) {
-            Ok(s) => Outcome::Ok(s.episodes.len()),
+            // expand and check every episode, as `loomlab run` does before it starts
+            Ok(s) => match s.episodes().try_for_each(|e| e.map(drop)) {
+                Ok(()) => Outcome::Ok(s.len()),
+                Err(e) => Outcome::Err(e.to_string()),
+            },
             Err(e) => Outcome::Err(e.to_string()),
         }
     })?;
@@ -297,7 +301,10 @@ fn load_as_suite(text: &str) -> Result<Outcome, TestCaseError> {
     std::fs::write(dir.join("suite.toml"), text).unwrap();
     let o = guarded("load_suite", text, true, move || {
         match load_suite(&dir, &LoadOptions::default()) {
-            Ok(s) => Outcome::Ok(s.episode_count()),
+            Ok(s) => match s.check(None) {
+                Ok(()) => Outcome::Ok(s.episode_count()),
+                Err(e) => Outcome::Err(e.to_string()),
+            },
             Err(e) => Outcome::Err(e.to_string()),
         }
     })?;
