@@ -184,6 +184,19 @@ def _scenario_arg(scenario: Union[str, os.PathLike, None]) -> Optional[str]:
     return os.fspath(scenario)
 
 
+def _constructor_kwargs(**kwargs: Any) -> Dict[str, Any]:
+    """The constructor arguments of an environment as plain data (what pickling replays)."""
+    detectors = kwargs["detectors"]
+    return dict(
+        kwargs,
+        scenario=_scenario_arg(kwargs["scenario"]),
+        detectors=list(detectors) if detectors is not None and not isinstance(detectors, str) else detectors,
+        thresholds=dict(kwargs["thresholds"]) if kwargs["thresholds"] is not None else None,
+        action_config=_as_dict(kwargs["action_config"]),
+        reward=_as_dict(kwargs["reward"]),
+    )
+
+
 SEED_END = 1 << 64
 """Seeds are integers in ``[0, SEED_END)`` (Rust ``u64``); they never wrap around."""
 
@@ -251,17 +264,17 @@ class EscapeEnv(gym.Env):
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
-        self._kwargs: Dict[str, Any] = dict(
-            scenario=_scenario_arg(scenario),
+        self._kwargs = _constructor_kwargs(
+            scenario=scenario,
             scenario_toml=scenario_toml,
-            detectors=list(detectors) if detectors is not None and not isinstance(detectors, str) else detectors,
-            thresholds=dict(thresholds) if thresholds is not None else None,
+            detectors=detectors,
+            thresholds=thresholds,
             frame_size=frame_size,
             observe_frames=observe_frames,
             action_type=action_type,
-            action_config=_as_dict(action_config),
+            action_config=action_config,
             clip_actions=clip_actions,
-            reward=_as_dict(reward),
+            reward=reward,
             max_episode_steps=max_episode_steps,
             render_mode=render_mode,
         )

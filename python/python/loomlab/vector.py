@@ -24,9 +24,8 @@ from ._native import ActionError, ScenarioError
 from .env import (
     ActionConfig,
     RewardConfig,
-    _as_dict,
+    _constructor_kwargs,
     _real_array,
-    _scenario_arg,
     _seed_arg,
     build_options,
     make_spaces,
@@ -74,18 +73,20 @@ class EscapeVectorEnv(VectorEnv):
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self._kwargs: Dict[str, Any] = dict(
             num_envs=int(num_envs),
-            scenario=_scenario_arg(scenario),
-            scenario_toml=scenario_toml,
-            detectors=list(detectors) if detectors is not None and not isinstance(detectors, str) else detectors,
-            thresholds=dict(thresholds) if thresholds is not None else None,
-            frame_size=frame_size,
-            observe_frames=observe_frames,
-            action_type=action_type,
-            action_config=_as_dict(action_config),
-            clip_actions=clip_actions,
-            reward=_as_dict(reward),
-            max_episode_steps=max_episode_steps,
-            render_mode=render_mode,
+            **_constructor_kwargs(
+                scenario=scenario,
+                scenario_toml=scenario_toml,
+                detectors=detectors,
+                thresholds=thresholds,
+                frame_size=frame_size,
+                observe_frames=observe_frames,
+                action_type=action_type,
+                action_config=action_config,
+                clip_actions=clip_actions,
+                reward=reward,
+                max_episode_steps=max_episode_steps,
+                render_mode=render_mode,
+            ),
         )
         options = build_options(
             detectors=detectors,
