@@ -205,7 +205,10 @@ pub fn run_suite(
             detector_entries,
         };
         let s = load_suite(&suite, &opts)?;
-        let specs: Vec<EpisodeSpec> = s.episodes().take(limit.unwrap_or(usize::MAX)).collect::<Result<_, _>>()?;
+        let specs: Vec<EpisodeSpec> = s
+            .episodes()
+            .take(limit.unwrap_or(usize::MAX))
+            .collect::<Result<_, _>>()?;
         let episodes: Vec<&EpisodeSpec> = specs.iter().collect();
         let started = std::time::Instant::now();
         let runs = runner(jobs)?.run(&episodes, |_, _| Ok(()))?;
