@@ -184,6 +184,24 @@ def _scenario_arg(scenario: Union[str, os.PathLike, None]) -> Optional[str]:
     return os.fspath(scenario)
 
 
+_OPTION_KEYS = (
+    "detectors",
+    "thresholds",
+    "frame_size",
+    "observe_frames",
+    "action_type",
+    "action_config",
+    "clip_actions",
+    "reward",
+    "max_episode_steps",
+)
+
+
+def _native_options(kwargs: Mapping[str, Any]) -> str:
+    """The native environment's options (JSON) from recorded constructor arguments."""
+    return options_json(build_options(**{k: kwargs[k] for k in _OPTION_KEYS}))
+
+
 def _constructor_kwargs(**kwargs: Any) -> Dict[str, Any]:
     """The constructor arguments of an environment as plain data (what pickling replays)."""
     detectors = kwargs["detectors"]
@@ -278,18 +296,7 @@ class EscapeEnv(gym.Env):
             max_episode_steps=max_episode_steps,
             render_mode=render_mode,
         )
-        options = build_options(
-            detectors=detectors,
-            thresholds=thresholds,
-            frame_size=frame_size,
-            observe_frames=observe_frames,
-            action_type=action_type,
-            action_config=action_config,
-            clip_actions=clip_actions,
-            reward=reward,
-            max_episode_steps=max_episode_steps,
-        )
-        self._native = _native.EscapeEnv(self._kwargs["scenario"], scenario_toml, options_json(options))
+        self._native = _native.EscapeEnv(self._kwargs["scenario"], scenario_toml, _native_options(self._kwargs))
         self.observation_space, self.action_space = make_spaces(self._native)
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=int(round(1.0 / self._native.dt)))

@@ -25,11 +25,10 @@ from .env import (
     ActionConfig,
     RewardConfig,
     _constructor_kwargs,
+    _native_options,
     _real_array,
     _seed_arg,
-    build_options,
     make_spaces,
-    options_json,
 )
 
 __all__ = ["EscapeVectorEnv"]
@@ -88,19 +87,8 @@ class EscapeVectorEnv(VectorEnv):
                 render_mode=render_mode,
             ),
         )
-        options = build_options(
-            detectors=detectors,
-            thresholds=thresholds,
-            frame_size=frame_size,
-            observe_frames=observe_frames,
-            action_type=action_type,
-            action_config=action_config,
-            clip_actions=clip_actions,
-            reward=reward,
-            max_episode_steps=max_episode_steps,
-        )
         self._native = _native.EscapeVectorEnv(
-            int(num_envs), self._kwargs["scenario"], scenario_toml, options_json(options)
+            int(num_envs), self._kwargs["scenario"], scenario_toml, _native_options(self._kwargs)
         )
         self.num_envs = int(num_envs)
         self.single_observation_space, self.single_action_space = make_spaces(self._native)
