@@ -1,8 +1,11 @@
 //! End-to-end tests of `loomlab run` on a tiny suite (4 episodes, 32×32 frames): outputs, the
 //! report contract (design §7), regression mode and exit codes. Needs a GPU adapter (lavapipe).
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+
+use common::{loomlab, s, text};
 
 const BALL: &str = r#"# A slow ball at a standing robot, hitting it or passing 2 m to its right.
 description = "slow ball"
@@ -31,10 +34,7 @@ threshold = 0.01
 "#;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("loomlab-run-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::tmp("run-cli", name)
 }
 
 /// A suite folder with two scenarios of two episodes each.
@@ -50,20 +50,12 @@ fn tiny_suite(dir: &Path) -> PathBuf {
     suite
 }
 
-fn loomlab(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_loomlab"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("run the loomlab binary")
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+/// The report's detector labels, without the reference rows.
+fn detector_labels(report: &serde_json::Value) -> Vec<String> {
+    let rows = report["detectors"].as_object().unwrap().keys();
+    rows.filter(|k| !loomlab_scenarios::reference::is_reference(k))
+        .cloned()
+        .collect()
 }
 
 #[test]
@@ -287,14 +279,7 @@ fn detectors_file_replaces_every_scenarios_detector_list() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
-    let references = ["ideal_theta", "null", "oracle"];
-    let labels: Vec<&String> = report["detectors"]
-        .as_object()
-        .unwrap()
-        .keys()
-        .filter(|k| !references.contains(&k.as_str()))
-        .collect();
-    assert_eq!(labels, ["soc-low", "soc-never"]);
+    assert_eq!(detector_labels(&report), ["soc-low", "soc-never"]);
     // the low threshold alarms in every episode, the other never
     assert_eq!(report["detectors"]["soc-never"]["hits"], 0);
     assert_eq!(report["detectors"]["soc-never"]["false_alarms"], 0);
@@ -326,13 +311,7 @@ fn detectors_file_replaces_every_scenarios_detector_list() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(only_soc.join("report.json")).unwrap()).unwrap();
-    let labels: Vec<&String> = report["detectors"]
-        .as_object()
-        .unwrap()
-        .keys()
-        .filter(|k| !references.contains(&k.as_str()))
-        .collect();
-    assert_eq!(labels, ["soc-low"]);
+    assert_eq!(detector_labels(&report), ["soc-low"]);
     let o = loomlab(&[
         "run",
         s(&suite),

@@ -2,8 +2,12 @@
 //! keeping every finished episode, and `--resume` runs only the missing episodes to the same
 //! report as an uninterrupted run. Needs a GPU adapter (lavapipe).
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
+
+use common::{loomlab, loomlab_command, s, text};
 use std::time::{Duration, Instant};
 
 /// A ball at a standing robot, at six miss distances (two of them threats).
@@ -33,10 +37,7 @@ threshold = 0.01
 const EPISODES: usize = 12;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("loomlab-run-resume-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::tmp("run-resume", name)
 }
 
 /// Two scenarios of six episodes.
@@ -50,24 +51,6 @@ fn suite(dir: &Path) -> PathBuf {
     )
     .unwrap();
     suite
-}
-
-fn loomlab() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_loomlab"));
-    c.current_dir(env!("CARGO_MANIFEST_DIR"));
-    c
-}
-
-fn run(args: &[&str]) -> Output {
-    loomlab().args(args).output().expect("run the loomlab binary")
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 /// report.json without its wall time.
@@ -100,14 +83,14 @@ fn an_interrupted_run_resumes_to_the_uninterrupted_report() {
     let common = ["--jobs", "1", "--no-plots", "--quiet"];
 
     let full = dir.join("full");
-    let o = run(&[&["run", s(&suite), "--out", s(&full)][..], &common].concat());
+    let o = loomlab(&[&["run", s(&suite), "--out", s(&full)][..], &common].concat());
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     assert_eq!(manifest_state(&full), "complete");
     let rows_per_episode = rows(&full).len() / EPISODES;
 
     // interrupt after the first finished episode
     let part = dir.join("part");
-    let child = loomlab()
+    let child = loomlab_command()
         .args([&["run", s(&suite), "--out", s(&part)][..], &common].concat())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -139,25 +122,27 @@ fn an_interrupted_run_resumes_to_the_uninterrupted_report() {
     assert_eq!(report(&part, "report.partial.json")["episodes"], done);
 
     // a plain rerun is refused, and so is a resume with other options
-    let o = run(&[&["run", s(&suite), "--out", s(&part)][..], &common].concat());
+    let o = loomlab(&[&["run", s(&suite), "--out", s(&part)][..], &common].concat());
     assert_eq!(o.status.code(), Some(2));
     assert!(
         text(&o.stderr).contains("already holds an interrupted run"),
         "{}",
         text(&o.stderr)
     );
-    let o = run(&[
-        &["run", s(&suite), "--out", s(&part), "--resume", "--seed", "3"][..],
-        &common,
-    ]
-    .concat());
+    let o = loomlab(
+        &[
+            &["run", s(&suite), "--out", s(&part), "--resume", "--seed", "3"][..],
+            &common,
+        ]
+        .concat(),
+    );
     assert_eq!(o.status.code(), Some(2));
     let e = text(&o.stderr);
     assert!(e.contains("holds a different run") && e.contains("--resume"), "{e}");
     assert_eq!(rows(&part), done_rows, "nothing changed");
 
     // --resume runs only the missing episodes; the report equals the uninterrupted run's
-    let o = run(&[
+    let o = loomlab(&[
         "run",
         s(&suite),
         "--out",
@@ -209,7 +194,7 @@ fn a_row_cut_short_is_run_again_and_overwrite_keeps_other_files() {
         "--quiet",
     ];
     let args = [&base[..], &["--limit", "4"]].concat();
-    let o = run(&args);
+    let o = loomlab(&args);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     let full = report(&out, "report.json");
 
@@ -217,7 +202,7 @@ fn a_row_cut_short_is_run_again_and_overwrite_keeps_other_files() {
     let csv = std::fs::read_to_string(out.join("episodes.csv")).unwrap();
     let cut = csv.trim_end().rfind('\n').unwrap() + 10;
     std::fs::write(out.join("episodes.csv"), &csv[..cut]).unwrap();
-    let o = run(&[&args[..], &["--resume"]].concat());
+    let o = loomlab(&[&args[..], &["--resume"]].concat());
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     assert_eq!(report(&out, "report.json"), full);
     assert_eq!(
@@ -230,7 +215,7 @@ fn a_row_cut_short_is_run_again_and_overwrite_keeps_other_files() {
 
     // --overwrite deletes the run's files, nothing else
     std::fs::write(out.join("notes.txt"), "mine").unwrap();
-    let o = run(&[&base[..], &["--overwrite", "--limit", "2"]].concat());
+    let o = loomlab(&[&base[..], &["--overwrite", "--limit", "2"]].concat());
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     assert_eq!(report(&out, "report.json")["episodes"], 2);
     assert_eq!(std::fs::read_to_string(out.join("notes.txt")).unwrap(), "mine");
@@ -242,7 +227,7 @@ fn jobs_are_clamped_to_the_cpus_with_a_note() {
     let dir = tmp("jobs");
     let suite = suite(&dir);
     let out = dir.join("out");
-    let o = run(&[
+    let o = loomlab(&[
         "run",
         s(&suite),
         "--out",
