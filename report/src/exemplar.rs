@@ -275,6 +275,7 @@ pub fn build(
     let alarms: Vec<(String, usize)> = tr
         .detectors
         .iter()
+        .filter(|d| !is_reference(&d.label))
         .filter_map(|d| Some((d.label.clone(), alarm_frame(&d.signal, d.threshold)?)))
         .collect();
     let wanted = gif_frames(len, &alarms.iter().map(|(_, k)| *k).collect::<Vec<_>>());
@@ -398,7 +399,9 @@ impl GifEpisode<'_> {
     fn encode(&self) -> Result<Vec<u8>, String> {
         register_font();
         let factor = self.n.div_ceil(MAX_GIF_SIZE).max(1);
-        let side = self.n / factor;
+        // small frames (tests, --size 32) are enlarged, pixel for pixel, so the caption fits
+        let up = (f64::from(MAX_GIF_SIZE) / f64::from(self.n / factor)).round().max(1.0) as u32;
+        let side = self.n / factor * up;
         let (w, h) = (side, side + CAPTION_PX);
         let mut bytes = Vec::new();
         {
@@ -409,7 +412,7 @@ impl GifEpisode<'_> {
                 .featured
                 .and_then(|i| self.alarms.iter().find(|(l, _)| *l == self.labels[i]).map(|(_, k)| *k));
             for (i, (k, frame)) in self.frames.iter().enumerate() {
-                let rgb = self.draw_frame(*k, frame, factor, side, featured_alarm)?;
+                let rgb = self.draw_frame(*k, frame, (factor, up), side, featured_alarm)?;
                 let indices: Vec<u8> = rgb.chunks_exact(3).map(|p| palette_index([p[0], p[1], p[2]])).collect();
                 let here: Vec<&str> = self.alarm_labels(*k);
                 let next = self.frames.get(i + 1).map_or(*k + 1, |(n, _)| *n);
@@ -445,11 +448,13 @@ impl GifEpisode<'_> {
         palette(self.labels.iter().position(|l| l == label).unwrap_or(0))
     }
 
+    /// One GIF frame as RGB: the camera frame box-downscaled by `factor`, enlarged by `up` to
+    /// `side` pixels, the alarm marks and the caption strip.
     fn draw_frame(
         &self,
         k: usize,
         frame: &[f32],
-        factor: u32,
+        (factor, up): (u32, u32),
         side: u32,
         featured_alarm: Option<usize>,
     ) -> Result<Vec<u8>, String> {
@@ -457,12 +462,14 @@ impl GifEpisode<'_> {
         let mut rgb = vec![0u8; (w * h * 3) as usize];
         let n = self.n as usize;
         let f = factor as usize;
+        let up = up as usize;
         for y in 0..side as usize {
             for x in 0..side as usize {
+                let (sy, sx) = (y / up, x / up);
                 let mut sum = 0.0f32;
                 for dy in 0..f {
                     for dx in 0..f {
-                        sum += frame.get((y * f + dy) * n + x * f + dx).copied().unwrap_or(0.0);
+                        sum += frame.get((sy * f + dy) * n + sx * f + dx).copied().unwrap_or(0.0);
                     }
                 }
                 let v = (sum / (f * f) as f32).clamp(0.0, 1.0);
@@ -527,7 +534,8 @@ impl GifEpisode<'_> {
 }
 
 /// The trace plot of an episode: every detector's trigger signal divided by its threshold (an
-/// alarm where it reaches 1), and the reference object's true angular size and time to contact,
+/// alarm where it reaches 1; reference rows are not drawn, their outcomes are in the page's
+/// table), and the reference object's true angular size and time to contact,
 /// with the escape deadline and the contact marked.
 pub fn trace_figure(run: &EpisodeRun) -> Figure {
     /// Signal / threshold is drawn up to this (the alarm is at 1).
@@ -549,6 +557,7 @@ pub fn trace_figure(run: &EpisodeRun) -> Figure {
     let mut signals: Vec<Series> = tr
         .detectors
         .iter()
+        .filter(|d| !is_reference(&d.label))
         .map(|d| {
             let y = d
                 .signal
@@ -634,11 +643,17 @@ mod tests {
     use loomlab_scenarios::metrics::DetectorEpisode;
 
     fn det(label: &str, outcome: Outcome) -> DetectorEpisode {
-        DetectorEpisode {
-            detector: label.into(),
-            outcome,
-            ..DetectorEpisode::default()
-        }
+        // the JSON form names every field; only the label and the outcome matter here
+        let mut d: DetectorEpisode = serde_json::from_value(serde_json::json!({
+            "detector": label, "threat": false, "t_contact_s": null, "t_deadline_s": null,
+            "t_alarm_s": null, "outcome": outcome.as_str(), "collision": false, "triggers": 0,
+            "ttc_at_alarm_s": null, "angular_size_at_alarm_deg": null, "max_signal": null,
+            "l_over_v_s": null, "eye_ttc_at_alarm_s": null, "theta_rel_err_median": null,
+            "theta_rel_err_p90": null,
+        }))
+        .unwrap();
+        d.outcome = outcome;
+        d
     }
 
     fn ep(scenario: &str, episode: usize, dets: Vec<DetectorEpisode>) -> EpisodeOutcome {
@@ -684,8 +699,9 @@ mod tests {
 
     #[test]
     fn gif_frames_are_bounded_and_keep_the_alarms() {
-        for len in [1, 5, 79, 80, 81, 312, 10_000] {
-            for alarms in [vec![], vec![len / 2, len.saturating_sub(1), 3], (0..200).collect()] {
+        for len in [1usize, 5, 79, 80, 81, 312, 10_000] {
+            let all: Vec<usize> = (0..200).collect();
+            for alarms in [vec![], vec![len / 2, len.saturating_sub(1), 3], all] {
                 let f = gif_frames(len, &alarms);
                 assert!(f.len() <= MAX_GIF_FRAMES && !f.is_empty(), "len {len}: {}", f.len());
                 assert!(f.windows(2).all(|w| w[0] < w[1]) && f.iter().all(|&k| k < len));

@@ -182,9 +182,9 @@ fn exemplar_html(e: &Exemplar) -> Result<String, ReportError> {
     } else {
         b.push_str("<small>GIF: a thick border in a detector's colour marks its alarm frame</small>");
     }
-    let _ = write!(
+    let _ = writeln!(
         b,
-        "</div></div><figure class=\"trace\">{}</figure></div>\n",
+        "</div></div><figure class=\"trace\">{}</figure></div>",
         e.trace.svg()?
     );
     Ok(b)

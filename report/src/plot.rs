@@ -376,10 +376,10 @@ mod tests {
         assert!(dir.join("bars.png").metadata().unwrap().len() > 1000);
         let svg = line_chart_grid_svg(&[chart.clone(), chart.clone()], 2, (300, 200)).unwrap();
         assert!(
-            svg.starts_with("<svg") && svg.contains("polyline") && svg.contains(">test<"),
+            svg.starts_with("<svg") && svg.contains("polyline") && svg.contains(">\ntest\n</text>"),
             "{svg}"
         );
         let bars = rate_bars_svg("rates", &["s1".into()], &[("hit".into(), vec![0.5])], (300, 200)).unwrap();
-        assert!(bars.contains("<rect") && bars.contains(">s1<"), "{bars}");
+        assert!(bars.contains("<rect") && bars.contains(">\ns1\n</text>"), "{bars}");
     }
 }
