@@ -89,7 +89,7 @@ sweep: python-env
 ## regression; tolerances in scenarios/README.md).
 BASELINE ?= scenarios/baseline/default-report.json
 suite-check: deps
-	$(CARGO) run -- run --out out/suite-check --overwrite --baseline $(BASELINE) --brief --no-plots
+	$(CARGO) run -- run --out out/suite-check --overwrite --baseline $(BASELINE) --brief --no-plots --no-html
 
 ## Re-run the default suite and make its report the new baseline (after an intended change).
 bless: deps

@@ -252,3 +252,37 @@ fn run_report_html_renders_in_headless_chromium() {
     assert!(dom.matches("<img class=\"view\"").count() >= 2);
     assert!(dom.matches("<figure class=\"trace\"><svg").count() >= 2);
 }
+
+#[test]
+fn no_html_writes_no_page_and_overwrite_removes_an_old_one() {
+    let dir = common::tmp("report-html", "no-html");
+    let suite = suite(&dir);
+    let out = dir.join("out");
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--quiet",
+        "--no-plots",
+        "--limit",
+        "2",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(out.join("report.html").is_file() && out.join("exemplars").is_dir());
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--quiet",
+        "--no-plots",
+        "--limit",
+        "2",
+        "--overwrite",
+        "--no-html",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(out.join("report.json").is_file());
+    assert!(!out.join("report.html").exists() && !out.join("exemplars").exists());
+}

@@ -305,7 +305,7 @@ pub fn build(
             .iter()
             .map(|d| (d.detector.clone(), d.outcome, d.t_alarm_s))
             .collect(),
-        gif: format!("{gif_rel}/{}", choice.gif_name()),
+        gif: format!("{gif_rel}/{}", crate::html::url_segment(&choice.gif_name())),
         gif_frames: frames.len(),
         alarms,
         trace: trace_figure(run),
