@@ -8,7 +8,7 @@
 //!
 //! Each is shown with every detector's open-loop trace ([`trace_figure`]: signal / threshold, the
 //! true angular size and time to contact of the reference object) and a short GIF of the robot's
-//! view ([`write_gif`]): at most [`MAX_GIF_FRAMES`] frames (subsampled, every detector's alarm frame
+//! view ([`build`]): at most [`MAX_GIF_FRAMES`] frames (subsampled, every detector's alarm frame
 //! kept) of at most [`MAX_GIF_SIZE`] pixels, each alarm frame with a thick border in the alarming
 //! detector's colour and its label, the frames after the featured detector's alarm with a thin one.
 //!
