@@ -177,7 +177,8 @@ svg { max-width: 100%; height: auto; }
 .exemplars { display: flex; flex-wrap: wrap; gap: 18px; }
 .exemplar { border: 1px solid #d0d7de; border-radius: 6px; padding: 8px; display: flex; gap: 10px; align-items: flex-start; }
 .exemplar img.view { width: 192px; image-rendering: pixelated; border: 1px solid #d0d7de; }
-.exemplar .facts { font-size: 0.82em; max-width: 260px; } .exemplar .facts table { font-size: 0.95em; }
+.exemplar .facts { font-size: 0.82em; max-width: 280px; } .exemplar .facts table { font-size: 0.95em; }
+.exemplar .facts td, .exemplar .facts th { padding: 1px 4px; }
 .tag { display: inline-block; padding: 0 6px; border-radius: 10px; background: #ddf4ff; margin: 1px 2px; font-size: 0.9em; }
 .tag.miss { background: #ffebe9; } .tag.false_alarm { background: #fff8c5; } .tag.hit { background: #dafbe1; }
 .note { background: #f6f8fa; border-left: 3px solid #8c959f; padding: 6px 10px; font-size: 0.9em; }
