@@ -284,7 +284,14 @@ fn detectors_file_replaces_every_scenarios_detector_list() {
     assert_eq!(report["detectors"]["soc-never"]["hits"], 0);
     assert_eq!(report["detectors"]["soc-never"]["false_alarms"], 0);
     assert_eq!(report["detectors"]["soc-low"]["false_alarms"], 2);
-    assert_eq!(report["detectors"]["soc-low"]["misses"], 0);
+    let episodes = loomlab_scenarios::episodes_csv::read_episodes_csv(&out.join("episodes.csv")).unwrap();
+    let low: Vec<_> = episodes
+        .iter()
+        .flat_map(|e| &e.detectors)
+        .filter(|d| d.detector == "soc-low")
+        .collect();
+    assert_eq!(low.len(), 4);
+    assert!(low.iter().all(|d| d.t_alarm_s.is_some()), "{low:?}");
 
     // --detectors filters the file's entries (it never adds a detector the file does not list)
     let mixed = dir.join("mixed.toml");
@@ -379,5 +386,67 @@ fn default_suite_does_not_regress() {
         "--no-plots",
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Lobbed balls that bounce on the ground before they reach a cruising robot (dynamic physics).
+const LOB: &str = r#"description = "bouncing lob"
+[episode]
+duration_s = 1.6
+seed = 5
+[world]
+camera = { n = 32 }
+[[world.projectiles]]
+target = [1.2, 0.0, -0.1]
+radius_m = 0.12
+speed_mps = 9.0
+launch_distance_m = 7.0
+launch_elevation_deg = 12.0
+launch_time_s = 0.1
+gravity = true
+restitution = 0.7
+texture = { kind = "uniform", luminance = 0.05 }
+[robot]
+forward_mps = 0.5
+[[detectors]]
+id = "soc"
+threshold = 0.02
+[sweep]
+"world.projectiles.0.target" = [[1.2, 0.0, -0.1], [1.0, 0.6, -0.1], [1.4, -0.4, -0.1]]
+"#;
+
+#[test]
+fn episodes_csv_is_identical_for_one_and_two_workers() {
+    let dir = tmp("workers");
+    let suite = dir.join("lob.toml");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(&suite, LOB).unwrap();
+    let csv = |jobs: &str| {
+        let out = dir.join(format!("jobs{jobs}"));
+        let o = loomlab(&[
+            "run",
+            s(&suite),
+            "--out",
+            s(&out),
+            "--jobs",
+            jobs,
+            "--quiet",
+            "--no-plots",
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+        std::fs::read_to_string(out.join("episodes.csv")).unwrap()
+    };
+    let one = csv("1");
+    assert_eq!(one, csv("2"), "episodes.csv differs between 1 and 2 workers");
+    // the suite exercises the dynamics: some episode collides with a measured impact
+    let episodes = loomlab_scenarios::episodes_csv::read_episodes_csv(&dir.join("jobs1").join("episodes.csv")).unwrap();
+    assert_eq!(episodes.len(), 3);
+    assert!(
+        episodes
+            .iter()
+            .flat_map(|e| &e.detectors)
+            .any(|d| d.collision && d.impact_speed_mps.is_some_and(|v| v > 1.0) && d.impulse_ns.is_some()),
+        "{one}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -32,6 +32,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use loomlab_sim::RobotBase;
+
 use crate::{AgentError, VelocityCommand};
 
 #[allow(unused_imports)] // for doc links
@@ -62,8 +64,11 @@ impl TriggerSignal {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Manoeuvre {
-    /// Sidestep away from the looming object at `dodge_speed_mps` (forward speed scaled by
-    /// `dodge_forward_scale`, optional yaw away at `dodge_yaw_rate_rps` for non-holonomic bases).
+    /// Get out of the looming object's way, towards the side away from it. On a holonomic base:
+    /// sidestep at `dodge_speed_mps` (forward speed scaled by `dodge_forward_scale`, optional yaw
+    /// away at `dodge_yaw_rate_rps`). On a differential drive, which cannot sidestep: turn away at
+    /// `turn_rate_rps` while driving forward at `dodge_speed_mps` (or the cruise speed if faster), so
+    /// the robot arcs out of the object's path.
     #[default]
     DodgeLateral,
     /// Stand still.
@@ -119,6 +124,8 @@ pub struct EscapeConfig {
     pub dodge_forward_scale: f64,
     /// Yaw rate towards the dodge side in rad/s during a dodge (≥ 0; 0 keeps the heading).
     pub dodge_yaw_rate_rps: f64,
+    /// Yaw rate of a dodge on a differential drive in rad/s (≥ 0; see [`Manoeuvre::DodgeLateral`]).
+    pub turn_rate_rps: f64,
     /// Backwards speed of [`Manoeuvre::Reverse`] in m/s (≥ 0).
     pub reverse_speed_mps: f64,
     /// How long the manoeuvre lasts, in seconds (> 0).
@@ -129,6 +136,10 @@ pub struct EscapeConfig {
     pub default_side: DodgeSide,
     /// |image x| of the looming side at or below which it counts as central, in [0, 1).
     pub side_deadband: f32,
+    /// The robot's drive, which decides what a dodge is. Not a key of the `[controller]` table: the
+    /// scenario loader sets it from `world.robot.base`.
+    #[serde(skip)]
+    pub base: RobotBase,
 }
 
 impl Default for EscapeConfig {
@@ -140,11 +151,13 @@ impl Default for EscapeConfig {
             dodge_speed_mps: 1.5,
             dodge_forward_scale: 1.0,
             dodge_yaw_rate_rps: 0.0,
+            turn_rate_rps: 2.0,
             reverse_speed_mps: 1.0,
             duration_s: 0.6,
             cooldown_s: 0.5,
             default_side: DodgeSide::Left,
             side_deadband: 0.05,
+            base: RobotBase::Holonomic,
         }
     }
 }
@@ -174,6 +187,7 @@ impl EscapeConfig {
         non_negative("escape.dodge_speed_mps", self.dodge_speed_mps)?;
         non_negative("escape.dodge_forward_scale", self.dodge_forward_scale)?;
         non_negative("escape.dodge_yaw_rate_rps", self.dodge_yaw_rate_rps)?;
+        non_negative("escape.turn_rate_rps", self.turn_rate_rps)?;
         non_negative("escape.reverse_speed_mps", self.reverse_speed_mps)?;
         if !(self.duration_s.is_finite() && self.duration_s > 0.0) {
             return Err(invalid(
@@ -201,6 +215,11 @@ impl EscapeConfig {
     /// The command of the manoeuvre towards `side` given the cruise command.
     pub fn manoeuvre_command(&self, side: DodgeSide, cruise: VelocityCommand) -> VelocityCommand {
         match self.manoeuvre {
+            Manoeuvre::DodgeLateral if !self.base.can_sidestep() => VelocityCommand {
+                forward_mps: cruise.forward_mps.max(self.dodge_speed_mps),
+                yaw_rate_rps: side.sign() * self.turn_rate_rps,
+                lateral_mps: 0.0,
+            },
             Manoeuvre::DodgeLateral => VelocityCommand {
                 forward_mps: cruise.forward_mps * self.dodge_forward_scale,
                 yaw_rate_rps: side.sign() * self.dodge_yaw_rate_rps,

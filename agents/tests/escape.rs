@@ -342,3 +342,21 @@ mod looming_side {
         assert_eq!(e.update(&disk(32, 24.0, 7.0)), None);
     }
 }
+
+#[test]
+fn a_dodge_on_a_differential_drive_turns_away_and_drives_instead_of_sidestepping() {
+    let cruise = VelocityCommand::forward(1.0);
+    let holonomic = EscapeConfig::default();
+    let diff = EscapeConfig {
+        base: loomlab_sim::RobotBase::DiffDrive,
+        ..EscapeConfig::default()
+    };
+    for side in [DodgeSide::Left, DodgeSide::Right] {
+        let h = holonomic.manoeuvre_command(side, cruise);
+        assert_eq!(h.lateral_mps, side.sign() * holonomic.dodge_speed_mps);
+        let d = diff.manoeuvre_command(side, cruise);
+        assert_eq!(d.lateral_mps, 0.0);
+        assert_eq!(d.yaw_rate_rps, side.sign() * diff.turn_rate_rps);
+        assert_eq!(d.forward_mps, diff.dodge_speed_mps.max(1.0));
+    }
+}

@@ -569,7 +569,7 @@ impl EscapeEnv {
         r.steps += 1;
         r.last_command = command;
         r.last_cruise = cruise;
-        let collision = !r.collision && !out.contacts.is_empty();
+        let collision = !r.collision && out.first_collision().is_some();
         r.collision |= collision;
         let (s0, c0) = r.start.yaw_rad.sin_cos();
         let progress_m = (out.robot.x_m - r.last_robot.x_m) * c0 + (out.robot.y_m - r.last_robot.y_m) * s0;

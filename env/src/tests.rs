@@ -316,7 +316,7 @@ fn threshold_agent_matches_runner(text: &str) -> (usize, usize) {
         assert_eq!(theirs.label, cont.detector_labels()[0]);
         tails += usize::from(theirs.simulated);
         let threat = run.outcome.detectors[0].threat;
-        hit += usize::from(theirs.collision_t_s.is_some());
+        hit += usize::from(theirs.collision.is_some());
         let runs = [
             run_episode(&mut cont, index, |i| Action::Continuous(i.controller_continuous)),
             run_episode(&mut disc, index, |i| {
@@ -328,14 +328,14 @@ fn threshold_agent_matches_runner(text: &str) -> (usize, usize) {
             assert_eq!(out.threat, threat, "episode {index}");
             assert_eq!(
                 out.collision,
-                theirs.collision_t_s.is_some(),
+                theirs.collision.is_some(),
                 "episode {index}: env collision {} at {} s, runner {:?} ({theirs:?})",
                 out.collision,
                 last.info.t_s,
-                theirs.collision_t_s
+                theirs.collision.map(|i| i.t_s)
             );
             assert_eq!(out.detectors[0].collision, run.outcome.detectors[0].collision);
-            if let Some(tc) = theirs.collision_t_s {
+            if let Some(tc) = theirs.collision.map(|i| i.t_s) {
                 assert!(
                     (last.info.t_s - tc).abs() <= cont.dt() + 1e-9,
                     "episode {index}: {} vs {tc}",

@@ -30,6 +30,7 @@ use loomlab_agents::{EscapeAgent, EscapeController};
 use loomlab_sim::{Sim, SimError};
 
 use crate::schema::EpisodeSpec;
+use crate::truth::Impact;
 
 /// The escape deadline of one threat episode (see the module docs).
 #[derive(Debug, Clone, PartialEq)]
@@ -67,23 +68,23 @@ impl EscapeDeadline {
 }
 
 /// Replays episode `ep` with simulator seed `seed` and the escape controller `controller`
-/// triggered at open-loop frame `trigger_frame` with looming side `side`; returns the time of the
-/// first contact (`None`: evaded).
+/// triggered at open-loop frame `trigger_frame` with looming side `side`; returns the first
+/// collision (`None`: evaded).
 pub fn replay_trigger(
     ep: &EpisodeSpec,
     seed: u64,
     controller: &EscapeController,
     trigger_frame: usize,
     side: Option<f32>,
-) -> Result<Option<f64>, SimError> {
+) -> Result<Option<Impact>, SimError> {
     let mut sim = Sim::new_physics_only(&ep.world, seed)?;
     sim.set_ground_truth(false);
     let mut agent = EscapeAgent::from_parts(Vec::new(), controller.clone());
     let mut cmd = ep.cruise.command_at(0.0);
     for k in 0..ep.frames() {
         let out = sim.step(&cmd.to_sim())?;
-        if let Some(c) = out.contacts.first() {
-            return Ok(Some(c.time_s()));
+        if let Some(c) = out.first_collision() {
+            return Ok(Some(Impact::from(c)));
         }
         let cruise = ep.cruise.command_at(out.t_s);
         cmd = if k < trigger_frame {

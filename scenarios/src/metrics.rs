@@ -239,8 +239,14 @@ pub struct DetectorEpisode {
     pub t_alarm_s: Option<f64>,
     /// Hit / miss / false alarm / correct rejection.
     pub outcome: Outcome,
-    /// Whether the robot was touched (closed loop).
+    /// Whether the robot was touched (closed loop; harmless contacts do not count).
     pub collision: bool,
+    /// Relative speed of the robot and the object at the closed loop's collision (m/s).
+    #[serde(default)]
+    pub impact_speed_mps: Option<f64>,
+    /// Contact impulse of the closed loop's collision (N·s; dynamic physics).
+    #[serde(default)]
+    pub impulse_ns: Option<f64>,
     /// Escape manoeuvres started in the closed loop (the level-triggered controller re-triggers
     /// after its cooldown while the signal stays above the threshold).
     #[serde(default)]
@@ -426,6 +432,8 @@ pub fn score_detector_episode(
         t_alarm_s,
         outcome,
         collision: truth.collision,
+        impact_speed_mps: None,
+        impulse_ns: None,
         triggers: u64::from(t_alarm_s.is_some()),
         ttc_at_alarm_s: alarm.and_then(|s| s.ttc_s).filter(|v| v.is_finite()),
         angular_size_at_alarm_deg: alarm.and_then(|s| s.angular_size_deg).filter(|v| v.is_finite()),

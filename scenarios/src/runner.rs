@@ -58,7 +58,7 @@ use crate::metrics::{
 };
 use crate::reference::{IDEAL_THETA, INDICATOR_THRESHOLD, NULL, ORACLE, ideal_percept, ideal_theta_deg};
 use crate::schema::{DetectorSpec, EpisodeSpec};
-use crate::truth::TruthRecorder;
+use crate::truth::{Impact, TruthRecorder};
 
 /// Renderers kept between episodes, one per frame size and worker at most.
 #[derive(Default)]
@@ -122,8 +122,8 @@ pub struct ClosedLoop {
     pub simulated: bool,
     /// Number of escape manoeuvres started.
     pub triggers: usize,
-    /// Time of the robot's first contact (s), if any.
-    pub collision_t_s: Option<f64>,
+    /// The robot's first collision, if any.
+    pub collision: Option<Impact>,
     /// Frames rendered for the tail.
     pub frames_rendered: usize,
 }
@@ -235,8 +235,10 @@ impl Runner {
         self.ctx.describe()
     }
 
-    /// Runs `episodes` in parallel. `on_done(i, run)` is called (from a worker thread) as episode
-    /// `i` finishes; an error from it stops the run. Returns the runs in the order of `episodes`.
+    /// Runs `episodes` in parallel. `on_done(i, run)` is called (from a worker thread) for each
+    /// episode in the order of `episodes`, as soon as it and every episode before it have finished
+    /// (so what a caller writes from it does not depend on the number of workers); an error from it
+    /// stops the run. Returns the runs in the order of `episodes`.
     pub fn run<F>(&self, episodes: &[&EpisodeSpec], on_done: F) -> Result<Vec<EpisodeRun>, RunError>
     where
         F: Fn(usize, &EpisodeRun) -> Result<(), String> + Sync,
@@ -246,7 +248,8 @@ impl Runner {
     }
 
     /// [`Self::run`] that can be stopped: once `stop` is set no further episode starts (those in
-    /// flight finish and are reported); the episodes that did not run are `None`.
+    /// flight finish). The episodes reported to `on_done` — every one before the first that did not
+    /// run — are `Some`, the others `None`.
     pub fn run_until<F>(
         &self,
         episodes: &[&EpisodeSpec],
@@ -256,21 +259,43 @@ impl Runner {
     where
         F: Fn(usize, &EpisodeRun) -> Result<(), String> + Sync,
     {
+        // finished runs wait in their slot until every earlier one is reported
+        let slots: Vec<Mutex<Option<EpisodeRun>>> = episodes.iter().map(|_| Mutex::new(None)).collect();
+        let reported = Mutex::new(0usize);
+        let lock = |m: &Mutex<Option<EpisodeRun>>| -> std::sync::MutexGuard<'_, Option<EpisodeRun>> {
+            m.lock().unwrap_or_else(|e| e.into_inner())
+        };
         self.pool.install(|| {
             episodes
                 .par_iter()
                 .enumerate()
                 .with_max_len(1)
-                .map(|(i, ep)| {
+                .try_for_each(|(i, ep)| -> Result<(), RunError> {
                     if stop.load(Ordering::SeqCst) {
-                        return Ok(None);
+                        return Ok(());
                     }
                     let run = self.run_episode(ep)?;
-                    on_done(i, &run).map_err(RunError::Callback)?;
-                    Ok(Some(run))
+                    *lock(&slots[i]) = Some(run);
+                    let mut next = reported.lock().unwrap_or_else(|e| e.into_inner());
+                    while *next < slots.len() {
+                        let slot = lock(&slots[*next]);
+                        let Some(run) = slot.as_ref() else { break };
+                        on_done(*next, run).map_err(RunError::Callback)?;
+                        drop(slot);
+                        *next += 1;
+                    }
+                    Ok(())
                 })
-                .collect()
-        })
+        })?;
+        let reported = reported.into_inner().unwrap_or_else(|e| e.into_inner());
+        Ok(slots
+            .into_iter()
+            .enumerate()
+            .map(|(i, slot)| {
+                let run = slot.into_inner().unwrap_or_else(|e| e.into_inner());
+                run.filter(|_| i < reported)
+            })
+            .collect())
     }
 
     /// Runs one episode on the calling thread (see the module docs).
@@ -398,14 +423,14 @@ impl Runner {
                     label: row.label.clone(),
                     simulated: false,
                     triggers: 0,
-                    collision_t_s: ground_truth.t_contact_s,
+                    collision: episode_truth.impact(),
                     frames_rendered: 0,
                 },
                 (Some(ka), Some(kc)) if ka >= kc => ClosedLoop {
                     label: row.label.clone(),
                     simulated: false,
                     triggers: 1,
-                    collision_t_s: ground_truth.t_contact_s,
+                    collision: episode_truth.impact(),
                     frames_rendered: 0,
                 },
                 (Some(ka), _) => match &row.tail {
@@ -413,7 +438,7 @@ impl Runner {
                         label: row.label.clone(),
                         simulated: true,
                         triggers: 1,
-                        collision_t_s: replay_trigger(ep, ep.seed, &escape, ka, sides[ka]).map_err(|e| c.sim(e))?,
+                        collision: replay_trigger(ep, ep.seed, &escape, ka, sides[ka]).map_err(|e| c.sim(e))?,
                         frames_rendered: 0,
                     },
                     Tail::TrueAngularSize => ideal_theta_tail(&c, &row.label, row.threshold, &truth, ka)?,
@@ -421,7 +446,9 @@ impl Runner {
                 },
             };
             frames_rendered += cl.frames_rendered;
-            d.collision = cl.collision_t_s.is_some();
+            d.collision = cl.collision.is_some();
+            d.impact_speed_mps = cl.collision.map(|i| i.impact_speed_mps);
+            d.impulse_ns = cl.collision.and_then(|i| i.impulse_ns);
             d.triggers = cl.triggers as u64;
             if let Some(a) = &approach {
                 d.l_over_v_s = Some(a.l_over_v_s);
@@ -510,14 +537,14 @@ impl Runner {
         if let Err(e) = sim.attach_renderer(renderer) {
             return Err(c.sim(e));
         }
-        let mut collision_t_s = None;
+        let mut collision = None;
         let mut rendered = 0;
         let tail = (|| -> Result<(), RunError> {
             for _ in ka + 1..total {
                 let mut out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
                 rendered += 1;
-                if let Some(ct) = out.contacts.first() {
-                    collision_t_s = Some(ct.time_s());
+                if let Some(ct) = out.first_collision() {
+                    collision = Some(Impact::from(ct));
                     break;
                 }
                 let frame = Frame::from_f32(nn, std::mem::take(&mut out.frame)).map_err(|e| c.det(e))?;
@@ -536,7 +563,7 @@ impl Runner {
             label: spec.label.clone(),
             simulated: true,
             triggers: agent.controller().triggers(),
-            collision_t_s,
+            collision,
             frames_rendered: rendered,
         })
     }
@@ -575,11 +602,11 @@ fn ideal_theta_tail(
         cmd = decide(&mut agent, out.t_s, row);
     }
     sim.set_ground_truth(true);
-    let mut collision_t_s = None;
+    let mut collision = None;
     for _ in ka + 1..ep.frames() {
         let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
-        if let Some(ct) = out.contacts.first() {
-            collision_t_s = Some(ct.time_s());
+        if let Some(ct) = out.first_collision() {
+            collision = Some(Impact::from(ct));
             break;
         }
         cmd = decide(&mut agent, out.t_s, &out.truth);
@@ -588,7 +615,7 @@ fn ideal_theta_tail(
         label: label.to_string(),
         simulated: true,
         triggers: agent.controller().triggers(),
-        collision_t_s,
+        collision,
         frames_rendered: 0,
     })
 }

@@ -621,7 +621,10 @@ impl Expansion {
                     cruise: doc.robot.clone(),
                     duration_s: doc.episode.duration_s,
                     detectors: detectors.clone(),
-                    controller: doc.controller.clone(),
+                    controller: EscapeConfig {
+                        base: world.robot.base,
+                        ..doc.controller.clone()
+                    },
                     scoring: scoring.clone(),
                 }
             })

@@ -4,7 +4,8 @@
 //! The open-loop pass runs the episode's world with the robot following its cruise command (no
 //! escape). It ends at the first contact of any object with the robot's body or after the
 //! episode's duration:
-//! - a contact makes the episode a **threat**; the contact time `t_contact_s` is
+//! - a contact (one that is not [`Contact::harmless`]: see `world.harmless_impact_speed_mps`)
+//!   makes the episode a **threat**; the contact time `t_contact_s` is
 //!   [`Contact::time_s`] (the exact time of impact) and the touching object is the **reference
 //!   object**;
 //! - without contact the reference object is the moving object (projectile or vehicle; any
@@ -21,7 +22,29 @@ use crate::deadline::{EscapeDeadline, escape_deadline};
 
 use crate::schema::EpisodeSpec;
 
-/// The first contact of the open-loop pass.
+/// A collision of the robot: when, how fast and how hard (from a [`Contact`] that is not
+/// harmless).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Impact {
+    /// Contact time (s, [`Contact::time_s`]).
+    pub t_s: f64,
+    /// Relative speed of the bodies when they touched (m/s, [`Contact::impact_speed_mps`]).
+    pub impact_speed_mps: f64,
+    /// Contact impulse (N·s, [`Contact::impulse_ns`]; `None` with analytic physics).
+    pub impulse_ns: Option<f64>,
+}
+
+impl From<&Contact> for Impact {
+    fn from(c: &Contact) -> Self {
+        Impact {
+            t_s: c.time_s(),
+            impact_speed_mps: c.impact_speed_mps,
+            impulse_ns: c.impulse_ns,
+        }
+    }
+}
+
+/// The first collision of the open-loop pass (harmless contacts do not count).
 #[derive(Debug, Clone, PartialEq)]
 pub struct FirstContact {
     /// Open-loop frame index (0-based: the k-th step's output) during which it happened.
@@ -30,6 +53,8 @@ pub struct FirstContact {
     pub t_s: f64,
     /// The touching object's id.
     pub object_id: usize,
+    /// How fast and how hard.
+    pub impact: Impact,
 }
 
 /// Open-loop ground truth (see the module docs).
@@ -50,6 +75,11 @@ impl EpisodeTruth {
     /// The contact time of a threat (s).
     pub fn t_contact_s(&self) -> Option<f64> {
         self.contact.as_ref().map(|c| c.t_s)
+    }
+
+    /// The open-loop collision of a threat.
+    pub fn impact(&self) -> Option<Impact> {
+        self.contact.as_ref().map(|c| c.impact)
     }
 }
 
@@ -85,7 +115,7 @@ impl TruthRecorder {
         let frame = self.frames;
         self.frames += 1;
         if self.contact.is_none()
-            && let Some(c) = out.contacts.first()
+            && let Some(c) = out.first_collision()
         {
             self.contact = Some(first_contact(frame, c));
             return self.contact.as_ref();
@@ -126,6 +156,7 @@ fn first_contact(frame: usize, c: &Contact) -> FirstContact {
         frame,
         t_s: c.time_s(),
         object_id: c.object_id,
+        impact: Impact::from(c),
     }
 }
 

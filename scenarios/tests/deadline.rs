@@ -185,7 +185,8 @@ fn check_geometry(r: f64, speed: f64) {
     assert_eq!(replay_trigger(&c.ep, c.ep.seed, &c.controller, dl, side).unwrap(), None);
     let late = replay_trigger(&c.ep, c.ep.seed, &c.controller, dl + 1, side)
         .unwrap()
-        .expect("one frame after the deadline collides");
+        .expect("one frame after the deadline collides")
+        .t_s;
     assert!(late > c.t_c, "the dodge delays the contact: {late} vs t_c {}", c.t_c);
     assert!(
         replay_trigger(&c.ep, c.ep.seed, &c.controller, c.contact_frame - 1, side)
@@ -197,7 +198,8 @@ fn check_geometry(r: f64, speed: f64) {
     let never = replay_trigger(&c.ep, c.ep.seed, &c.controller, usize::MAX, side)
         .unwrap()
         .expect("no escape collides");
-    assert!((never - c.t_c).abs() < 1e-9);
+    assert!((never.t_s - c.t_c).abs() < 1e-9);
+    assert!(never.impact_speed_mps > 1.0, "{never:?}");
 
     // the dodge side does not matter for a ball on the axis: dodging right gives the same deadline
     let right = case(episode(r, speed, LAUNCH_M, 1), -0.5);

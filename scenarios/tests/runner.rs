@@ -119,7 +119,7 @@ fn an_early_alarm_evades_and_no_alarm_collides() {
     assert!(t_a < t_c - 0.4 && t_a < t_dl, "t_a = {t_a}");
     assert!(!early.collision, "the dodge should evade a 3 m/s ball");
     let cl = &run.closed_loop[0];
-    assert!(cl.simulated && cl.triggers >= 1 && cl.collision_t_s.is_none(), "{cl:?}");
+    assert!(cl.simulated && cl.triggers >= 1 && cl.collision.is_none(), "{cl:?}");
     assert!(cl.frames_rendered > 0);
     // TTC and angular size at the alarm: the reference object's truth at that frame
     let ttc = early.ttc_at_alarm_s.unwrap();
@@ -137,20 +137,20 @@ fn an_early_alarm_evades_and_no_alarm_collides() {
     assert!(never.t_alarm_s.is_none() && never.collision);
     assert!(never.is_silent_miss() && never.eye_ttc_at_alarm_s.is_none());
     assert!(!run.closed_loop[1].simulated);
-    assert_eq!(run.closed_loop[1].collision_t_s, Some(t_c));
+    assert_eq!(run.closed_loop[1].collision.map(|i| i.t_s), Some(t_c));
 
     // null: never alarms, so exactly like `never`
     assert_eq!(
         (null.outcome, null.t_alarm_s, null.collision),
         (Outcome::Miss, None, true)
     );
-    assert!(!run.closed_loop[2].simulated && run.closed_loop[2].collision_t_s == Some(t_c));
+    assert!(!run.closed_loop[2].simulated && run.closed_loop[2].collision.map(|i| i.t_s) == Some(t_c));
     // oracle: alarms at the deadline, a hit (equality counts) that evades in a physics-only replay
     assert_eq!((oracle.outcome, oracle.t_alarm_s), (Outcome::Hit, Some(t_dl)));
     assert!(!oracle.collision);
     let cl = &run.closed_loop[3];
     assert!(
-        cl.simulated && cl.triggers == 1 && cl.collision_t_s.is_none() && cl.frames_rendered == 0,
+        cl.simulated && cl.triggers == 1 && cl.collision.is_none() && cl.frames_rendered == 0,
         "{cl:?}"
     );
     // ideal_theta: the true angular size reaches 10° (no `hopfield` here: the default angle)

@@ -27,6 +27,7 @@
 //! ```
 
 pub mod camera;
+pub mod dynamics;
 mod error;
 pub mod io;
 mod limits;
@@ -47,6 +48,7 @@ mod world;
 pub use rapier3d::glamx::glam;
 
 pub use camera::{Camera, CameraDesc, MAX_N, MIN_FRAME_SIZE, ShakeDesc};
+pub use dynamics::{PhysicsMode, RobotBase};
 pub use error::SimError;
 pub use limits::{MAX_EPISODE_FRAMES, check_frame_count, episode_frames};
 pub use object::ObjectKind;

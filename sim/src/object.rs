@@ -2,6 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::dynamics::BallDynamics;
 use crate::shape::{AngularPrimitive, Part};
 use crate::trajectory::Trajectory;
 
@@ -43,8 +44,12 @@ pub struct ObjectSpec {
     pub kind: ObjectKind,
     /// Rigid parts, in the body frame.
     pub parts: Vec<Part>,
-    /// Motion of the body frame.
+    /// Motion of the body frame (with dynamic physics: the planned motion; for a projectile its
+    /// path until launch and the launch state).
     pub trajectory: Trajectory,
+    /// Dynamic physics: a projectile's mass and material (`None`: scenery and vehicles, which stay
+    /// fixed or kinematic).
+    pub(crate) ball: Option<BallDynamics>,
 }
 
 impl ObjectSpec {

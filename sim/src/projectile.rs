@@ -1,13 +1,19 @@
 //! Projectiles: spheres launched at an aim point with a chosen miss distance.
 //!
-//! A projectile is a kinematic body on an *analytic* path (straight line, or an exact parabola with
-//! gravity), not a rapier dynamic body: its position at every instant is known in closed form, so the
-//! predicted contact time is exact and the same on every machine. It waits at its launch point until the
-//! launch time, flies, and (with `stop_at_ground`) comes to rest where it reaches the ground.
+//! Every projectile has a planned *analytic* path (straight line, or an exact parabola with gravity)
+//! through its aim point. It waits at its launch point until the launch time, then:
+//! - with dynamic physics (the default) it becomes a rapier dynamic sphere that starts with its
+//!   planned position and velocity and is integrated from there: gravity (when `gravity = true`),
+//!   bounces (`restitution`), friction, continuous collision detection against fast tunnelling, and
+//!   impacts that push the robot;
+//! - with analytic physics it follows the planned path exactly (the predicted contact time is exact)
+//!   and, with `stop_at_ground`, comes to rest where it reaches the ground; it passes through
+//!   whatever it touches.
 
 use serde::{Deserialize, Serialize};
 
 use crate::SimError;
+use crate::dynamics::BallDynamics;
 use crate::glam::{DMat3, DQuat, DVec3};
 use crate::object::{ObjectKind, ObjectSpec};
 use crate::shape::{Part, ShapeDesc};
@@ -74,8 +80,16 @@ pub struct ProjectileDesc {
     /// Fly a ballistic parabola under the world's gravity (the launch velocity is solved so that the path
     /// passes through the aim point, on the low arc). Default false: a straight line.
     pub gravity: bool,
-    /// Stop where the sphere reaches the ground (when the world has one). Default true.
+    /// Analytic physics: stop where the sphere reaches the ground (when the world has one). Default
+    /// true. (With dynamic physics a ball bounces by its `restitution`; 0 makes it stay down.)
     pub stop_at_ground: bool,
+    /// Mass (kg; dynamic physics). Default 0.45, a football.
+    pub mass_kg: f32,
+    /// Bounce ratio (dynamic physics): the normal speed after an impact over the one before, against
+    /// anything (the ground, scenery, vehicles, the robot), in [0, 1]. Default 0.6.
+    pub restitution: f32,
+    /// Coulomb friction coefficient (dynamic physics). Default 0.5.
+    pub friction: f32,
 }
 
 impl Default for ProjectileDesc {
@@ -96,6 +110,9 @@ impl Default for ProjectileDesc {
             arrival_time_s: None,
             gravity: false,
             stop_at_ground: true,
+            mass_kg: 0.45,
+            restitution: 0.6,
+            friction: 0.5,
         }
     }
 }
@@ -140,6 +157,18 @@ impl ProjectileDesc {
             seed,
         )?;
         let radius = f64::from(self.radius_m);
+        let mass_kg = finite(&k("mass_kg"), self.mass_kg)?;
+        if mass_kg <= 0.0 {
+            return Err(SimError::invalid(k("mass_kg"), mass_kg, "must be > 0"));
+        }
+        let restitution = finite(&k("restitution"), self.restitution)?;
+        if !(0.0..=1.0).contains(&restitution) {
+            return Err(SimError::invalid(k("restitution"), restitution, "must be in [0, 1]"));
+        }
+        let friction = finite(&k("friction"), self.friction)?;
+        if friction < 0.0 {
+            return Err(SimError::invalid(k("friction"), friction, "must be >= 0"));
+        }
         let speed = finite(&k("speed_mps"), self.speed_mps)?;
         if speed <= 0.0 {
             return Err(SimError::invalid(k("speed_mps"), speed, "must be > 0"));
@@ -303,6 +332,13 @@ impl ProjectileDesc {
             kind: ObjectKind::Projectile,
             parts: vec![part],
             trajectory: Trajectory::hold_move_hold(pose, t_launch, motion, land.unwrap_or(f64::INFINITY)),
+            ball: Some(BallDynamics {
+                mass_kg,
+                restitution,
+                friction,
+                launch_s: t_launch,
+                gravity: matches!(motion, Motion::Ballistic { .. }),
+            }),
         })
     }
 }

@@ -1,13 +1,21 @@
-//! The robot: a body driven by velocity commands (a unicycle, optionally holonomic).
+//! The robot: a body driven by velocity commands, holonomic or a differential drive.
 //!
-//! The robot is a kinematic body: its pose is integrated exactly (circular arcs for constant forward
-//! speed and yaw rate over a step), so the commanded velocities are achieved exactly and trajectories are
-//! reproducible. It is invisible to its own camera. Its collider is a rapier *sensor* that reports every
-//! object it touches (projectiles, vehicles, scenery); nothing pushes it.
+//! With dynamic physics (the default, [`crate::PhysicsMode`]) the robot is a rapier dynamic body of
+//! `mass_kg` that slides on the ground plane (height, roll and pitch locked) and is driven by the
+//! velocity-tracking controller of [`crate::dynamics`] within its speed and acceleration limits;
+//! what hits it pushes it. With analytic physics it is a kinematic body whose pose is integrated
+//! exactly (circular arcs for constant forward speed and yaw rate over a step) and its collider is a
+//! rapier *sensor*: nothing pushes it. It is invisible to its own camera either way.
+//!
+//! Default limits are those of a small mobile robot: ROS 2 Nav2's velocity-smoother defaults
+//! (2.5 m/s² acceleration and deceleration, 3.2 rad/s² yaw acceleration, 2.0 rad/s yaw rate) and the
+//! top speed of a Clearpath Jackal-class field robot (2.0 m/s); 10 kg, between a TurtleBot 4
+//! (3.9 kg) and a Jackal (17 kg).
 
 use serde::{Deserialize, Serialize};
 
 use crate::SimError;
+use crate::dynamics::{DriveLimits, RobotBase};
 use crate::glam::DVec3;
 use crate::shape::{Prim, PrimKind, ShapeDesc};
 use crate::trajectory::{Motion, Pose64, Segment};
@@ -90,6 +98,23 @@ pub struct RobotDesc {
     pub yaw_deg: f32,
     /// Gap between the ground and the bottom of the body (m). Default 0.05.
     pub ground_clearance_m: f32,
+    /// The drive: `"holonomic"` (can sidestep; default) or `"diff_drive"` (cannot move sideways).
+    pub base: RobotBase,
+    /// Mass (kg; dynamic physics). Default 10.
+    pub mass_kg: f32,
+    /// Coulomb friction coefficient of the body's surface (dynamic physics). Default 0.5.
+    pub friction: f32,
+    /// Largest forward and lateral speed (m/s; dynamic physics). Default 2.0.
+    pub max_speed_mps: f32,
+    /// Largest yaw rate (rad/s; dynamic physics). Default 2.0.
+    pub max_yaw_rate_rps: f32,
+    /// Largest acceleration of the forward and lateral speeds (m/s²; dynamic physics). Default 2.5.
+    pub max_accel_mps2: f32,
+    /// Largest deceleration (braking) of the forward and lateral speeds (m/s²; dynamic physics).
+    /// Default 2.5.
+    pub max_decel_mps2: f32,
+    /// Largest yaw acceleration (rad/s²; dynamic physics). Default 3.2.
+    pub max_yaw_accel_rps2: f32,
 }
 
 impl Default for RobotDesc {
@@ -99,6 +124,14 @@ impl Default for RobotDesc {
             start: [0.0, 0.0],
             yaw_deg: 0.0,
             ground_clearance_m: 0.05,
+            base: RobotBase::Holonomic,
+            mass_kg: 10.0,
+            friction: 0.5,
+            max_speed_mps: 2.0,
+            max_yaw_rate_rps: 2.0,
+            max_accel_mps2: 2.5,
+            max_decel_mps2: 2.5,
+            max_yaw_accel_rps2: 3.2,
         }
     }
 }
@@ -128,7 +161,37 @@ impl RobotDesc {
                 "must be finite",
             ));
         }
+        for (key, v) in [
+            ("mass_kg", self.mass_kg),
+            ("max_speed_mps", self.max_speed_mps),
+            ("max_yaw_rate_rps", self.max_yaw_rate_rps),
+            ("max_accel_mps2", self.max_accel_mps2),
+            ("max_decel_mps2", self.max_decel_mps2),
+            ("max_yaw_accel_rps2", self.max_yaw_accel_rps2),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(SimError::invalid(
+                    format!("world.robot.{key}"),
+                    v,
+                    "must be a finite number > 0",
+                ));
+            }
+        }
+        if !(self.friction.is_finite() && self.friction >= 0.0) {
+            return Err(SimError::invalid("world.robot.friction", self.friction, "must be >= 0"));
+        }
         Ok(prim)
+    }
+
+    /// The drive's limits.
+    pub fn limits(&self) -> DriveLimits {
+        DriveLimits {
+            max_speed_mps: self.max_speed_mps.into(),
+            max_yaw_rate_rps: self.max_yaw_rate_rps.into(),
+            max_accel_mps2: self.max_accel_mps2.into(),
+            max_decel_mps2: self.max_decel_mps2.into(),
+            max_yaw_accel_rps2: self.max_yaw_accel_rps2.into(),
+        }
     }
 
     /// Pose of the body centre at the start.
@@ -159,4 +222,6 @@ pub struct RobotState {
     pub command: Command,
     /// World velocity of the body centre (m/s).
     pub velocity_mps: [f64; 3],
+    /// Yaw rate (rad/s, counter-clockwise).
+    pub yaw_rate_rps: f64,
 }

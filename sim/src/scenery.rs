@@ -292,6 +292,7 @@ impl SceneryDesc {
                 position: pose.position,
                 rotation: pose.rotation * DQuat::IDENTITY,
             }),
+            ball: None,
         })
     }
 }

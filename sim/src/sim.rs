@@ -1,24 +1,33 @@
 //! The simulator: advances the world one camera period per step, renders the robot's view and reports
 //! ground truth and contacts.
 //!
-//! Physics model: every body is kinematic and follows closed-form motion (see [`crate::trajectory`]):
-//! the robot integrates its velocity command exactly, projectiles and vehicles follow their planned
-//! paths, scenery is fixed. rapier3d provides collision detection: each physics substep moves the bodies
-//! to their exact poses and runs rapier's broad and narrow phase; the robot's collider is a sensor whose
-//! collision events are the contacts. Because nothing is integrated numerically, a world description and
-//! seed give bit-identical trajectories on every machine, and frames that are identical on the same
-//! adapter.
+//! Two physics models ([`PhysicsMode`], see [`crate::dynamics`]):
+//! - **dynamic** (default): each physics substep the robot's drive sets its velocity within its
+//!   limits, kinematic vehicles are moved to their scripted poses, and rapier integrates the dynamic
+//!   bodies (robot, launched projectiles) and resolves contacts. Contacts with the robot are
+//!   rapier's collision events; their exact time within the substep comes from a time-of-impact
+//!   query on the bodies' states at the substep's start.
+//! - **analytic**: every body is kinematic and follows closed-form motion ([`crate::trajectory`]);
+//!   each substep moves the bodies to their exact poses and runs rapier's broad and narrow phase;
+//!   the robot's collider is a sensor whose collision events are the contacts. Nothing is integrated
+//!   numerically.
+//!
+//! Either way the same description and seed give bit-identical trajectories and contacts on one
+//! machine whatever else runs (each simulator owns its rapier world; rendering and ground truth only
+//! read it), and frames that are identical on the same adapter.
 
 use std::sync::{Arc, Mutex};
 
 use rapier3d::parry::shape::SharedShape;
 use rapier3d::prelude::{
-    ActiveCollisionTypes, ActiveEvents, ColliderBuilder, ColliderHandle, ColliderSet, CollisionEvent, ContactPair,
-    EventHandler, PhysicsWorld, Pose, RigidBodyBuilder, RigidBodyHandle, RigidBodySet, SoftBodySet, SoftBodyTearEvent,
+    ActiveCollisionTypes, ActiveEvents, CoefficientCombineRule, ColliderBuilder, ColliderHandle, ColliderSet,
+    CollisionEvent, ContactPair, EventHandler, Group, InteractionGroups, InteractionTestMode, LockedAxes, PhysicsWorld,
+    Pose, RigidBodyBuilder, RigidBodyHandle, RigidBodySet, SoftBodySet, SoftBodyTearEvent,
 };
 
 use crate::SimError;
 use crate::camera::Camera;
+use crate::dynamics::{BodyVelocity, PhysicsMode, track_velocity};
 use crate::glam::{DVec3, Vec3};
 use crate::object::ObjectSpec;
 use crate::render::{FrameDesc, GpuContext, RenderInstance, Renderer, frame_to_u8};
@@ -50,6 +59,13 @@ pub struct StepOutput {
     pub robot: RobotState,
 }
 
+impl StepOutput {
+    /// The first contact of this step that is a collision (not [`Contact::harmless`]), if any.
+    pub fn first_collision(&self) -> Option<&Contact> {
+        self.contacts.iter().find(|c| !c.harmless)
+    }
+}
+
 struct SimObject {
     spec: ObjectSpec,
     shape: SharedShape,
@@ -61,6 +77,17 @@ struct SimObject {
     body: RigidBodyHandle,
     collider: ColliderHandle,
     moving: bool,
+    /// Dynamic physics: a projectile's body is a dynamic one, enabled from its launch on.
+    dynamic: bool,
+    launched: bool,
+}
+
+/// Dynamic physics: the robot's and the projectiles' predicted motions from the start of a substep.
+struct SubstepStart {
+    t_s: f64,
+    robot: Segment,
+    /// Per object: a projectile's predicted path (`None`: not dynamic, its planned path holds).
+    balls: Vec<Option<Trajectory>>,
 }
 
 #[derive(Default)]
@@ -88,6 +115,10 @@ pub struct Sim {
     step_index: u64,
     t: f64,
     robot_pose: Pose64,
+    /// The robot's velocity in its body frame after the last step.
+    robot_velocity: BodyVelocity,
+    /// Dynamic physics: the state at the start of the last substep.
+    previous_substep: Option<SubstepStart>,
     command: Command,
     robot_shape: SharedShape,
     robot_local: Pose,
@@ -185,9 +216,29 @@ impl Sim {
 
     fn build(desc: &WorldDesc, seed: u64, renderer: Option<Renderer>) -> Result<Sim, SimError> {
         let world = desc.build(seed)?;
+        let dynamic = world.physics == PhysicsMode::Dynamic;
         let mut physics = PhysicsWorld::new();
-        physics.gravity = Vec3::ZERO;
+        physics.gravity = if dynamic {
+            Vec3::new(0.0, 0.0, -(world.gravity as f32))
+        } else {
+            Vec3::ZERO
+        };
         physics.integration_parameters.dt = (world.dt / f64::from(world.substeps)) as f32;
+
+        // collision groups: the ground (group 1) touches everything but the robot (group 2), which
+        // slides above it with its height locked
+        let ground_groups = InteractionGroups::new(Group::GROUP_1, Group::ALL, InteractionTestMode::And);
+        let robot_groups =
+            InteractionGroups::new(Group::GROUP_2, Group::ALL ^ Group::GROUP_1, InteractionTestMode::And);
+        if dynamic && world.ground.is_some() {
+            physics.insert(
+                RigidBodyBuilder::fixed(),
+                ColliderBuilder::new(SharedShape::halfspace(Vec3::Z))
+                    .friction(world.ground_friction as f32)
+                    .restitution(0.0)
+                    .collision_groups(ground_groups),
+            );
+        }
 
         let robot_parts = [crate::shape::Part {
             prim: world.robot_prim,
@@ -197,29 +248,61 @@ impl Sim {
         }];
         let (robot_shape, robot_local) = collider_shape(&robot_parts);
         let origin = DVec3::ZERO;
-        let (robot_body, robot_collider) = physics.insert(
-            RigidBodyBuilder::kinematic_position_based().pose(world.robot_start.to_parry(origin)),
-            ColliderBuilder::new(robot_shape.clone())
-                .position(robot_local)
-                .sensor(true)
-                .active_collision_types(ActiveCollisionTypes::all())
-                .active_events(ActiveEvents::COLLISION_EVENTS),
-        );
+        let robot_start = world.robot_start.to_parry(origin);
+        let (robot_body, robot_collider) = if dynamic {
+            physics.insert(
+                RigidBodyBuilder::dynamic()
+                    .pose(robot_start)
+                    .locked_axes(
+                        LockedAxes::TRANSLATION_LOCKED_Z
+                            | LockedAxes::ROTATION_LOCKED_X
+                            | LockedAxes::ROTATION_LOCKED_Y,
+                    )
+                    .can_sleep(false),
+                ColliderBuilder::new(robot_shape.clone())
+                    .position(robot_local)
+                    .mass(world.robot.mass_kg)
+                    .friction(world.robot.friction)
+                    .restitution(0.0)
+                    .collision_groups(robot_groups)
+                    .active_collision_types(ActiveCollisionTypes::all())
+                    .active_events(ActiveEvents::COLLISION_EVENTS),
+            )
+        } else {
+            physics.insert(
+                RigidBodyBuilder::kinematic_position_based().pose(robot_start),
+                ColliderBuilder::new(robot_shape.clone())
+                    .position(robot_local)
+                    .sensor(true)
+                    .active_collision_types(ActiveCollisionTypes::all())
+                    .active_events(ActiveEvents::COLLISION_EVENTS),
+            )
+        };
         let mut objects = Vec::with_capacity(world.objects.len());
         for spec in &world.objects {
             let (shape, local) = collider_shape(&spec.parts);
             let moving = !spec.trajectory.is_static();
-            let builder = if moving {
-                RigidBodyBuilder::kinematic_position_based()
-            } else {
-                RigidBodyBuilder::fixed()
+            let pose0 = spec.trajectory.pose_at(0.0).to_parry(origin);
+            let collider = ColliderBuilder::new(shape.clone())
+                .position(local)
+                .active_collision_types(ActiveCollisionTypes::all());
+            let ball = spec.ball.filter(|_| dynamic);
+            let (body, collider) = match ball {
+                Some(b) => physics.insert(
+                    RigidBodyBuilder::dynamic()
+                        .pose(pose0)
+                        .ccd_enabled(true)
+                        .gravity_scale(if b.gravity { 1.0 } else { 0.0 })
+                        .enabled(false),
+                    collider
+                        .mass(b.mass_kg as f32)
+                        .restitution(b.restitution as f32)
+                        .restitution_combine_rule(CoefficientCombineRule::Max)
+                        .friction(b.friction as f32),
+                ),
+                None if moving => physics.insert(RigidBodyBuilder::kinematic_position_based().pose(pose0), collider),
+                None => physics.insert(RigidBodyBuilder::fixed().pose(pose0), collider),
             };
-            let (body, collider) = physics.insert(
-                builder.pose(spec.trajectory.pose_at(0.0).to_parry(origin)),
-                ColliderBuilder::new(shape.clone())
-                    .position(local)
-                    .active_collision_types(ActiveCollisionTypes::all()),
-            );
             let center = spec.parts.iter().map(|p| p.offset).sum::<DVec3>() / spec.parts.len() as f64;
             objects.push(SimObject {
                 bounding_radius: spec.bounding_radius(),
@@ -231,6 +314,8 @@ impl Sim {
                 body,
                 collider,
                 moving,
+                dynamic: ball.is_some(),
+                launched: false,
             });
         }
         let robot_radius = f64::from(world.robot_prim.bounding_radius());
@@ -241,6 +326,8 @@ impl Sim {
             step_index: 0,
             t: 0.0,
             robot_pose: world.robot_start,
+            robot_velocity: BodyVelocity::default(),
+            previous_substep: None,
             command: Command::default(),
             robot_shape,
             robot_local,
@@ -257,76 +344,26 @@ impl Sim {
             ground_truth: true,
             world,
         };
-        // initial contact state (objects touching the robot at t = 0 are reported by the first step)
-        sim.physics.detect_collisions(&(), &sim.events);
+        if !dynamic {
+            // initial contact state (objects touching the robot at t = 0 are reported by the first step)
+            sim.physics.detect_collisions(&(), &sim.events);
+        }
         Ok(sim)
     }
 
     /// Advances one camera period under `command`, renders the new view and computes ground truth.
+    ///
+    /// With dynamic physics the command is the drive's target velocity (reached within the robot's
+    /// acceleration limits), except at the first step: an episode starts in steady state, the robot
+    /// already moving with its first command (clamped to its speed limits).
     pub fn step(&mut self, command: &Command) -> Result<StepOutput, SimError> {
         command.validate()?;
         self.command = *command;
-        let seg = command.motion_from(self.robot_pose, self.t);
-        let substeps = u64::from(self.world.substeps);
-        let hz = 1.0 / self.world.dt;
-        let mut new_contacts = Vec::new();
-        let mut t_prev = self.t;
-        for s in 1..=substeps {
-            let ts = ((self.step_index * substeps + s) as f64) / (hz * substeps as f64);
-            let robot = seg.pose_at(ts);
-            self.physics.bodies[self.robot_body].set_position(robot.to_parry(DVec3::ZERO), true);
-            for o in self.objects.iter().filter(|o| o.moving) {
-                let pose = o.spec.trajectory.pose_at(ts);
-                self.physics.bodies[o.body].set_position(pose.to_parry(DVec3::ZERO), true);
-            }
-            self.physics.detect_collisions(&(), &self.events);
-            let events: Vec<CollisionEvent> =
-                std::mem::take(&mut *self.events.0.lock().unwrap_or_else(|e| e.into_inner()));
-            for ev in events {
-                let CollisionEvent::Started(a, b, _) = ev else { continue };
-                let other = if a == self.robot_collider {
-                    b
-                } else if b == self.robot_collider {
-                    a
-                } else {
-                    continue;
-                };
-                let Some(id) = self.objects.iter().position(|o| o.collider == other) else {
-                    continue;
-                };
-                let o = &self.objects[id];
-                let exact = time_of_impact(
-                    &seg,
-                    &PlacedShape {
-                        shape: &*self.robot_shape,
-                        local: self.robot_local,
-                        bounding_radius: self.robot_radius,
-                    },
-                    &o.spec.trajectory,
-                    &PlacedShape {
-                        shape: &*o.shape,
-                        local: o.local,
-                        bounding_radius: o.bounding_radius,
-                    },
-                    t_prev,
-                    ts - t_prev,
-                )
-                .filter(|&t| t > t_prev);
-                new_contacts.push(Contact {
-                    t_s: ts,
-                    frame: self.step_index + 1,
-                    object_id: id,
-                    name: o.spec.name.clone(),
-                    kind: o.spec.kind,
-                    exact_t_s: exact,
-                });
-            }
-            t_prev = ts;
-        }
+        let mut new_contacts = match self.world.physics {
+            PhysicsMode::Analytic => self.advance_analytic(command),
+            PhysicsMode::Dynamic => self.advance_dynamic(command),
+        };
         new_contacts.sort_by(|a, b| a.t_s.total_cmp(&b.t_s).then(a.object_id.cmp(&b.object_id)));
-        self.step_index += 1;
-        self.t = (self.step_index as f64) / hz;
-        self.robot_pose = seg.pose_at(self.t);
         self.contacts.extend(new_contacts.iter().cloned());
         self.render_current()?;
         Ok(StepOutput {
@@ -335,12 +372,273 @@ impl Sim {
             n: self.world.camera.n,
             frame: self.frame.clone(),
             truth: if self.ground_truth {
-                self.truth(command)
+                self.truth(&self.robot_velocity.as_command())
             } else {
                 Vec::new()
             },
             contacts: new_contacts,
             robot: self.robot_state(),
+        })
+    }
+
+    /// The end time of substep `s` (1-based) of the current step.
+    fn substep_time(&self, s: u64) -> f64 {
+        let substeps = u64::from(self.world.substeps);
+        ((self.step_index * substeps + s) as f64) / (substeps as f64 / self.world.dt)
+    }
+
+    fn robot_placed(&self) -> PlacedShape<'_> {
+        PlacedShape {
+            shape: &*self.robot_shape,
+            local: self.robot_local,
+            bounding_radius: self.robot_radius,
+        }
+    }
+
+    fn contact(
+        &self,
+        id: usize,
+        ts: f64,
+        exact_t_s: Option<f64>,
+        impact_speed_mps: f64,
+        impulse_ns: Option<f64>,
+    ) -> Contact {
+        let o = &self.objects[id];
+        Contact {
+            t_s: ts,
+            frame: self.step_index + 1,
+            object_id: id,
+            name: o.spec.name.clone(),
+            kind: o.spec.kind,
+            exact_t_s,
+            impact_speed_mps,
+            impulse_ns,
+            harmless: impact_speed_mps < self.world.harmless_impact_speed_mps,
+        }
+    }
+
+    /// The object touched by the robot in a collision event that started, if any.
+    fn robot_contact_started(&self, ev: CollisionEvent) -> Option<usize> {
+        let CollisionEvent::Started(a, b, _) = ev else {
+            return None;
+        };
+        let other = if a == self.robot_collider {
+            b
+        } else if b == self.robot_collider {
+            a
+        } else {
+            return None;
+        };
+        self.objects.iter().position(|o| o.collider == other)
+    }
+
+    fn take_events(&self) -> Vec<CollisionEvent> {
+        std::mem::take(&mut *self.events.0.lock().unwrap_or_else(|e| e.into_inner()))
+    }
+
+    /// Analytic physics: every body on its closed-form path; rapier detects the contacts.
+    fn advance_analytic(&mut self, command: &Command) -> Vec<Contact> {
+        let seg = command.motion_from(self.robot_pose, self.t);
+        let mut new_contacts = Vec::new();
+        let mut t_prev = self.t;
+        for s in 1..=u64::from(self.world.substeps) {
+            let ts = self.substep_time(s);
+            self.physics.bodies[self.robot_body].set_position(seg.pose_at(ts).to_parry(DVec3::ZERO), true);
+            for o in self.objects.iter().filter(|o| o.moving) {
+                let pose = o.spec.trajectory.pose_at(ts);
+                self.physics.bodies[o.body].set_position(pose.to_parry(DVec3::ZERO), true);
+            }
+            self.physics.detect_collisions(&(), &self.events);
+            for ev in self.take_events() {
+                let Some(id) = self.robot_contact_started(ev) else {
+                    continue;
+                };
+                let o = &self.objects[id];
+                let placed = o.placed();
+                let exact = time_of_impact(
+                    &seg,
+                    &self.robot_placed(),
+                    &o.spec.trajectory,
+                    &placed,
+                    t_prev,
+                    ts - t_prev,
+                )
+                .filter(|&t| t > t_prev);
+                let t_hit = exact.unwrap_or(ts);
+                let speed = (o.spec.trajectory.velocity_at(t_hit) - seg.velocity_at(t_hit)).length();
+                new_contacts.push(self.contact(id, ts, exact, speed, None));
+            }
+            t_prev = ts;
+        }
+        self.step_index += 1;
+        self.t = (self.step_index as f64) * self.world.dt;
+        self.robot_pose = seg.pose_at(self.t);
+        self.robot_velocity = BodyVelocity {
+            forward_mps: command.forward_mps.into(),
+            lateral_mps: command.lateral_mps.into(),
+            yaw_rate_rps: command.yaw_rate_rps.into(),
+        };
+        new_contacts
+    }
+
+    /// Dynamic physics: the drive sets the robot's velocity, projectiles launch, kinematic vehicles
+    /// move on, rapier integrates and reports the contacts.
+    fn advance_dynamic(&mut self, command: &Command) -> Vec<Contact> {
+        let h = self.world.dt / f64::from(self.world.substeps);
+        let base = self.world.robot.base;
+        let limits = self.world.robot.limits();
+        let mut new_contacts = Vec::new();
+        let mut t_prev = self.t;
+        for s in 1..=u64::from(self.world.substeps) {
+            let ts = self.substep_time(s);
+            // launches: a projectile starts at the first substep boundary at or after its launch time,
+            // with its planned (exact) pose and velocity there
+            for o in self.objects.iter_mut().filter(|o| o.dynamic && !o.launched) {
+                if o.spec.ball.is_some_and(|b| b.launch_s <= t_prev) {
+                    let body = &mut self.physics.bodies[o.body];
+                    body.set_enabled(true);
+                    body.set_position(o.spec.trajectory.pose_at(t_prev).to_parry(DVec3::ZERO), true);
+                    body.set_linvel(o.spec.trajectory.velocity_at(t_prev).as_vec3(), true);
+                    o.launched = true;
+                }
+            }
+            // the drive
+            let current = self.body_velocity();
+            let next = if self.step_index == 0 && s == 1 {
+                track_velocity(current, command, base, &limits, f64::INFINITY)
+            } else {
+                track_velocity(current, command, base, &limits, h)
+            };
+            let yaw = self.robot_pose_now().yaw();
+            let (sin, cos) = yaw.sin_cos();
+            let world_v = DVec3::new(
+                next.forward_mps * cos - next.lateral_mps * sin,
+                next.forward_mps * sin + next.lateral_mps * cos,
+                0.0,
+            );
+            let robot = &mut self.physics.bodies[self.robot_body];
+            robot.set_linvel(world_v.as_vec3(), true);
+            robot.set_angvel(Vec3::new(0.0, 0.0, next.yaw_rate_rps as f32), true);
+            for o in self.objects.iter().filter(|o| o.moving && !o.dynamic) {
+                let pose = o.spec.trajectory.pose_at(ts);
+                self.physics.bodies[o.body].set_next_kinematic_position(pose.to_parry(DVec3::ZERO));
+            }
+            // the state at the substep's start, for the exact contact times and impact speeds
+            let start = SubstepStart {
+                t_s: t_prev,
+                robot: self.predicted_robot(t_prev),
+                balls: self
+                    .objects
+                    .iter()
+                    .map(|o| o.dynamic.then(|| self.predicted_ball(o, t_prev)))
+                    .collect(),
+            };
+            self.physics.step_with_events(&(), &self.events);
+            for ev in self.take_events() {
+                let Some(id) = self.robot_contact_started(ev) else {
+                    continue;
+                };
+                // rapier finds a contact in the narrow phase that opens a step, so the touch may
+                // have happened in the previous substep (always, when CCD stopped a fast ball there):
+                // search it from that substep's start first, then from this one's
+                let contact = [self.previous_substep.as_ref(), Some(&start)]
+                    .into_iter()
+                    .flatten()
+                    .find_map(|from| {
+                        let o = &self.objects[id];
+                        let traj = from.balls[id].as_ref().unwrap_or(&o.spec.trajectory);
+                        time_of_impact(
+                            &from.robot,
+                            &self.robot_placed(),
+                            traj,
+                            &o.placed(),
+                            from.t_s,
+                            ts - from.t_s,
+                        )
+                        .filter(|&t| t > from.t_s)
+                        .map(|t| (t, (traj.velocity_at(t) - from.robot.velocity_at(t)).length()))
+                    });
+                let (exact, speed) = match contact {
+                    Some((t, speed)) => (Some(t), speed),
+                    None => {
+                        let traj = start.balls[id].as_ref().unwrap_or(&self.objects[id].spec.trajectory);
+                        (
+                            None,
+                            (traj.velocity_at(t_prev) - start.robot.velocity_at(t_prev)).length(),
+                        )
+                    }
+                };
+                let impulse = self
+                    .physics
+                    .contact_pair(self.robot_collider, self.objects[id].collider)
+                    .map(|p| f64::from(p.total_impulse().length()));
+                new_contacts.push(self.contact(id, ts, exact, speed, impulse));
+            }
+            self.previous_substep = Some(start);
+            t_prev = ts;
+        }
+        self.step_index += 1;
+        self.t = (self.step_index as f64) * self.world.dt;
+        self.robot_pose = self.robot_pose_now();
+        self.robot_velocity = self.body_velocity();
+        new_contacts
+    }
+
+    /// Dynamic physics: the robot body's pose.
+    fn robot_pose_now(&self) -> Pose64 {
+        pose64(self.physics.bodies[self.robot_body].position())
+    }
+
+    /// Dynamic physics: the robot body's velocity in its body frame.
+    fn body_velocity(&self) -> BodyVelocity {
+        let body = &self.physics.bodies[self.robot_body];
+        let v = body.linvel().as_dvec3();
+        let (sin, cos) = self.robot_pose_now().yaw().sin_cos();
+        BodyVelocity {
+            forward_mps: v.x * cos + v.y * sin,
+            lateral_mps: -v.x * sin + v.y * cos,
+            yaw_rate_rps: f64::from(body.angvel().z),
+        }
+    }
+
+    /// Dynamic physics: the robot's motion from time `t` on if it keeps its current velocity.
+    fn predicted_robot(&self, t: f64) -> Segment {
+        self.body_velocity().as_command().motion_from(self.robot_pose_now(), t)
+    }
+
+    /// Dynamic physics: a projectile's path from time `t` on as predicted from its current state:
+    /// its plan before launch; after launch free flight (a parabola under gravity, exact until the
+    /// next contact), or a straight roll while it rests on the ground.
+    fn predicted_ball(&self, o: &SimObject, t: f64) -> Trajectory {
+        if !o.launched {
+            return o.spec.trajectory.clone();
+        }
+        let body = &self.physics.bodies[o.body];
+        let pose = pose64(body.position());
+        let v = body.linvel().as_dvec3();
+        let gravity = if o.spec.ball.is_some_and(|b| b.gravity) {
+            self.world.gravity
+        } else {
+            0.0
+        };
+        let on_ground = self.world.ground.is_some()
+            && pose.position.z - o.bounding_radius <= ON_GROUND_M
+            && v.z.abs() <= ON_GROUND_MPS;
+        let motion = if on_ground || gravity == 0.0 {
+            let v = if on_ground { DVec3::new(v.x, v.y, 0.0) } else { v };
+            if v.length() < 1e-6 {
+                Motion::Hold
+            } else {
+                Motion::Linear { velocity: v }
+            }
+        } else {
+            Motion::Ballistic { velocity: v, gravity }
+        };
+        Trajectory::from_segment(Segment {
+            t0: t,
+            t1: f64::INFINITY,
+            pose0: pose,
+            motion,
         })
     }
 
@@ -354,30 +652,30 @@ impl Sim {
     /// Renders and reports the current state without advancing time (e.g. the frame at t = 0).
     pub fn observe(&mut self) -> Result<StepOutput, SimError> {
         self.render_current()?;
-        let command = self.command;
         Ok(StepOutput {
             t_s: self.t,
             frame_index: self.step_index,
             n: self.world.camera.n,
             frame: self.frame.clone(),
-            truth: self.truth(&command),
+            truth: self.truth(&self.robot_velocity.as_command()),
             contacts: Vec::new(),
             robot: self.robot_state(),
         })
     }
 
     fn render_current(&mut self) -> Result<(), SimError> {
-        let Some(renderer) = self.renderer.as_mut() else {
+        if self.renderer.is_none() {
             self.frame.clear();
             return Ok(());
-        };
+        }
         let t = self.t;
         let cam = self.world.camera.pose(&self.robot_pose, t);
-        self.instances.clear();
+        let mut instances = std::mem::take(&mut self.instances);
+        instances.clear();
         for o in &self.objects {
-            let pose = o.spec.trajectory.pose_at(t);
+            let pose = self.pose_now(o);
             for p in &o.spec.parts {
-                self.instances.push(RenderInstance {
+                instances.push(RenderInstance {
                     prim: p.prim.kind,
                     position: (pose.transform_point(p.offset) - cam.position).as_vec3(),
                     rotation: (pose.rotation * p.rotation).normalize().as_quat(),
@@ -394,12 +692,18 @@ impl Sim {
             sky: self.world.sky,
             ground: self.world.ground.as_ref(),
             t_s: t,
-            instances: &self.instances,
+            instances: &instances,
         };
-        renderer.render(&frame, &mut self.frame)
+        let renderer = self.renderer.as_mut().expect("checked above");
+        let result = renderer.render(&frame, &mut self.frame);
+        self.instances = instances;
+        result
     }
 
-    /// Ground truth for every object at the current time, assuming the robot keeps `command` from now on.
+    /// Ground truth for every object at the current time, assuming the robot keeps `command` (its
+    /// body-frame velocity) from now on and every object its planned path (vehicles, scenery,
+    /// projectiles with analytic physics or before launch) or, for a flying projectile with dynamic
+    /// physics, its free flight from its current state (exact until its next contact).
     pub fn truth(&self, command: &Command) -> Vec<ObjectTruth> {
         let t = self.t;
         let seg = command.motion_from(self.robot_pose, t);
@@ -417,7 +721,8 @@ impl Sim {
             .iter()
             .enumerate()
             .map(|(id, o)| {
-                let traj: &Trajectory = &o.spec.trajectory;
+                let predicted = o.dynamic.then(|| self.predicted_ball(o, t));
+                let traj: &Trajectory = predicted.as_ref().unwrap_or(&o.spec.trajectory);
                 let pose = traj.pose_at(t);
                 let shape_pose = pose.to_parry(origin) * o.local;
                 let distance = o
@@ -427,11 +732,7 @@ impl Sim {
                 let theta_minus = angular_size(&o.angular, &traj.pose_at(t - RATE_EPS_S), cam_minus);
                 let theta_plus = angular_size(&o.angular, &traj.pose_at(t + RATE_EPS_S), cam_plus);
                 let rate = (theta_plus - theta_minus) / (2.0 * RATE_EPS_S);
-                let placed = PlacedShape {
-                    shape: &*o.shape,
-                    local: o.local,
-                    bounding_radius: o.bounding_radius,
-                };
+                let placed = o.placed();
                 let ttc = if !o.moving
                     && cannot_reach(
                         &seg,
@@ -458,10 +759,16 @@ impl Sim {
                         }
                     }
                 };
-                let in_contact = self
-                    .physics
-                    .intersection_pair(self.robot_collider, o.collider)
-                    .unwrap_or(false);
+                let in_contact = match self.world.physics {
+                    PhysicsMode::Analytic => self
+                        .physics
+                        .intersection_pair(self.robot_collider, o.collider)
+                        .unwrap_or(false),
+                    PhysicsMode::Dynamic => self
+                        .physics
+                        .contact_pair(self.robot_collider, o.collider)
+                        .is_some_and(ContactPair::has_any_active_contact),
+                };
                 ObjectTruth {
                     id,
                     name: o.spec.name.clone(),
@@ -485,7 +792,7 @@ impl Sim {
 
     /// The robot's current state.
     pub fn robot_state(&self) -> RobotState {
-        let seg = self.command.motion_from(self.robot_pose, self.t);
+        let seg = self.robot_velocity.as_command().motion_from(self.robot_pose, self.t);
         let v = seg.velocity_at(self.t);
         RobotState {
             t_s: self.t,
@@ -494,6 +801,16 @@ impl Sim {
             yaw_rad: self.robot_pose.yaw(),
             command: self.command,
             velocity_mps: [v.x, v.y, v.z],
+            yaw_rate_rps: self.robot_velocity.yaw_rate_rps,
+        }
+    }
+
+    /// The pose of an object now: with dynamic physics a projectile's body pose, else its path's.
+    fn pose_now(&self, o: &SimObject) -> Pose64 {
+        if o.dynamic {
+            pose64(self.physics.bodies[o.body].position())
+        } else {
+            o.spec.trajectory.pose_at(self.t)
         }
     }
 
@@ -566,6 +883,16 @@ impl Sim {
         self.objects.get(id).map(|o| o.spec.trajectory.pose_at(t_s))
     }
 
+    /// Pose of object `id` now (with dynamic physics: where rapier has it; world frame).
+    pub fn object_pose_now(&self, id: usize) -> Option<Pose64> {
+        self.objects.get(id).map(|o| self.pose_now(o))
+    }
+
+    /// The physics model of this world.
+    pub fn physics(&self) -> PhysicsMode {
+        self.world.physics
+    }
+
     /// The description this simulator was built from.
     pub fn desc(&self) -> &WorldDesc {
         &self.desc
@@ -576,6 +903,29 @@ impl Sim {
         self.seed
     }
 }
+
+impl SimObject {
+    fn placed(&self) -> PlacedShape<'_> {
+        PlacedShape {
+            shape: &*self.shape,
+            local: self.local,
+            bounding_radius: self.bounding_radius,
+        }
+    }
+}
+
+/// A rapier pose in double precision.
+fn pose64(p: &Pose) -> Pose64 {
+    Pose64 {
+        position: p.translation.as_dvec3(),
+        rotation: p.rotation.as_dquat().normalize(),
+    }
+}
+
+/// Height of a ball's bottom above the ground (m) and vertical speed (m/s) under which it counts as
+/// resting or rolling on the ground for ground-truth prediction (a straight roll, not free fall).
+const ON_GROUND_M: f64 = 2e-3;
+const ON_GROUND_MPS: f64 = 0.05;
 
 /// Conservative test that a robot moving with `seg` cannot touch a static object whose bounding sphere
 /// is (`center`, `radius`) within `horizon` seconds.

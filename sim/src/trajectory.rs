@@ -184,6 +184,16 @@ impl Trajectory {
         }
     }
 
+    /// One segment covering all times (extrapolated before its start).
+    pub fn from_segment(segment: Segment) -> Self {
+        Trajectory {
+            segments: vec![Segment {
+                t1: f64::INFINITY,
+                ..segment
+            }],
+        }
+    }
+
     /// Holds `pose` until `t_start`, moves with `motion` until `t_end` (may be `inf`), then holds.
     pub fn hold_move_hold(pose: Pose64, t_start: f64, motion: Motion, t_end: f64) -> Self {
         let mut segments = vec![Segment {

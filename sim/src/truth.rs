@@ -60,9 +60,19 @@ pub struct Contact {
     pub name: String,
     /// The object's kind.
     pub kind: ObjectKind,
-    /// Exact time of first touch within that (sub)step, from a time-of-impact query on the analytic
-    /// motions (`None` when the bodies already overlapped at its start).
+    /// Exact time of first touch within that (sub)step, from a time-of-impact query on the bodies'
+    /// motions over the substep (analytic physics: their closed-form paths; dynamic physics: their
+    /// poses and velocities at the substep's start) (`None` when the bodies already overlapped at its
+    /// start).
     pub exact_t_s: Option<f64>,
+    /// Relative speed of the two bodies' centres when they first touched (m/s): at the start of the
+    /// substep in which the contact began.
+    pub impact_speed_mps: f64,
+    /// Dynamic physics: the magnitude of the contact impulse exchanged in the substep in which the
+    /// contact began (N·s); `None` with analytic physics (nothing pushes).
+    pub impulse_ns: Option<f64>,
+    /// Whether the impact was below the world's `harmless_impact_speed_mps` (not a collision).
+    pub harmless: bool,
 }
 
 impl Contact {

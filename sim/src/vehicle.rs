@@ -179,6 +179,7 @@ impl VehicleDesc {
             kind: ObjectKind::Vehicle,
             parts,
             trajectory: Trajectory::hold_move_hold(pose, t0, motion, t_end),
+            ball: None,
         })
     }
 }

@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::SimError;
 use crate::camera::{Camera, CameraDesc};
+use crate::dynamics::PhysicsMode;
 use crate::object::ObjectSpec;
 use crate::projectile::{AimFrame, ProjectileDesc};
 use crate::robot::RobotDesc;
@@ -33,6 +34,12 @@ fn d_horizon() -> f32 {
 fn d_sky() -> f32 {
     0.8
 }
+fn d_harmless() -> f32 {
+    0.2
+}
+fn d_ground_friction() -> f32 {
+    0.6
+}
 
 /// The ground plane z = 0 (TOML table `[world.ground]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -42,6 +49,10 @@ pub struct GroundDesc {
     pub enabled: bool,
     /// Ground texture in world `(u, v) = (x, y)` (default: 1 m checker, luminance 0.3 / 0.5).
     pub texture: Texture,
+    /// Coulomb friction coefficient of the ground (dynamic physics: rolling and sliding balls).
+    /// Default 0.6.
+    #[serde(default = "d_ground_friction")]
+    pub friction: f32,
 }
 
 impl Default for GroundDesc {
@@ -53,6 +64,7 @@ impl Default for GroundDesc {
                 dark: 0.3,
                 light: 0.5,
             },
+            friction: d_ground_friction(),
         }
     }
 }
@@ -66,10 +78,21 @@ impl Default for GroundDesc {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WorldDesc {
+    /// Physics model: `"dynamic"` (default: rapier integrates the robot within its drive limits and
+    /// the projectiles, which bounce and push) or `"analytic"` (closed-form paths, rapier only detects
+    /// contacts). See [`crate::dynamics`].
+    #[serde(default)]
+    pub physics: PhysicsMode,
+    /// Contacts whose impact speed (the relative speed of the two bodies when they first touch) is
+    /// below this are harmless ([`crate::Contact::harmless`]): not a collision (m/s). Default 0.2,
+    /// e.g. a ball rolling against a wheel.
+    #[serde(default = "d_harmless")]
+    pub harmless_impact_speed_mps: f32,
     /// Camera frame rate (Hz); one [`crate::Sim::step`] advances 1/camera_hz seconds. Default 120.
     #[serde(default = "d_camera_hz")]
     pub camera_hz: f32,
-    /// Physics (contact detection) steps per camera frame. Default 1.
+    /// Physics steps per camera frame (contact detection, and integration with dynamic physics).
+    /// Default 1.
     #[serde(default = "d_substeps")]
     pub physics_substeps: u32,
     /// Gravity for ballistic projectiles (m/s²). Default 9.81.
@@ -138,12 +161,17 @@ impl Default for WorldDesc {
 /// A validated world: everything [`crate::Sim`] needs, in resolved form.
 #[derive(Clone, Debug)]
 pub(crate) struct BuiltWorld {
+    pub physics: PhysicsMode,
+    pub harmless_impact_speed_mps: f64,
+    pub ground_friction: f64,
+    pub gravity: f64,
     pub dt: f64,
     pub substeps: u32,
     pub horizon: f64,
     pub sky: f32,
     pub ground: Option<ResolvedTexture>,
     pub camera: Camera,
+    pub robot: RobotDesc,
     pub robot_prim: Prim,
     pub robot_start: Pose64,
     pub objects: Vec<ObjectSpec>,
@@ -161,6 +189,8 @@ impl WorldDesc {
     /// A world with ground, sky, robot and camera at their defaults and no objects.
     pub fn empty() -> Self {
         WorldDesc {
+            physics: PhysicsMode::default(),
+            harmless_impact_speed_mps: d_harmless(),
             camera_hz: d_camera_hz(),
             physics_substeps: d_substeps(),
             gravity_mps2: d_gravity(),
@@ -214,6 +244,20 @@ impl WorldDesc {
                 "must be >= 0",
             ));
         }
+        if !(self.harmless_impact_speed_mps.is_finite() && self.harmless_impact_speed_mps >= 0.0) {
+            return Err(SimError::invalid(
+                "world.harmless_impact_speed_mps",
+                self.harmless_impact_speed_mps,
+                "must be >= 0 (m/s; 0 counts every contact)",
+            ));
+        }
+        if !(self.ground.friction.is_finite() && self.ground.friction >= 0.0) {
+            return Err(SimError::invalid(
+                "world.ground.friction",
+                self.ground.friction,
+                "must be >= 0",
+            ));
+        }
         if !(0.0..=1.0).contains(&self.sky_luminance) {
             return Err(SimError::invalid(
                 "world.sky_luminance",
@@ -256,12 +300,17 @@ impl WorldDesc {
             }
         }
         Ok(BuiltWorld {
+            physics: self.physics,
+            harmless_impact_speed_mps: self.harmless_impact_speed_mps.into(),
+            ground_friction: self.ground.friction.into(),
+            gravity: self.gravity_mps2.into(),
             dt: self.dt(),
             substeps: self.physics_substeps,
             horizon: f64::from(self.prediction_horizon_s),
             sky: self.sky_luminance,
             ground,
             camera,
+            robot: self.robot.clone(),
             robot_prim,
             robot_start,
             objects,

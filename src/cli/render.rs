@@ -13,7 +13,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, anyhow, bail};
 use clap::Args;
 use loomlab_sim::io::{GifWriter, TruthCsv, write_png};
-use loomlab_sim::{Command, MAX_N, MIN_FRAME_SIZE, Sim, SimError, WorldDesc, check_frame_count, episode_frames};
+use loomlab_sim::{
+    Command, MAX_N, MIN_FRAME_SIZE, PhysicsMode, Sim, SimError, WorldDesc, check_frame_count, episode_frames,
+};
 use serde::Deserialize;
 
 /// Arguments of `loomlab render`.
@@ -54,6 +56,19 @@ pub struct RenderArgs {
     /// Stop at the first contact with the robot.
     #[arg(long)]
     pub stop_on_contact: bool,
+    /// Physics model (overrides `world.physics`): `dynamic` (rapier integrates the robot within its
+    /// drive limits and the bouncing projectiles) or `analytic` (closed-form paths).
+    #[arg(long, value_enum)]
+    pub physics: Option<PhysicsArg>,
+}
+
+/// `--physics` values.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub enum PhysicsArg {
+    /// rapier integrates the robot and the projectiles.
+    Dynamic,
+    /// Closed-form paths; rapier only detects contacts.
+    Analytic,
 }
 
 /// `[episode]` of a scene file.
@@ -139,6 +154,12 @@ fn plan(args: &RenderArgs) -> anyhow::Result<Plan> {
         }
         scene.world.camera.n = n;
     }
+    if let Some(p) = args.physics {
+        scene.world.physics = match p {
+            PhysicsArg::Dynamic => PhysicsMode::Dynamic,
+            PhysicsArg::Analytic => PhysicsMode::Analytic,
+        };
+    }
     scene.world.validate().map_err(|e| scene_error(file, e))?;
     scene.robot_command.validate().map_err(|e| scene_error(file, e))?;
     let steps = match (args.frames, args.seconds) {
@@ -206,7 +227,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<i32> {
     drop(gif);
     for c in &contacts {
         let exact = c.exact_t_s.map(|t| format!(" (exact {t:.4} s)")).unwrap_or_default();
-        println!("contact: {} ({}) at t = {:.4} s{exact}", c.name, c.kind, c.t_s);
+        let impulse = c
+            .impulse_ns
+            .map(|j| format!(", impulse {j:.3} N s"))
+            .unwrap_or_default();
+        let harmless = if c.harmless { " [harmless]" } else { "" };
+        println!(
+            "contact: {} ({}) at t = {:.4} s{exact}, impact speed {:.2} m/s{impulse}{harmless}",
+            c.name, c.kind, c.t_s, c.impact_speed_mps
+        );
     }
     println!("wrote {}", args.out.display());
     Ok(0)
