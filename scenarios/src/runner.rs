@@ -262,9 +262,9 @@ impl Runner {
         // finished runs wait in their slot until every earlier one is reported
         let slots: Vec<Mutex<Option<EpisodeRun>>> = episodes.iter().map(|_| Mutex::new(None)).collect();
         let reported = Mutex::new(0usize);
-        let lock = |m: &Mutex<Option<EpisodeRun>>| -> std::sync::MutexGuard<'_, Option<EpisodeRun>> {
+        fn lock(m: &Mutex<Option<EpisodeRun>>) -> std::sync::MutexGuard<'_, Option<EpisodeRun>> {
             m.lock().unwrap_or_else(|e| e.into_inner())
-        };
+        }
         self.pool.install(|| {
             episodes
                 .par_iter()

@@ -1,5 +1,9 @@
 //! Escape deadlines against hand calculations (physics only: no GPU needed).
 //!
+//! Most cases use analytic physics, where the dodge reaches its speed at once and the geometry
+//! below is exact; `a_dodge_limited_by_acceleration_needs_the_time_to_cover_w_plus_r` checks the
+//! dynamic robot, whose dodge accelerates at `max_accel_mps2`.
+//!
 //! The geometry: a robot standing still (`forward_mps = 0`), a ball of radius `r` flying straight
 //! at the robot's body centre along its forward axis at constant speed `V` (no gravity, no ground),
 //! and the default escape manoeuvre, a lateral dodge at `v` = 1.5 m/s held for 1 s.
@@ -47,8 +51,13 @@ const LAUNCH_T_S: f64 = 0.2;
 /// Slack for contacts missed between physics steps (s).
 const TOL_S: f64 = 0.002;
 
-/// The episode: ball of radius `r` at speed `speed`, `substeps` physics steps per frame.
+/// The episode with analytic physics: ball of radius `r` at speed `speed`, `substeps` physics steps
+/// per frame.
 fn episode(r: f64, speed: f64, launch_m: f64, substeps: u32) -> EpisodeSpec {
+    episode_with(r, speed, launch_m, substeps, "analytic")
+}
+
+fn episode_with(r: f64, speed: f64, launch_m: f64, substeps: u32, physics: &str) -> EpisodeSpec {
     let text = format!(
         r#"
 name = "deadline_geometry"
@@ -58,6 +67,7 @@ seed = 11
 [world]
 camera = {{ n = 32 }}
 ground = {{ enabled = false }}
+physics = "{physics}"
 physics_substeps = {substeps}
 [[world.projectiles]]
 name = "ball"
@@ -266,6 +276,37 @@ fn a_ball_much_faster_than_the_dodge_needs_w_plus_r_over_v() {
             lead >= hand - TOL_S && lead < hand + frame_s + TOL_S,
             "r = {r}: {lead} vs {hand}"
         );
+        assert!(c.deadline.monotone());
+    }
+}
+
+#[test]
+fn a_dodge_limited_by_acceleration_needs_the_time_to_cover_w_plus_r() {
+    // Dynamic physics: from rest, the sidestep accelerates at a = max_accel_mps2 (2.5 m/s²) to
+    // v = 1.5 m/s (reached after v/a = 0.6 s, 0.45 m), so it covers y in τ(y) = √(2y/a) for
+    // y ≤ 0.45 m and 0.6 s + (y − 0.45 m)/v beyond. Against a 60 m/s ball the lead is τ(w + r).
+    for r in [0.15, 0.4] {
+        let ep = episode_with(r, 60.0, 40.0, 20, "dynamic");
+        let a = f64::from(ep.world.robot.max_accel_mps2);
+        assert_eq!(a, 2.5, "the default acceleration limit");
+        let w = half_width(&ep);
+        let frame_s = 1.0 / f64::from(ep.world.camera_hz);
+        let c = case(ep, 0.5);
+        let lead = c.t_c - c.t_s[c.deadline.frame.expect("evadable")];
+        let y = w + r;
+        let ramp = DODGE_MPS * DODGE_MPS / (2.0 * a);
+        let hand = if y <= ramp {
+            (2.0 * y / a).sqrt()
+        } else {
+            DODGE_MPS / a + (y - ramp) / DODGE_MPS
+        };
+        eprintln!("dynamic, r = {r} m: t_c − t_dl = {lead:.4} s, hand {hand:.4} s");
+        assert!(
+            lead >= hand - TOL_S && lead < hand + frame_s + TOL_S,
+            "r = {r}: t_c − t_dl = {lead:.4} s, hand calculation {hand:.4} s"
+        );
+        // instant acceleration would need only (w + r)/v
+        assert!(lead > y / DODGE_MPS + frame_s, "{lead} vs {}", y / DODGE_MPS);
         assert!(c.deadline.monotone());
     }
 }
