@@ -9,18 +9,24 @@ export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 
 
 .PHONY: run test deps lint lint-rust lint-python rust-test python-test python-env python-examples suite-check sweep bless bench figures fmt
 
-## Run the default scenario suite: prints the results table, writes $(OUT)/report.json and plots.
+## Run the default scenario suite: prints the results table, writes $(OUT)/report.json, the plots
+## and $(OUT)/report.html (the page to open in a browser).
 ## A previous run in $(OUT) is kept: moved to $(OUT)-<time of its last episode> first (`loomlab run`
 ## itself refuses to write over a run; `loomlab run --resume` continues an interrupted one).
 run: deps
 	@if [ -e $(OUT)/manifest.json ] || [ -e $(OUT)/episodes.csv ]; then 	  old=$(OUT)-$$(date -r $(OUT)/episodes.csv +%Y%m%d-%H%M%S 2>/dev/null || date +%Y%m%d-%H%M%S); 	  while [ -e $$old ]; do old=$$old-1; done; 	  mv $(OUT) $$old && echo "make run: the previous run in $(OUT) is now in $$old"; 	fi
 	$(CARGO) run --release -- run --out $(OUT)
 
-## Install system packages: Mesa's lavapipe (software Vulkan) so wgpu renders without a GPU.
+## Install system packages: Mesa's lavapipe (software Vulkan) so wgpu renders without a GPU, and
+## Chromium, in which tests/report_html.rs opens report.html headless.
 deps:
 	@if ! ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1; then \
 	  echo "installing mesa-vulkan-drivers (lavapipe) ..."; \
 	  $(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq mesa-vulkan-drivers libvulkan1; \
+	fi
+	@if ! command -v chromium >/dev/null 2>&1; then \
+	  echo "installing chromium (headless browser for the report.html test) ..."; \
+	  $(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium; \
 	fi
 
 ## Formatting and lints (warnings are errors): the root workspace, and the Python side (the pyo3
@@ -83,7 +89,7 @@ sweep: python-env
 ## regression; tolerances in scenarios/README.md).
 BASELINE ?= scenarios/baseline/default-report.json
 suite-check: deps
-	$(CARGO) run -- run --out out/suite-check --overwrite --baseline $(BASELINE) --brief --no-plots
+	$(CARGO) run -- run --out out/suite-check --overwrite --baseline $(BASELINE) --brief --no-plots --no-html
 
 ## Re-run the default suite and make its report the new baseline (after an intended change).
 bless: deps

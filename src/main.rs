@@ -3,7 +3,6 @@
 //! library crates (`loomlab-detector`, `loomlab-sim`, `loomlab-agents`, `loomlab-scenarios`).
 
 mod cli;
-mod plot;
 
 use clap::{Parser, Subcommand};
 

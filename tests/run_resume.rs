@@ -173,6 +173,24 @@ fn an_interrupted_run_resumes_to_the_uninterrupted_report() {
         "finished episodes are kept, not recomputed"
     );
     assert_eq!(report(&part, "report.json"), report(&full, "report.json"));
+    // report.html chooses its exemplary episodes from every episode, the earlier invocation's too:
+    // the same as the uninterrupted run's, with the same GIFs
+    let gifs = |d: &Path| -> Vec<String> {
+        let html = std::fs::read_to_string(d.join("report.html")).unwrap();
+        html.split("<img class=\"view\" src=\"")
+            .skip(1)
+            .map(|r| r[..r.find('"').unwrap()].to_string())
+            .collect()
+    };
+    assert!(!gifs(&full).is_empty());
+    assert_eq!(gifs(&part), gifs(&full));
+    for g in gifs(&full) {
+        assert_eq!(
+            std::fs::read(part.join(&g)).unwrap(),
+            std::fs::read(full.join(&g)).unwrap(),
+            "{g}"
+        );
+    }
     assert!(!part.join("report.partial.json").exists());
     assert_eq!(manifest_state(&part), "complete");
     let _ = std::fs::remove_dir_all(&dir);

@@ -147,17 +147,23 @@ impl SweepPlan {
     }
 
     /// Merges every shard of the output folder into per-point reports, the ranking and the
-    /// summary; returns the ranking as a text table of its first `top` rows.
+    /// summary, and writes the sweep's `report.html` (ranking and scatter, each point linking to
+    /// its own `points/<label>/report.html`, written too); returns the ranking as a text table of
+    /// its first `top` rows.
     #[pyo3(signature = (out, wall_time_s, top = 10))]
     fn finish(&self, py: Python<'_>, out: PathBuf, wall_time_s: f64, top: usize) -> PyResult<String> {
-        py.detach(|| -> Result<String, SweepError> {
-            let dir = SweepDir { root: out };
-            let shards = dir.read_shards(&self.plan)?;
-            let results = self.plan.merge(&shards, wall_time_s)?;
-            let order = dir.write_results(&self.plan, &results)?;
-            Ok(format_ranking(&self.plan, &results, &order, top))
-        })
-        .map_err(to_py)
+        let table = py
+            .detach(|| -> Result<String, SweepError> {
+                let dir = SweepDir { root: out.clone() };
+                let shards = dir.read_shards(&self.plan)?;
+                let results = self.plan.merge(&shards, wall_time_s)?;
+                let order = dir.write_results(&self.plan, &results)?;
+                Ok(format_ranking(&self.plan, &results, &order, top))
+            })
+            .map_err(to_py)?;
+        py.detach(|| loomlab_report::sweep_page::write_sweep_pages(&out))
+            .map_err(|e| errors::SweepError::new_err(e.to_string()))?;
+        Ok(table)
     }
 }
 

@@ -31,7 +31,8 @@ def _results(out: Path) -> dict:
     """Everything a sweep wrote but its timing: point reports, episodes, ranking, summary, shards."""
     files = {}
     for p in sorted(out.rglob("*")):
-        if p.is_file() and p.name != "manifest.json":
+        # the pages show each point's wall time; they are drawn from the files compared here
+        if p.is_file() and p.name != "manifest.json" and p.suffix != ".html":
             text = p.read_text()
             if p.name == "report.json":
                 text = json.dumps(_strip(json.loads(text)), sort_keys=True)
@@ -119,6 +120,27 @@ def test_sweep_point_equals_loomlab_run_cli(reference, tmp_path):
     )
     cli = json.loads((tmp_path / "report.json").read_text())
     assert _strip(cli) == _strip(swept)
+
+
+def test_sweep_page_has_the_scatter_and_links_every_point_to_its_page(reference):
+    out = reference.out
+    page = (out / "report.html").read_text()
+    assert reference.report_html == out / "report.html"
+    assert page.count('<svg id="sweep-scatter"') == 1
+    ranking = reference.summary["ranking"]
+    assert [p["label"] for p in ranking] and sorted(p["label"] for p in ranking) == LABELS
+    for p in ranking:
+        link = f'href="points/{p["label"]}/report.html"'
+        # a dot in the scatter (when both rates are defined) and a row of the ranking table link to it
+        dots = page.count(f'<a class="point" {link}>')
+        rates = (p["summary"]["hit_rate"], p["summary"]["false_alarm_rate"])
+        assert dots == (0 if None in rates else 1)
+        assert page.count(link) == dots + 1, p["label"]
+        point_page = out / "points" / p["label"] / "report.html"
+        text = point_page.read_text()
+        assert '<table class="sortable summary">' in text and p["label"] in text
+        assert 'href="../../report.html"' in text and 'id="plot-roc"' in text
+    assert "http://" not in page.replace('xmlns="http://www.w3.org/2000/svg"', "")
 
 
 def test_one_and_two_workers_give_identical_results(reference, tmp_path):

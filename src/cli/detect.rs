@@ -12,7 +12,7 @@ use loomlab_detector::stimulus::StimulusSpec;
 use loomlab_detector::video::load_video;
 use loomlab_detector::{DetectorSet, Frame, NonSquare, parse_detector_list};
 
-use crate::plot::{LineChart, Series, line_chart};
+use loomlab_report::plot::{LineChart, Series, line_chart};
 
 /// Implementation of the Hopfield detector (both give the same numbers to 1e-6).
 #[derive(Debug, Clone, Copy, ValueEnum)]

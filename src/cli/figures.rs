@@ -17,7 +17,7 @@ use loomlab_detector::{DetectorSet, HopfieldConfig};
 use rayon::prelude::*;
 
 use super::detect::display_normalise;
-use crate::plot::{LineChart, Series, line_chart_grid};
+use loomlab_report::plot::{LineChart, Series, line_chart_grid};
 
 /// Arguments of `loomlab figures`.
 #[derive(Debug, Args)]

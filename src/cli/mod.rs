@@ -5,7 +5,6 @@ pub mod figures;
 pub mod render;
 pub mod run;
 pub mod run_dir;
-pub mod run_plots;
 
 use indicatif::{ProgressBar, ProgressStyle};
 

@@ -8,7 +8,10 @@
 //! - `roc.png` (ROC curve per detector), `rates.png` (share of correct decisions per scenario and
 //!   detector), `collisions.png` (collision rate per scenario and detector), `trace.png` (a sample
 //!   threat episode: θ̂ and the true angular size over time, and every detector's response against
-//!   the true angular size).
+//!   the true angular size);
+//! - `report.html` (unless `--no-html`): the page a person reads, with every table and plot and,
+//!   per scenario, a few exemplary episodes (GIFs of the robot's view in `exemplars/`, traces);
+//!   see `loomlab_report`.
 //!
 //! Exit codes: 0 done (no regression), 1 regressions against `--baseline` (each one listed),
 //! 2 bad input (unreadable or invalid scenario, unknown key, missing file, bad option).
@@ -34,7 +37,12 @@ use loomlab_scenarios::{DEFAULT_SUITE, EpisodeRun, EpisodeSpec, LoadOptions, Run
 use super::run_dir::{
     EPISODES_CSV, Existing, Manifest, PARTIAL_REPORT, Prepared, REPORT, RunDir, RunState, write_atomic,
 };
-use super::run_plots::{PlotSamples, write_plots, write_trace};
+use loomlab_report::exemplar::{self, ExemplarRuns};
+use loomlab_report::page::RunPage;
+use loomlab_report::run_plots::{PlotSamples, run_figures, write_plots, write_trace};
+use loomlab_report::{EXEMPLARS_DIR, REPORT_HTML};
+use loomlab_sim::GpuContext;
+use rayon::prelude::*;
 
 /// Arguments of `loomlab run`.
 #[derive(Debug, Args)]
@@ -95,6 +103,10 @@ pub struct RunArgs {
     /// Do not draw the PNG plots.
     #[arg(long)]
     pub no_plots: bool,
+    /// Do not write report.html (and its exemplar GIFs: up to 3 episodes per scenario rendered
+    /// again after the run).
+    #[arg(long)]
+    pub no_html: bool,
     /// Also print, per detector, the smallest threshold with at most this false-alarm rate over
     /// the run's non-threat episodes (e.g. 0.1); run it with another --seed than the one you report.
     #[arg(long, value_name = "FA_RATE")]
@@ -229,7 +241,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
         );
     }
 
-    let runner = Runner::new(args.jobs)?;
+    let gpu = GpuContext::new()?;
+    let runner = Runner::with_context(Arc::clone(&gpu), args.jobs)?;
     if let Some(jobs) = args.jobs
         && jobs > runner.jobs()
         && !args.quiet
@@ -249,6 +262,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
         std::fs::create_dir_all(&traces_dir).with_context(|| format!("cannot create {}", traces_dir.display()))?;
     }
     let mut samples = PlotSamples::default();
+    let mut exemplar_runs = ExemplarRuns::default();
     let mut work = RunWork::default();
     let mut pending = suite
         .episodes()
@@ -279,6 +293,9 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
         for ((pos, _), run) in chunk.iter().zip(runs) {
             if let Some(run) = run {
                 samples.add(&run);
+                if !args.no_html {
+                    exemplar_runs.offer(&run);
+                }
                 work.add(&run);
                 outcomes.push((*pos, run.outcome));
             }
@@ -326,6 +343,36 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
     if !args.no_plots {
         write_plots(&out, &report, &outcomes, &samples)?;
     }
+    let html = if args.no_html {
+        None
+    } else {
+        let started_html = Instant::now();
+        let page = Html {
+            out: &out,
+            report: &report,
+            outcomes: &outcomes,
+            samples: &samples,
+            exemplar_runs: &exemplar_runs,
+            baseline: match (&args.baseline, &baseline) {
+                (Some(p), Some(b)) => Some((p.display().to_string(), b)),
+                _ => None,
+            },
+        };
+        let rerun = |scenario: &str, episode: usize| -> anyhow::Result<EpisodeRun> {
+            let (_, s) = offsets
+                .get(scenario)
+                .with_context(|| format!("exemplar: scenario `{scenario}` is not in the suite"))?;
+            Ok(runner.run_episode(&s.episode(episode)?)?)
+        };
+        let spec = |scenario: &str, episode: usize| -> anyhow::Result<EpisodeSpec> {
+            let (_, s) = offsets
+                .get(scenario)
+                .with_context(|| format!("exemplar: scenario `{scenario}` is not in the suite"))?;
+            Ok(s.episode(episode)?)
+        };
+        let (path, rerun_count, exemplars) = page.write(&gpu, &rerun, &spec)?;
+        Some((path, started_html.elapsed().as_secs_f64(), rerun_count, exemplars))
+    };
 
     if !args.quiet {
         println!("{}", report.format_table(!args.brief).trim_end());
@@ -351,6 +398,19 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
             report_path.display(),
             out.display()
         );
+        if let Some((path, secs, rerun, exemplars)) = &html {
+            let again = if *rerun > 0 {
+                format!(", {rerun} of them from the earlier run simulated again")
+            } else {
+                String::new()
+            };
+            println!(
+                "wrote {} in {secs:.1} s ({:.1} % of this run's {:.1} s; {exemplars} exemplary episodes{again})",
+                path.display(),
+                100.0 * secs / started.elapsed().as_secs_f64(),
+                started.elapsed().as_secs_f64()
+            );
+        }
     }
     if let Some(target) = args.calibrate {
         println!("\nthresholds for a false-alarm rate <= {target} over this run's non-threat episodes:");
@@ -394,6 +454,67 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
         }
     }
     Ok(0)
+}
+
+/// What `report.html` needs.
+struct Html<'a> {
+    out: &'a Path,
+    report: &'a Report,
+    outcomes: &'a [EpisodeOutcome],
+    samples: &'a PlotSamples,
+    exemplar_runs: &'a ExemplarRuns,
+    baseline: Option<(String, &'a Report)>,
+}
+
+impl Html<'_> {
+    /// Chooses the exemplary episodes from every episode, renders their GIFs (in parallel) and
+    /// writes the page. `rerun` runs an episode that this invocation did not (a resumed run), `spec`
+    /// gives an episode's specification. Returns the page's path, the episodes run again and the
+    /// number of exemplars.
+    fn write(
+        &self,
+        gpu: &Arc<GpuContext>,
+        rerun: &(dyn Fn(&str, usize) -> anyhow::Result<EpisodeRun> + Sync),
+        spec: &(dyn Fn(&str, usize) -> anyhow::Result<EpisodeSpec> + Sync),
+    ) -> anyhow::Result<(PathBuf, usize, usize)> {
+        let choices = exemplar::choose(self.outcomes);
+        let gif_dir = self.out.join(EXEMPLARS_DIR);
+        if gif_dir.exists() {
+            std::fs::remove_dir_all(&gif_dir).with_context(|| format!("cannot remove {}", gif_dir.display()))?;
+        }
+        let rerun_count = choices
+            .iter()
+            .filter(|c| self.exemplar_runs.get(&c.scenario, c.episode).is_none())
+            .count();
+        let exemplars = choices
+            .par_iter()
+            .map(|c| -> anyhow::Result<exemplar::Exemplar> {
+                let again;
+                let run = match self.exemplar_runs.get(&c.scenario, c.episode) {
+                    Some(r) => r,
+                    None => {
+                        again = rerun(&c.scenario, c.episode)?;
+                        &again
+                    }
+                };
+                let spec = spec(&c.scenario, c.episode)?;
+                Ok(exemplar::build(gpu, &spec, run, c, &gif_dir, EXEMPLARS_DIR)?)
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        let count = exemplars.len();
+        let page = RunPage {
+            report: self.report,
+            title: format!("loomlab run: {}", self.report.suite),
+            facts: vec![("command".into(), std::env::args().collect::<Vec<_>>().join(" "))],
+            figures: run_figures(self.report, self.outcomes, Some(self.samples)),
+            exemplars,
+            baseline: self.baseline.clone(),
+            notes: Vec::new(),
+        };
+        let path = page.write(self.out)?;
+        debug_assert!(path.ends_with(REPORT_HTML));
+        Ok((path, rerun_count, count))
+    }
 }
 
 /// Work done by this invocation (for the summary lines).

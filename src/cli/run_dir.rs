@@ -25,7 +25,7 @@ pub const REPORT: &str = "report.json";
 /// The report of the episodes an interrupted run finished.
 pub const PARTIAL_REPORT: &str = "report.partial.json";
 /// Every file and folder a run writes (what `--overwrite` removes; nothing else is touched).
-pub const RUN_FILES: [&str; 11] = [
+pub const RUN_FILES: [&str; 13] = [
     MANIFEST,
     EPISODES_CSV,
     REPORT,
@@ -37,6 +37,8 @@ pub const RUN_FILES: [&str; 11] = [
     "theta_hat.png",
     "trace.png",
     "traces",
+    loomlab_report::REPORT_HTML,
+    loomlab_report::EXEMPLARS_DIR,
 ];
 
 /// How far a run in a folder got.

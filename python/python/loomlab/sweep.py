@@ -11,7 +11,9 @@ or from Python with :func:`run_sweep`. The sweep file format is documented in
 search) of detector settings into shards (a block of episodes × a block of parameter points), runs
 every shard as a Ray task, writes each finished shard to ``OUT/shards/`` and merges them into one
 report per parameter point (``OUT/points/<label>/report.json``, identical to what ``loomlab run``
-writes for that point but for ``wall_time_s``), ``OUT/ranking.csv`` and ``OUT/summary.json``.
+writes for that point but for ``wall_time_s``), ``OUT/ranking.csv`` and ``OUT/summary.json``, and
+the page ``OUT/report.html`` (ranking table, hit-rate-vs-false-alarm-rate scatter of every point,
+each point linking to its own page ``OUT/points/<label>/report.html``).
 
 Finished shards are never rerun: run the same command again after an interruption and it goes on
 where it stopped. Ray is an optional extra (``pip install 'loomlab[ray]'``); ``import loomlab``
@@ -106,6 +108,11 @@ class SweepResult:
     def report(self, label: str) -> dict:
         """The merged report of parameter point ``label``."""
         return json.loads((self.out / "points" / label / "report.json").read_text())
+
+    @property
+    def report_html(self) -> Path:
+        """The sweep's page (written when the sweep is complete)."""
+        return self.out / "report.html"
 
 
 class _Progress:
@@ -280,7 +287,8 @@ def _parser() -> argparse.ArgumentParser:
             "the points. Finished shards are kept: rerun the same command to resume."
         ),
         epilog=(
-            "Outputs in OUT: points/<label>/{report.json,episodes.csv,detectors.toml}, ranking.csv, "
+            "Outputs in OUT: report.html (ranking and scatter, linking every point's own page), "
+            "points/<label>/{report.json,report.html,episodes.csv,detectors.toml}, ranking.csv, "
             "summary.json, shards/. Rerun one point with: loomlab run SUITE --detectors-file "
             "OUT/points/<label>/detectors.toml (plus the sweep's --seed/--size/--limit). "
             f"Exit status: 0 done, 2 bad input, {EXIT_INCOMPLETE} stopped early (resumable), 130 interrupted."
@@ -340,7 +348,7 @@ def main(argv: Optional[List[str]] = None) -> int:
         print(f"{left} of {r.shards_total} shards left: rerun the same command to go on ({r.out})")
         return EXIT_INCOMPLETE
     print(r.ranking_table.rstrip())
-    print(f"reports in {r.out}/points, ranking in {r.out}/ranking.csv")
+    print(f"reports in {r.out}/points, ranking in {r.out}/ranking.csv, page {r.report_html}")
     return 0
 
 

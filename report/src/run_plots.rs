@@ -1,6 +1,9 @@
 //! The plots of `loomlab run` (`roc.png`, `rates.png`, `collisions.png`, `lv.png`,
 //! `theta_hat.png`, `trace.png`) and the per-episode trace CSVs of `--traces`.
 //!
+//! [`run_figures`] describes every plot once; [`write_plots`] draws them as PNG files and
+//! `report.html` draws the same [`Figure`]s as inline SVG.
+//!
 //! The report's numbers come from every episode; the plots that need per-frame traces (θ̂ against
 //! θ, the sample episode) use [`PlotSamples`], collected as episodes finish so that memory stays
 //! bounded however many episodes run (a resumed run collects them from the episodes it runs).
@@ -13,7 +16,7 @@ use loomlab_scenarios::EpisodeRun;
 use loomlab_scenarios::metrics::{EpisodeOutcome, Outcome};
 use loomlab_scenarios::report::Report;
 
-use crate::plot::{LineChart, Series, line_chart, line_chart_grid, rate_bars};
+use crate::plot::{LineChart, PlotError, Series, line_chart_grid, line_chart_grid_svg, rate_bars, rate_bars_svg};
 
 /// Most θ̂-against-θ points kept per detector (the plot stays readable and quick to draw).
 const THETA_HAT_POINTS: usize = 4000;
@@ -113,14 +116,113 @@ pub fn write_trace(dir: &Path, run: &EpisodeRun) -> std::io::Result<()> {
     std::fs::write(dir.join(name), text)
 }
 
-/// Draws every plot of the run into `out`: the report's and `outcomes`' (every episode) and the
-/// trace plots from `samples`.
+/// Most points per scatter series in an SVG (the PNG draws them all).
+pub const SVG_SCATTER_POINTS: usize = 600;
+
+/// One plot of a run: what it shows and how big it is drawn.
+#[derive(Debug, Clone)]
+pub struct Figure {
+    /// File name without extension (`roc` → `roc.png`).
+    pub name: &'static str,
+    /// A caption for the page.
+    pub caption: String,
+    /// The drawing.
+    pub kind: FigureKind,
+}
+
+/// The drawing of a [`Figure`].
+#[derive(Debug, Clone)]
+pub enum FigureKind {
+    /// Line charts in a grid of `cols` columns, each panel `panel` pixels.
+    Lines {
+        /// The panels.
+        charts: Vec<LineChart>,
+        /// Panels per row.
+        cols: usize,
+        /// Size of one panel.
+        panel: (u32, u32),
+    },
+    /// Grouped bars of rates in [0, 1].
+    Bars {
+        /// Title.
+        title: String,
+        /// One group per category.
+        categories: Vec<String>,
+        /// One bar per series in every group.
+        series: Vec<(String, Vec<f64>)>,
+        /// Size in pixels.
+        size: (u32, u32),
+    },
+}
+
+impl Figure {
+    /// Draws the figure as a PNG file.
+    pub fn write_png(&self, path: &Path) -> Result<(), PlotError> {
+        match &self.kind {
+            FigureKind::Lines { charts, cols, panel } => line_chart_grid(path, charts, *cols, *panel),
+            FigureKind::Bars {
+                title,
+                categories,
+                series,
+                size,
+            } => rate_bars(path, title, categories, series, *size),
+        }
+    }
+
+    /// Draws the figure as SVG text. Scatters keep at most [`SVG_SCATTER_POINTS`] points per
+    /// series (evenly thinned), so that the page stays small.
+    pub fn svg(&self) -> Result<String, PlotError> {
+        match &self.kind {
+            FigureKind::Lines { charts, cols, panel } => {
+                let mut charts = charts.clone();
+                for s in charts.iter_mut().flat_map(|c| c.series.iter_mut()) {
+                    if s.scatter.is_some() && s.x.len() > SVG_SCATTER_POINTS {
+                        let step = s.x.len().div_ceil(SVG_SCATTER_POINTS);
+                        s.x = s.x.iter().copied().step_by(step).collect();
+                        s.y = s.y.iter().copied().step_by(step).collect();
+                    }
+                }
+                line_chart_grid_svg(&charts, *cols, *panel)
+            }
+            FigureKind::Bars {
+                title,
+                categories,
+                series,
+                size,
+            } => rate_bars_svg(title, categories, series, *size),
+        }
+    }
+}
+
+fn lines(name: &'static str, caption: &str, chart: LineChart, size: (u32, u32)) -> Figure {
+    Figure {
+        name,
+        caption: caption.into(),
+        kind: FigureKind::Lines {
+            charts: vec![chart],
+            cols: 1,
+            panel: size,
+        },
+    }
+}
+
+/// Draws every plot of [`run_figures`] into `out` as PNG files (`<name>.png`).
 pub fn write_plots(
     out: &Path,
     report: &Report,
     outcomes: &[EpisodeOutcome],
     samples: &PlotSamples,
-) -> anyhow::Result<()> {
+) -> Result<(), PlotError> {
+    for f in run_figures(report, outcomes, Some(samples)) {
+        f.write_png(&out.join(format!("{}.png", f.name)))?;
+    }
+    Ok(())
+}
+
+/// Every plot of a run: from the report and `outcomes` (every episode) and, when given, the trace
+/// plots from `samples` (θ̂ against θ, the sample episode).
+pub fn run_figures(report: &Report, outcomes: &[EpisodeOutcome], samples: Option<&PlotSamples>) -> Vec<Figure> {
+    let mut figures = Vec::new();
     // ROC curves.
     let mut series: Vec<Series> = report
         .detectors
@@ -136,9 +238,10 @@ pub fn write_plots(
         })
         .collect();
     series.push(Series::new("", vec![0.0, 1.0], vec![0.0, 1.0]).dashed());
-    line_chart(
-        &out.join("roc.png"),
-        &LineChart {
+    figures.push(lines(
+        "roc",
+        "ROC per detector: every threshold applied to the open-loop signals (AUC in the legend).",
+        LineChart {
             title: "ROC: threshold sweep over the open-loop alarms".into(),
             x_label: "false-alarm rate".into(),
             y_label: "hit rate".into(),
@@ -147,7 +250,7 @@ pub fn write_plots(
             y_range: Some((0.0, 1.0)),
         },
         (640, 560),
-    )?;
+    ));
 
     // Rates per scenario.
     let scenarios: Vec<String> = report.scenarios.keys().cloned().collect();
@@ -166,23 +269,29 @@ pub fn write_plots(
     };
     // wide enough for the (horizontal) scenario names under each group of bars
     let width = (160 + 120 * scenarios.len() as u32).max(640);
-    rate_bars(
-        &out.join("rates.png"),
-        "correct decisions (hits + correct rejections) / decidable episodes, per scenario",
-        &scenarios,
-        &per(&|s| {
-            let decided = s.hits + s.misses + s.false_alarms + s.correct_rejections;
-            (decided > 0).then(|| (s.hits + s.correct_rejections) as f64 / decided as f64)
-        }),
-        (width, 520),
-    )?;
-    rate_bars(
-        &out.join("collisions.png"),
-        "closed-loop collision rate per scenario",
-        &scenarios,
-        &per(&|s| s.collision_rate),
-        (width, 520),
-    )?;
+    figures.push(Figure {
+        name: "rates",
+        caption: "Share of correct decisions per scenario and detector.".into(),
+        kind: FigureKind::Bars {
+            title: "correct decisions (hits + correct rejections) / decidable episodes, per scenario".into(),
+            categories: scenarios.clone(),
+            series: per(&|s| {
+                let decided = s.hits + s.misses + s.false_alarms + s.correct_rejections;
+                (decided > 0).then(|| (s.hits + s.correct_rejections) as f64 / decided as f64)
+            }),
+            size: (width, 520),
+        },
+    });
+    figures.push(Figure {
+        name: "collisions",
+        caption: "Closed-loop collision rate per scenario and detector (null: the threat rate).".into(),
+        kind: FigureKind::Bars {
+            title: "closed-loop collision rate per scenario".into(),
+            categories: scenarios.clone(),
+            series: per(&|s| s.collision_rate),
+            size: (width, 520),
+        },
+    });
 
     // The l/|v| analysis: alarm time to collision against half-size / closing speed, with the fit.
     let lv: Vec<Series> = report
@@ -205,9 +314,10 @@ pub fn write_plots(
             Series::new(name, x, y).scatter(s.lv_fit.map(|f| (f.slope, f.intercept_s)))
         })
         .collect();
-    line_chart(
-        &out.join("lv.png"),
-        &LineChart {
+    figures.push(lines(
+        "lv",
+        "l/|v| analysis: time to collision at the alarm against half-size / closing speed, with each detector's fit.",
+        LineChart {
             title: "l/|v| analysis: constant-speed head-on threats".into(),
             x_label: "l/|v|: half-size / closing speed (s)".into(),
             y_label: "time to collision at the alarm (s)".into(),
@@ -216,7 +326,10 @@ pub fn write_plots(
             y_range: None,
         },
         (760, 600),
-    )?;
+    ));
+    let Some(samples) = samples else {
+        return figures;
+    };
 
     // θ̂ against the true angular size of the threat, every frame of every threat episode.
     let mut theta_hat: Vec<Series> = report
@@ -233,9 +346,10 @@ pub fn write_plots(
         .collect();
     if !theta_hat.is_empty() {
         theta_hat.push(Series::new("θ̂ = θ", vec![0.0, 90.0], vec![0.0, 90.0]).dashed());
-        line_chart(
-            &out.join("theta_hat.png"),
-            &LineChart {
+        figures.push(lines(
+            "theta_hat",
+            "θ̂ against the threat's true angular size θ, every frame of the threat episodes run (subsampled).",
+            LineChart {
                 title: "angular-size estimate θ̂ against the threat's true angular size (threat episodes)".into(),
                 x_label: "true angular size θ (deg)".into(),
                 y_label: "θ̂ (deg)".into(),
@@ -244,7 +358,7 @@ pub fn write_plots(
                 y_range: Some((0.0, 90.0)),
             },
             (760, 640),
-        )?;
+        ));
     }
 
     // The sample episode.
@@ -305,29 +419,33 @@ pub fn write_plots(
                 "no threat"
             }
         );
-        line_chart_grid(
-            &out.join("trace.png"),
-            &[
-                LineChart {
-                    title: format!("{title}: angular size"),
-                    x_label: "time (s)".into(),
-                    y_label: "degrees".into(),
-                    series: over_time,
-                    y_range: Some((0.0, y_max * 1.05)),
-                    x_range: None,
-                },
-                LineChart {
-                    title: "detector responses vs true angular size".into(),
-                    x_label: "true angular size (deg)".into(),
-                    y_label: "response / episode maximum".into(),
-                    series: responses,
-                    y_range: Some((0.0, 1.05)),
-                    x_range: Some((0.0, y_max)),
-                },
-            ],
-            2,
-            (640, 480),
-        )?;
+        let caption = format!("A sample episode ({title}): angular size over time and every detector's response.");
+        figures.push(Figure {
+            name: "trace",
+            caption,
+            kind: FigureKind::Lines {
+                charts: vec![
+                    LineChart {
+                        title: format!("{title}: angular size"),
+                        x_label: "time (s)".into(),
+                        y_label: "degrees".into(),
+                        series: over_time,
+                        y_range: Some((0.0, y_max * 1.05)),
+                        x_range: None,
+                    },
+                    LineChart {
+                        title: "detector responses vs true angular size".into(),
+                        x_label: "true angular size (deg)".into(),
+                        y_label: "response / episode maximum".into(),
+                        series: responses,
+                        y_range: Some((0.0, 1.05)),
+                        x_range: Some((0.0, y_max)),
+                    },
+                ],
+                cols: 2,
+                panel: (640, 480),
+            },
+        });
     }
-    Ok(())
+    figures
 }

@@ -1,8 +1,11 @@
-//! PNG plots (plotters, bitmap backend, with an embedded font so no system fonts are needed).
+//! Every plot loomlab draws: PNG files (plotters' bitmap backend, with an embedded font so no
+//! system fonts are needed) and the same charts as SVG text for `report.html` (plotters' SVG
+//! backend: line art stays crisp and small).
 //!
-//! Three chart kinds cover every plot loomlab writes: line charts (detector responses over
-//! time, ROC curves), grids of line charts (one panel per condition, like the paper's figures)
-//! and grouped bar charts (rates per scenario).
+//! Three chart kinds cover every plot: line charts (detector responses over time, ROC curves,
+//! scatters with a fit), grids of line charts (one panel per condition, like the paper's figures)
+//! and grouped bar charts (rates per scenario). Each is drawn by one function generic over the
+//! backend, so a PNG and its SVG are the same drawing.
 
 use std::path::Path;
 use std::sync::Once;
@@ -11,14 +14,14 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
-static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
+static FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
 static REGISTER: Once = Once::new();
 
 /// Errors while drawing a plot.
 #[derive(Debug, thiserror::Error)]
 #[error("cannot write plot {path}: {reason}")]
 pub struct PlotError {
-    /// The PNG being written.
+    /// The PNG being written (`<svg>` for an SVG drawn into memory).
     pub path: String,
     /// What went wrong.
     pub reason: String,
@@ -82,7 +85,8 @@ pub struct LineChart {
     pub x_range: Option<(f64, f64)>,
 }
 
-fn palette(i: usize) -> RGBColor {
+/// The colour of the `i`-th series (the same in every plot, the page and the GIF borders).
+pub fn palette(i: usize) -> RGBColor {
     const C: [RGBColor; 8] = [
         RGBColor(31, 119, 180),
         RGBColor(214, 39, 40),
@@ -96,7 +100,7 @@ fn palette(i: usize) -> RGBColor {
     C[i % C.len()]
 }
 
-fn register_font() {
+pub(crate) fn register_font() {
     REGISTER.call_once(|| {
         // The font is compiled in; failure would be a build defect, not user input.
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
@@ -126,7 +130,7 @@ fn padded((lo, hi): (f64, f64)) -> (f64, f64) {
     }
 }
 
-fn draw_line_chart(area: &DrawingArea<BitMapBackend<'_>, Shift>, chart: &LineChart) -> Result<(), String> {
+fn draw_line_chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &LineChart) -> Result<(), String> {
     let xr = chart
         .x_range
         .or_else(|| finite_range(chart.series.iter().flat_map(|s| s.x.iter().copied())))
@@ -205,20 +209,51 @@ pub fn line_chart(path: &Path, chart: &LineChart, size: (u32, u32)) -> Result<()
 /// Writes a grid of line charts (`cols` panels per row) as one PNG; `panel` is one panel's size.
 pub fn line_chart_grid(path: &Path, charts: &[LineChart], cols: usize, panel: (u32, u32)) -> Result<(), PlotError> {
     register_font();
-    let cols = cols.max(1);
-    let rows = charts.len().div_ceil(cols).max(1);
-    let size = (panel.0 * cols as u32, panel.1 * rows as u32);
+    let size = grid_size(charts.len(), cols, panel);
     let root = BitMapBackend::new(path, size).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(path, e))?;
-    let areas = root.split_evenly((rows, cols));
-    for (area, chart) in areas.iter().zip(charts) {
-        draw_line_chart(area, chart).map_err(|e| err(path, e))?;
-    }
-    root.present().map_err(|e| err(path, e))
+    draw_grid(&root, charts, cols).map_err(|e| err(path, e))
 }
 
-/// Writes a grouped bar chart: one group of bars per category, one bar per named series,
-/// values in [0, 1] (rates).
+/// One line chart as SVG text (`<svg …>…</svg>`) of `size` pixels.
+pub fn line_chart_svg(chart: &LineChart, size: (u32, u32)) -> Result<String, PlotError> {
+    line_chart_grid_svg(std::slice::from_ref(chart), 1, size)
+}
+
+/// A grid of line charts (`cols` panels per row) as SVG text; `panel` is one panel's size.
+pub fn line_chart_grid_svg(charts: &[LineChart], cols: usize, panel: (u32, u32)) -> Result<String, PlotError> {
+    register_font();
+    let size = grid_size(charts.len(), cols, panel);
+    let mut text = String::new();
+    {
+        let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
+        draw_grid(&root, charts, cols).map_err(|e| err(Path::new("<svg>"), e))?;
+    }
+    Ok(text)
+}
+
+fn grid_size(charts: usize, cols: usize, panel: (u32, u32)) -> (u32, u32) {
+    let cols = cols.max(1);
+    let rows = charts.div_ceil(cols).max(1);
+    (panel.0 * cols as u32, panel.1 * rows as u32)
+}
+
+fn draw_grid<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    charts: &[LineChart],
+    cols: usize,
+) -> Result<(), String> {
+    let cols = cols.max(1);
+    let rows = charts.len().div_ceil(cols).max(1);
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let areas = root.split_evenly((rows, cols));
+    for (area, chart) in areas.iter().zip(charts) {
+        draw_line_chart(area, chart)?;
+    }
+    root.present().map_err(|e| e.to_string())
+}
+
+/// Writes a grouped bar chart as a PNG: one group of bars per category, one bar per named
+/// series, values in [0, 1] (rates).
 pub fn rate_bars(
     path: &Path,
     title: &str,
@@ -228,16 +263,41 @@ pub fn rate_bars(
 ) -> Result<(), PlotError> {
     register_font();
     let root = BitMapBackend::new(path, size).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    draw_rate_bars(&root, title, categories, series).map_err(|e| err(path, e))
+}
+
+/// [`rate_bars`] as SVG text.
+pub fn rate_bars_svg(
+    title: &str,
+    categories: &[String],
+    series: &[(String, Vec<f64>)],
+    size: (u32, u32),
+) -> Result<String, PlotError> {
+    register_font();
+    let mut text = String::new();
+    {
+        let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
+        draw_rate_bars(&root, title, categories, series).map_err(|e| err(Path::new("<svg>"), e))?;
+    }
+    Ok(text)
+}
+
+fn draw_rate_bars<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    categories: &[String],
+    series: &[(String, Vec<f64>)],
+) -> Result<(), String> {
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
     let ncat = categories.len().max(1);
     let nser = series.len().max(1);
-    let mut ctx = ChartBuilder::on(&root)
+    let mut ctx = ChartBuilder::on(root)
         .caption(title, ("sans-serif", 18))
         .margin(10)
         .x_label_area_size(110)
         .y_label_area_size(50)
         .build_cartesian_2d(0f64..ncat as f64, 0f64..1.05)
-        .map_err(|e| err(path, e))?;
+        .map_err(|e| e.to_string())?;
     let cats = categories.to_vec();
     ctx.configure_mesh()
         .disable_x_mesh()
@@ -254,7 +314,7 @@ pub fn rate_bars(
         .y_desc("rate")
         .label_style(("sans-serif", 12))
         .draw()
-        .map_err(|e| err(path, e))?;
+        .map_err(|e| e.to_string())?;
     let w = 0.8 / nser as f64;
     for (k, (name, values)) in series.iter().enumerate() {
         let color = palette(k);
@@ -262,7 +322,7 @@ pub fn rate_bars(
             let x0 = i as f64 + 0.1 + k as f64 * w;
             Rectangle::new([(x0, 0.0), (x0 + w * 0.95, v)], color.filled())
         }))
-        .map_err(|e| err(path, e))?
+        .map_err(|e| e.to_string())?
         .label(name)
         .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], color.filled()));
     }
@@ -272,8 +332,8 @@ pub fn rate_bars(
         .label_font(("sans-serif", 12))
         .position(SeriesLabelPosition::UpperRight)
         .draw()
-        .map_err(|e| err(path, e))?;
-    root.present().map_err(|e| err(path, e))
+        .map_err(|e| e.to_string())?;
+    root.present().map_err(|e| e.to_string())
 }
 
 #[cfg(test)]
@@ -304,7 +364,7 @@ mod tests {
         line_chart(&p, &chart, (400, 300)).unwrap();
         let img = image::open(&p).unwrap();
         assert_eq!((img.width(), img.height()), (400, 300));
-        line_chart_grid(&dir.join("grid.png"), &[chart.clone(), chart], 2, (300, 200)).unwrap();
+        line_chart_grid(&dir.join("grid.png"), &[chart.clone(), chart.clone()], 2, (300, 200)).unwrap();
         rate_bars(
             &dir.join("bars.png"),
             "rates",
@@ -314,5 +374,12 @@ mod tests {
         )
         .unwrap();
         assert!(dir.join("bars.png").metadata().unwrap().len() > 1000);
+        let svg = line_chart_grid_svg(&[chart.clone(), chart.clone()], 2, (300, 200)).unwrap();
+        assert!(
+            svg.starts_with("<svg") && svg.contains("polyline") && svg.contains(">\ntest\n</text>"),
+            "{svg}"
+        );
+        let bars = rate_bars_svg("rates", &["s1".into()], &[("hit".into(), vec![0.5])], (300, 200)).unwrap();
+        assert!(bars.contains("<rect") && bars.contains(">\ns1\n</text>"), "{bars}");
     }
 }
