@@ -31,6 +31,9 @@ DISCRETE_ACTIONS: Tuple[str, ...] = tuple(_native.DISCRETE_ACTIONS)
 CONTINUOUS_ACTION_NAMES: Tuple[str, ...] = tuple(_native.CONTINUOUS_ACTION_NAMES)
 """Names of the continuous action components (each in [-1, 1]; Rust ``ContinuousAction::NAMES``)."""
 
+OBS_MODES: Tuple[str, ...] = tuple(_native.OBS_MODES)
+"""Observation modes: ``"raw"`` (detector outputs as they are) and ``"normalized"`` (bounded features)."""
+
 _REWARD = _native.REWARD_DEFAULTS
 _ACTION = _native.ACTION_DEFAULTS
 
@@ -41,7 +44,8 @@ class RewardConfig:
 
     ``survival_per_s*dt`` (no collision) ``+ progress_per_m*Δs`` (metres along the start heading)
     ``- effort_per_s*|u - u_cruise|²*dt`` ``- unnecessary_dodge_per_s*dt`` (dodging in an episode
-    without a threat) ``- collision_penalty`` (once, on contact).
+    without a threat) ``- unnecessary_dodge_penalty`` (once, on the first such step: a false alarm)
+    ``- collision_penalty`` (once, on contact).
 
     The defaults are Rust's ``RewardConfig::default()`` (``loomlab._native.REWARD_DEFAULTS``).
     """
@@ -51,6 +55,7 @@ class RewardConfig:
     progress_per_m: float = _REWARD["progress_per_m"]
     effort_per_s: float = _REWARD["effort_per_s"]
     unnecessary_dodge_per_s: float = _REWARD["unnecessary_dodge_per_s"]
+    unnecessary_dodge_penalty: float = _REWARD["unnecessary_dodge_penalty"]
 
 
 @dataclass
@@ -127,6 +132,7 @@ def build_options(
     clip_actions: bool = False,
     reward: Union[RewardConfig, Mapping[str, float], None] = None,
     max_episode_steps: Optional[int] = None,
+    obs_mode: str = "raw",
 ) -> Dict[str, Any]:
     """The options dict passed (as JSON, :func:`options_json`) to the native environment.
 
@@ -142,6 +148,8 @@ def build_options(
             detectors = list(_native.detector_ids())
     if action_type not in ("continuous", "discrete"):
         raise ScenarioError(f"action_type must be 'continuous' or 'discrete', got {action_type!r}")
+    if obs_mode not in OBS_MODES:
+        raise _option_error("obs_mode", obs_mode, f"must be one of {', '.join(map(repr, OBS_MODES))}")
     opts: Dict[str, Any] = {
         "detectors": _json_option("detectors", list(detectors) if detectors is not None else None),
         "thresholds": _json_option("thresholds", dict(thresholds or {})),
@@ -150,6 +158,7 @@ def build_options(
         "action_kind": action_type,
         "clip_actions": _bool_option("clip_actions", clip_actions),
         "max_episode_steps": _json_option("max_episode_steps", max_episode_steps),
+        "obs_mode": obs_mode,
     }
     if action_config is not None:
         opts["action"] = _json_option("action_config", _as_dict(action_config))
@@ -158,8 +167,22 @@ def build_options(
     return opts
 
 
-def make_spaces(native: Any) -> Tuple[spaces.Dict, spaces.Space]:
+def make_spaces(native: Any) -> Tuple[spaces.Space, spaces.Space]:
     """The single-environment observation and action spaces of a native environment."""
+    if native.action_kind == "discrete":
+        action: spaces.Space = spaces.Discrete(len(DISCRETE_ACTIONS))
+    else:
+        action = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
+    if native.obs_mode == "normalized":
+        features = spaces.Box(
+            np.asarray(native.feature_low, dtype=np.float32),
+            np.asarray(native.feature_high, dtype=np.float32),
+            dtype=np.float32,
+        )
+        if not native.observe_frames:
+            return features, action
+        n = native.frame_size
+        return spaces.Dict({"features": features, "frame": spaces.Box(0, 255, shape=(n, n), dtype=np.uint8)}), action
     obs: Dict[str, spaces.Space] = {}
     for label, names in zip(native.detector_labels, native.signal_names):
         lim = _native.SIGNAL_LIMIT
@@ -171,10 +194,6 @@ def make_spaces(native: Any) -> Tuple[spaces.Dict, spaces.Space]:
     if native.observe_frames:
         n = native.frame_size
         obs["frame"] = spaces.Box(0, 255, shape=(n, n), dtype=np.uint8)
-    if native.action_kind == "discrete":
-        action: spaces.Space = spaces.Discrete(len(DISCRETE_ACTIONS))
-    else:
-        action = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
     return spaces.Dict(obs), action
 
 
@@ -194,6 +213,7 @@ _OPTION_KEYS = (
     "clip_actions",
     "reward",
     "max_episode_steps",
+    "obs_mode",
 )
 
 
@@ -278,6 +298,7 @@ class EscapeEnv(gym.Env):
         clip_actions: bool = False,
         reward: Union[RewardConfig, Mapping[str, float], None] = None,
         max_episode_steps: Optional[int] = None,
+        obs_mode: str = "raw",
         render_mode: Optional[str] = None,
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -294,6 +315,7 @@ class EscapeEnv(gym.Env):
             clip_actions=clip_actions,
             reward=reward,
             max_episode_steps=max_episode_steps,
+            obs_mode=obs_mode,
             render_mode=render_mode,
         )
         self._native = _native.EscapeEnv(self._kwargs["scenario"], scenario_toml, _native_options(self._kwargs))
