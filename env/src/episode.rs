@@ -12,8 +12,8 @@ use super::reward::StepFacts;
 use super::{
     ActionKind, EnvError, EnvOptions, EnvScenario, EpisodeRng, RewardTerms, ScenarioEpisodes, shared_gpu_context,
 };
-use loomlab_scenarios::reference::INDICATOR_THRESHOLD;
 use loomlab_scenarios::metrics::{DetectorEpisode, GroundTruth, TraceSample, score_detector_episode};
+use loomlab_scenarios::reference::INDICATOR_THRESHOLD;
 use loomlab_scenarios::schema::EpisodeSpec;
 use loomlab_scenarios::truth::{open_loop_truth, threat_deadline};
 

@@ -145,7 +145,9 @@ impl Normalizer {
                 .zip(&self.last_log)
                 .map(|(v, last)| ((v - last) / dt / LOG_RATE_SCALE_PER_S).tanh() as f32),
         );
-        let theta = f64::from(obs.theta_hat_deg).to_radians().clamp(0.0, std::f64::consts::PI);
+        let theta = f64::from(obs.theta_hat_deg)
+            .to_radians()
+            .clamp(0.0, std::f64::consts::PI);
         f.push(theta as f32);
         let rate = ((theta - self.last_theta_rad) / dt).clamp(-THETA_RATE_LIMIT_RPS, THETA_RATE_LIMIT_RPS);
         f.push(rate as f32);
@@ -155,8 +157,16 @@ impl Normalizer {
         f.push(unit(f64::from(r[0]) / POSITION_SCALE_M));
         f.push(unit(f64::from(r[1]) / POSITION_SCALE_M));
         f.push(unit(f64::from(r[2]) / std::f64::consts::PI));
-        f.extend(ContinuousAction::from_command(last_command, action).0.map(|v| v.clamp(-1.0, 1.0)));
-        let t = if duration_s > 0.0 { f64::from(r[6]) / duration_s } else { 0.0 };
+        f.extend(
+            ContinuousAction::from_command(last_command, action)
+                .0
+                .map(|v| v.clamp(-1.0, 1.0)),
+        );
+        let t = if duration_s > 0.0 {
+            f64::from(r[6]) / duration_s
+        } else {
+            0.0
+        };
         f.push(t.clamp(0.0, 1.0) as f32);
         self.last_log = logs;
         self.last_theta_rad = theta;

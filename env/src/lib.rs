@@ -55,8 +55,8 @@ use std::sync::{Arc, OnceLock};
 use loomlab_sim::GpuContext;
 
 pub use episode::{
-    AGENT_LABEL, Action, EpisodeSnapshot, EpisodeStart, EpisodeSummary, EscapeEnv, Observation, ROBOT_DIM, ROBOT_FIELDS,
-    ROBOT_LIMIT, SIGNAL_LIMIT, StepInfo, StepResult,
+    AGENT_LABEL, Action, EpisodeSnapshot, EpisodeStart, EpisodeSummary, EscapeEnv, Observation, ROBOT_DIM,
+    ROBOT_FIELDS, ROBOT_LIMIT, SIGNAL_LIMIT, StepInfo, StepResult,
 };
 pub use error::{EnvError, ErrorKind};
 pub use features::{FeatureSpec, ObsMode, feature_specs};

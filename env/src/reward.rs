@@ -192,7 +192,14 @@ mod tests {
         assert_eq!(once.terms(&first).unnecessary_dodge, -3.01);
         assert_eq!(once.terms(&dodge).unnecessary_dodge, -0.01);
         assert_eq!(once.terms(&StepFacts { threat: true, ..first }).unnecessary_dodge, 0.0);
-        assert_eq!(once.terms(&StepFacts { deviation: [0.0; 3], ..first }).unnecessary_dodge, 0.0);
+        assert_eq!(
+            once.terms(&StepFacts {
+                deviation: [0.0; 3],
+                ..first
+            })
+            .unnecessary_dodge,
+            0.0
+        );
 
         let hit = cfg.terms(&StepFacts {
             collision: true,

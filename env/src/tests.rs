@@ -339,7 +339,10 @@ fn threshold_agent_matches_runner(text: &str) -> (usize, usize) {
             // alarm, so it is classified as the runner classifies the detector
             let (agent, det) = (&out.agent, &run.outcome.detectors[0]);
             assert_eq!(agent.detector, AGENT_LABEL);
-            assert_eq!(agent.outcome, det.outcome, "episode {index}: agent {agent:?}, runner {det:?}");
+            assert_eq!(
+                agent.outcome, det.outcome,
+                "episode {index}: agent {agent:?}, runner {det:?}"
+            );
             assert_eq!(agent.t_alarm_s, det.t_alarm_s, "episode {index}");
             assert_eq!(agent.t_deadline_s, det.t_deadline_s, "episode {index}");
             assert_eq!(agent.collision, det.collision, "episode {index}");

@@ -613,7 +613,10 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         scales.set_item(k, v)?;
     }
     m.add("FEATURE_SCALES", scales)?;
-    m.add("OBS_MODES", PyTuple::new(py, [ObsMode::Raw.as_str(), ObsMode::Normalized.as_str()])?)?;
+    m.add(
+        "OBS_MODES",
+        PyTuple::new(py, [ObsMode::Raw.as_str(), ObsMode::Normalized.as_str()])?,
+    )?;
     m.add("AGENT_LABEL", loomlab_env::AGENT_LABEL)?;
     m.add("REWARD_DEFAULTS", defaults_dict(py, &RewardConfig::default())?)?;
     m.add("ACTION_DEFAULTS", defaults_dict(py, &ActionConfig::default())?)?;

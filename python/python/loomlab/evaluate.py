@@ -132,7 +132,9 @@ def load_policy(path: str, action_type: str = "discrete") -> Policy:
         try:
             from stable_baselines3 import PPO
         except ImportError as e:
-            raise SystemExit(f"{path}: loading a PPO model needs stable-baselines3: pip install 'loomlab[rl]' ({e})") from e
+            raise SystemExit(
+                f"{path}: loading a PPO model needs stable-baselines3: pip install 'loomlab[rl]' ({e})"
+            ) from e
         return policy_function(PPO.load(path, device="cpu"))
     if path.endswith(".npz"):
         z = np.load(path)
@@ -215,9 +217,7 @@ def main(argv: Optional[Sequence[str]] = None) -> None:
     thresholds = None
     if args.calibrate_seeds:
         opts = options_json(build_options(frame_size=args.frame_size, action_type=args.env, obs_mode="normalized"))
-        cal = _native.calibrate_thresholds(
-            args.suite, args.calibrate_seeds, args.fa_rate, args.limit, opts, args.jobs
-        )
+        cal = _native.calibrate_thresholds(args.suite, args.calibrate_seeds, args.fa_rate, args.limit, opts, args.jobs)
         thresholds = {k: v for k, v in cal.items() if v is not None}
         print(f"calibrated thresholds (false-alarm rate <= {args.fa_rate}): {thresholds}", file=sys.stderr)
     report = evaluate(

@@ -121,7 +121,9 @@ def quick_eval(policy: Any, args: argparse.Namespace) -> Dict[str, float]:
     return {
         "episodes": n,
         "collision_rate": sum(r["collision"] for r in rows) / n,
-        "unnecessary_dodge_rate": (sum(r["outcome"] == "false_alarm" for r in safe) / len(safe)) if safe else float("nan"),
+        "unnecessary_dodge_rate": (sum(r["outcome"] == "false_alarm" for r in safe) / len(safe))
+        if safe
+        else float("nan"),
         "hit_rate": (sum(r["outcome"] == "hit" for r in evadable) / len(evadable)) if evadable else float("nan"),
     }
 
@@ -366,7 +368,9 @@ def train(args: argparse.Namespace) -> Dict[str, Any]:
     if args.resume:
         latest = _latest(args.out)
         if latest is None:
-            raise SystemExit(f"--resume: {args.out} has no checkpoint (checkpoints/latest.json); start without --resume")
+            raise SystemExit(
+                f"--resume: {args.out} has no checkpoint (checkpoints/latest.json); start without --resume"
+            )
         with open(config_path) as f:
             saved = json.load(f)
         for key in ("env", "algo", "seed", "n_envs", "frame_size", "scenario"):
@@ -376,7 +380,9 @@ def train(args: argparse.Namespace) -> Dict[str, Any]:
                     f"{saved.get(key)!r} (in {config_path}); resume with the same settings"
                 )
     elif os.path.exists(config_path):
-        raise SystemExit(f"{args.out} already holds a run (config.json): pass --resume to continue it, or another --out")
+        raise SystemExit(
+            f"{args.out} already holds a run (config.json): pass --resume to continue it, or another --out"
+        )
     os.makedirs(os.path.join(args.out, "checkpoints"), exist_ok=True)
     if not args.resume:
         with open(config_path, "w") as f:
@@ -411,7 +417,9 @@ def train(args: argparse.Namespace) -> Dict[str, Any]:
                 w.writerow(row)
                 f.flush()
                 if args.max_wall_s is not None and wall >= args.max_wall_s:
-                    print(f"\ntrain: stopping at {steps} steps: --max-wall-s {args.max_wall_s} reached", file=sys.stderr)
+                    print(
+                        f"\ntrain: stopping at {steps} steps: --max-wall-s {args.max_wall_s} reached", file=sys.stderr
+                    )
                     break
                 print(
                     f"\ntrain: {steps} steps, {wall:.0f} s: held-out collision rate {row['collision_rate']:.3f}, "
@@ -500,9 +508,7 @@ def parser() -> argparse.ArgumentParser:
         "--eval-seeds", type=parse_seeds, default="1000-1003", help="held-out scenario seeds (default 1000-1003)"
     )
     p.add_argument("--eval-limit", type=int, default=None, help="episodes per held-out seed (default: all)")
-    p.add_argument(
-        "--collision-penalty", type=float, default=10.0, help="reward.collision_penalty (default 10)"
-    )
+    p.add_argument("--collision-penalty", type=float, default=10.0, help="reward.collision_penalty (default 10)")
     p.add_argument(
         "--unnecessary-dodge-penalty",
         type=float,
