@@ -241,3 +241,31 @@ def test_training_arguments_are_checked(tmp_path):
         train_main(["--algo", "cem", "--eval-seeds", "9-3", "--out", str(tmp_path / "x")])
     with pytest.raises(SystemExit, match="no checkpoint"):
         train_main(["--algo", "cem", "--resume", "--out", str(tmp_path / "none")])
+
+
+def test_ppo_training_repeats_under_a_seed_and_resumes(tmp_path):
+    """The PPO path (skipped where stable-baselines3 is not installed, as in `make test`; run it in
+    the RL venv: `make rl-env`, then pytest with `.venv-rl/bin/python`)."""
+    pytest.importorskip("stable_baselines3")
+    import zipfile
+
+    def ppo(out, *extra):
+        train_main(
+            ["--algo", "ppo", "--n-envs", "2", "--n-steps", "32", "--batch-size", "32", "--n-epochs", "2"]
+            + ["--frame-size", "32", "--max-episode-steps", "20", "--eval-every", "64", "--eval-seeds", "1000"]
+            + ["--eval-limit", "2", "--seed", "9", "--out", str(out), *extra]
+        )
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    ppo(a, "--timesteps", "128")
+    ppo(b, "--timesteps", "128")
+    keys = ["steps", "collision_rate", "unnecessary_dodge_rate", "hit_rate"]
+    assert [[r[k] for k in keys] for r in _progress(a)] == [[r[k] for k in keys] for r in _progress(b)]
+    with (
+        zipfile.ZipFile(a / "checkpoints" / "step_128.zip") as za,
+        zipfile.ZipFile(b / "checkpoints" / "step_128.zip") as zb,
+    ):
+        assert za.read("policy.pth") == zb.read("policy.pth"), "same seed, same weights"
+    ppo(a, "--timesteps", "192", "--resume")
+    assert [int(r["steps"]) for r in _progress(a)] == [0, 64, 128, 192]
+    assert os.path.exists(tmp_path / "a" / "sb3" / "progress.csv")

@@ -265,6 +265,63 @@ class EscapeEnv(gym.Env):
     looming-detector signals (and optionally the camera frame) and commands velocities to avoid
     collisions without needless dodges.
 
+    ## Description
+
+    One step is one camera period (1/120 s by default). The world, the rendering, the detectors and
+    the ground truth run in Rust (``loomlab_env::EscapeEnv``). At every reset an open-loop pass
+    finds whether the episode is a *threat* (an object touches the robot if it keeps cruising), its
+    contact time and its escape deadline.
+
+    ## Action Space
+
+    - ``loomlab/Escape-v0``: ``Box(-1, 1, (3,), float32)``: ``[forward, yaw_rate, lateral]``, scaled
+      by ``ActionConfig``'s maxima (3 m/s, 1.5 rad/s, 1.5 m/s) to an absolute velocity command.
+    - ``loomlab/EscapeDiscrete-v0``: ``Discrete(4)``: 0 none (cruise), 1 dodge left, 2 dodge right
+      (the cruise command plus ``dodge_speed_mps`` sideways), 3 stop.
+
+    ## Observation Space
+
+    ``obs_mode="raw"`` (default): a ``Dict`` of one ``Box(-1e6, 1e6)`` per detector label (its
+    output then its auxiliary signals, ``signal_names``), ``theta_hat`` (θ̂ in degrees, [0, 180]),
+    ``alarm`` (``MultiBinary(D)``), ``robot`` (``x_m, y_m, yaw_rad, forward_mps, yaw_rate_rps,
+    lateral_mps, t_s``) and, with ``observe_frames``, ``frame`` (n×n uint8).
+
+    ``obs_mode="normalized"``: one ``Box(low, high, (3·D + 9,), float32)`` of bounded features a
+    policy network can take as they are (``D`` detectors; names in ``self._native.feature_names``,
+    scales in ``loomlab._native.FEATURE_SCALES``; Rust ``loomlab_env::features`` is their one
+    definition); with ``observe_frames`` a ``Dict`` ``{"features", "frame"}``:
+
+    ==========================================  ============================================  ===========
+    feature                                     definition                                    range
+    ==========================================  ============================================  ===========
+    ``{label}.log_output`` (per detector)       sign(y)·ln(1+|y|)/ln(1+1e6), y the output     [-1, 1]
+    ``{label}.log_output_rate`` (per detector)  tanh(d log_output/dt / 2 s⁻¹)                 [-1, 1]
+    ``theta_hat_rad``                           θ̂ of the first detector giving one (rad)      [0, π]
+    ``theta_hat_rate_rps``                      dθ̂/dt (rad/s), clamped                        [-10, 10]
+    ``{label}.alarm`` (per detector)            trigger signal ≥ threshold                    {0, 1}
+    ``robot.x``, ``robot.y``                    position from the start pose / 5 m, clamped   [-1, 1]
+    ``robot.yaw``                               heading from the start heading / π            [-1, 1]
+    ``robot.forward/yaw_rate/lateral``          last command / the action scales, clamped     [-1, 1]
+    ``robot.time``                              episode time / episode duration               [0, 1]
+    ==========================================  ============================================  ===========
+
+    The reset observation has zero signals (the detectors see their first frame in the first step).
+
+    ## Rewards
+
+    Per step (:class:`RewardConfig`, every weight configurable): ``+survival_per_s·dt`` while
+    untouched, ``+progress_per_m·Δs``, ``−effort_per_s·|u − u_cruise|²·dt``,
+    ``−unnecessary_dodge_per_s·dt`` while dodging in an episode without a threat,
+    ``−unnecessary_dodge_penalty`` once on the first such step (a false alarm), and
+    ``−collision_penalty`` once on contact. ``info["reward_terms"]`` reports each term.
+
+    ## Episode End
+
+    Terminated when the robot is touched or the scenario's duration is over; truncated after
+    ``max_episode_steps``. The last ``info`` holds ``outcome``: the threat, the collision, every
+    detector's scored row and ``outcome["agent"]``, the agent scored as a detector (its alarm is the
+    first observation on which it departed from cruising): what :func:`loomlab.evaluate` reports.
+
     Args:
         scenario: a shipped scenario name (``loomlab.scenario_names()``) or a path to a scenario TOML
             file; ``None``: the default scenario.
@@ -279,6 +336,7 @@ class EscapeEnv(gym.Env):
         clip_actions: clamp continuous actions into [-1, 1] instead of raising :class:`ActionError`.
         reward: reward weights (:class:`RewardConfig` or dict).
         max_episode_steps: truncate episodes after this many steps.
+        obs_mode: ``"raw"`` or ``"normalized"`` (see Observation Space).
         render_mode: ``"rgb_array"`` or ``None``.
     """
 
