@@ -8,7 +8,9 @@ Importing the package registers the Gymnasium ids
 both with a native vector entry point, so ``gymnasium.make_vec(id, num_envs=N)`` steps N
 environments on Rust threads.
 
-:func:`run_suite` runs a scenario suite in-process; ``python -m loomlab.sweep`` runs detector
+:func:`run_suite` runs a scenario suite in-process; :func:`evaluate` scores a policy on a suite next to
+its detectors and reference rows, as ``loomlab run`` scores them; ``python -m loomlab.train`` trains
+one (PPO with the optional extra ``loomlab[rl]``, or a pure-numpy CEM); ``python -m loomlab.sweep`` runs detector
 parameter sweeps on Ray and :mod:`loomlab.rllib` registers the environments with RLlib. Ray is an
 optional extra (``pip install 'loomlab[ray]'``) that importing this package never loads.
 """
@@ -37,6 +39,7 @@ from ._native import (
     SweepError,
 )
 from .env import ActionConfig, EscapeEnv, RewardConfig
+from .evaluate import evaluate
 from .vector import EscapeVectorEnv
 
 __version__ = _native.__version__
@@ -53,6 +56,7 @@ __all__ = [
     "ScenarioError",
     "SweepError",
     "detector_ids",
+    "evaluate",
     "run_suite",
     "scenario_names",
     "scenario_toml",
