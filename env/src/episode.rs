@@ -684,6 +684,7 @@ impl EscapeEnv {
         let mut signals = Vec::with_capacity(nd);
         let mut alarm = Vec::with_capacity(nd);
         let mut theta_hat = None;
+        let mut looming_side = None;
         let (controller_continuous, controller_discrete);
         if out.frame_index == 0 {
             // the reset frame: detectors see their first frame in the first step
@@ -713,6 +714,7 @@ impl EscapeEnv {
                 v.extend(s.aux.iter().map(|(_, x)| finite_or_zero(*x)));
                 signals.push(v);
             }
+            looming_side = step.looming_side;
             controller_continuous = self.normalised(step.command);
             controller_discrete = DiscreteAction::from_command(step.command, cruise_now);
         }
@@ -751,7 +753,7 @@ impl EscapeEnv {
                 let duration_s = r.frames as f64 * dt;
                 let features = self
                     .normalizer
-                    .features(&obs, dt, duration_s, &self.options.action, cmd);
+                    .features(&obs, looming_side, dt, duration_s, &self.options.action, cmd);
                 Observation {
                     features: Some(features),
                     ..obs

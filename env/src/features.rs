@@ -14,6 +14,7 @@
 //! | `theta_hat_rad` | θ̂ of the first detector giving one, radians | [0, π] |
 //! | `theta_hat_rate_rps` | dθ̂/dt (rad/s), clamped into ±[`THETA_RATE_LIMIT_RPS`] | [−10, 10] |
 //! | `{label}.alarm` (× D) | 1 when the detector's trigger signal is at or above its threshold | {0, 1} |
+//! | `looming_side` | image x of the looming object (the x centroid of the temporal contrast, [`loomlab_agents::LoomingSideEstimator`]: −1 left edge, +1 right edge), 0 when unknown | [−1, 1] |
 //! | `robot.x` | distance along the start heading / [`POSITION_SCALE_M`], clamped | [−1, 1] |
 //! | `robot.y` | lateral offset (left +) / [`POSITION_SCALE_M`], clamped | [−1, 1] |
 //! | `robot.yaw` | heading relative to the start heading / π | [−1, 1] |
@@ -66,6 +67,10 @@ pub const FEATURE_SCALES: [(&str, f64); 4] = [
     ("position_scale_m", POSITION_SCALE_M),
 ];
 
+/// Number of features that do not depend on the number of detectors (θ̂, its rate, the looming
+/// side and the 7 robot features).
+pub const FIXED_FEATURES: usize = 10;
+
 /// Name and declared bounds of one feature.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FeatureSpec {
@@ -87,12 +92,13 @@ fn spec(name: impl Into<String>, low: f64, high: f64) -> FeatureSpec {
 
 /// The features of an environment observing `labels` (in order), with their bounds.
 pub fn feature_specs(labels: &[&str]) -> Vec<FeatureSpec> {
-    let mut v = Vec::with_capacity(3 * labels.len() + 9);
+    let mut v = Vec::with_capacity(3 * labels.len() + FIXED_FEATURES);
     v.extend(labels.iter().map(|l| spec(format!("{l}.log_output"), -1.0, 1.0)));
     v.extend(labels.iter().map(|l| spec(format!("{l}.log_output_rate"), -1.0, 1.0)));
     v.push(spec("theta_hat_rad", 0.0, std::f64::consts::PI));
     v.push(spec("theta_hat_rate_rps", -THETA_RATE_LIMIT_RPS, THETA_RATE_LIMIT_RPS));
     v.extend(labels.iter().map(|l| spec(format!("{l}.alarm"), 0.0, 1.0)));
+    v.push(spec("looming_side", -1.0, 1.0));
     for name in ["x", "y", "yaw", "forward", "yaw_rate", "lateral"] {
         v.push(spec(format!("robot.{name}"), -1.0, 1.0));
     }
@@ -122,11 +128,14 @@ impl Normalizer {
         self.last_theta_rad = 0.0;
     }
 
-    /// The features of `obs` (see the module docs), `dt` after the previous one; `duration_s` is the
-    /// episode's duration, `action` the action scales, `last_command` the robot's last command.
+    /// The features of `obs` (see the module docs), `dt` after the previous one; `looming_side` is
+    /// the looming object's image x on this frame, `duration_s` the episode's duration, `action` the
+    /// action scales, `last_command` the robot's last command.
+    #[allow(clippy::too_many_arguments)]
     pub fn features(
         &mut self,
         obs: &Observation,
+        looming_side: Option<f32>,
         dt: f64,
         duration_s: f64,
         action: &ActionConfig,
@@ -136,7 +145,7 @@ impl Normalizer {
         if self.last_log.len() != nd {
             self.reset(nd);
         }
-        let mut f = Vec::with_capacity(3 * nd + 9);
+        let mut f = Vec::with_capacity(3 * nd + FIXED_FEATURES);
         let logs: Vec<f64> = obs.signals.iter().map(|s| log_compress(s[0])).collect();
         f.extend(logs.iter().map(|&v| v as f32));
         let dt = if dt > 0.0 { dt } else { 1.0 };
@@ -152,6 +161,11 @@ impl Normalizer {
         let rate = ((theta - self.last_theta_rad) / dt).clamp(-THETA_RATE_LIMIT_RPS, THETA_RATE_LIMIT_RPS);
         f.push(rate as f32);
         f.extend(obs.alarm.iter().map(|&a| f32::from(u8::from(a))));
+        f.push(
+            looming_side
+                .filter(|v| v.is_finite())
+                .map_or(0.0, |v| v.clamp(-1.0, 1.0)),
+        );
         let unit = |v: f64| v.clamp(-1.0, 1.0) as f32;
         let r = &obs.robot;
         f.push(unit(f64::from(r[0]) / POSITION_SCALE_M));
@@ -194,7 +208,7 @@ mod tests {
     #[test]
     fn feature_names_are_unique_and_bounds_ordered() {
         let specs = feature_specs(&["hopfield", "soc"]);
-        assert_eq!(specs.len(), 3 * 2 + 2 + 7);
+        assert_eq!(specs.len(), 3 * 2 + FIXED_FEATURES);
         let mut names: Vec<_> = specs.iter().map(|s| s.name.as_str()).collect();
         names.sort_unstable();
         names.dedup();

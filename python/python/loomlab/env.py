@@ -286,7 +286,7 @@ class EscapeEnv(gym.Env):
     ``alarm`` (``MultiBinary(D)``), ``robot`` (``x_m, y_m, yaw_rad, forward_mps, yaw_rate_rps,
     lateral_mps, t_s``) and, with ``observe_frames``, ``frame`` (n×n uint8).
 
-    ``obs_mode="normalized"``: one ``Box(low, high, (3·D + 9,), float32)`` of bounded features a
+    ``obs_mode="normalized"``: one ``Box(low, high, (3·D + 10,), float32)`` of bounded features a
     policy network can take as they are (``D`` detectors; names in ``self._native.feature_names``,
     scales in ``loomlab._native.FEATURE_SCALES``; Rust ``loomlab_env::features`` is their one
     definition); with ``observe_frames`` a ``Dict`` ``{"features", "frame"}``:
@@ -299,6 +299,7 @@ class EscapeEnv(gym.Env):
     ``theta_hat_rad``                           θ̂ of the first detector giving one (rad)      [0, π]
     ``theta_hat_rate_rps``                      dθ̂/dt (rad/s), clamped                        [-10, 10]
     ``{label}.alarm`` (per detector)            trigger signal ≥ threshold                    {0, 1}
+    ``looming_side``                            image x of the looming object, 0 unknown      [-1, 1]
     ``robot.x``, ``robot.y``                    position from the start pose / 5 m, clamped   [-1, 1]
     ``robot.yaw``                               heading from the start heading / π            [-1, 1]
     ``robot.forward/yaw_rate/lateral``          last command / the action scales, clamped     [-1, 1]
