@@ -472,20 +472,25 @@ def plot_progress(run_dirs: Sequence[str], png: str, report: Optional[str] = Non
     if report:
         with open(report) as f:
             rep = json.load(f)
-        for label, summary in rep["detectors"].items():
-            if label in ("ideal_theta",) or label == rep.get("policy_label"):
+        dets = rep["detectors"]
+        refs = set(rep.get("references", [])) | {rep.get("policy_label")}
+        baselines = [k for k in dets if k not in refs and k != "hopfield" and dets[k].get("collision_rate") is not None]
+        best = min(baselines, key=lambda k: dets[k]["collision_rate"], default=None)
+        shown = [("null", "black"), ("oracle", "green"), ("hopfield", "tab:red"), (best, "tab:purple")]
+        for label, color in shown:
+            if label not in dets:
                 continue
             for ax, (key, _) in zip(axes, keys):
-                v = summary.get("false_alarm_rate" if key == "unnecessary_dodge_rate" else key)
+                v = dets[label].get("false_alarm_rate" if key == "unnecessary_dodge_rate" else key)
                 if v is not None:
-                    ax.axhline(v, ls="--", lw=0.8, color="grey")
-                    ax.annotate(label, (0, v), fontsize=7, color="grey", va="bottom")
+                    ax.axhline(v, ls="--", lw=1, color=color, label=f"{label} (held-out evaluation)")
     for ax, (_, title) in zip(axes, keys):
         ax.set_xlabel("environment steps")
         ax.set_ylabel(f"held-out {title}")
         ax.set_ylim(-0.02, 1.02)
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7)
+    axes[1].legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(png, dpi=120)
 
