@@ -116,7 +116,7 @@ rl-train: rl-env
 	  --max-wall-s $(RL_WALL_S) --out $(RL_RUN) $$(test -e $(RL_RUN)/checkpoints/latest.json && echo --resume)
 
 rl-table: rl-env
-	$(RL_VENV)/bin/python -m loomlab.evaluate "$$($(RL_VENV)/bin/python -c 'import json,sys; print(json.load(open(sys.argv[1]))["path"])' $(RL_RUN)/checkpoints/latest.json)" \
+	$(RL_VENV)/bin/python -m loomlab.evaluation "$$($(RL_VENV)/bin/python -c 'import json,sys; print(json.load(open(sys.argv[1]))["path"])' $(RL_RUN)/checkpoints/latest.json)" \
 	  --seeds $(RL_EVAL_SEEDS) --calibrate-seeds $(RL_CALIBRATE_SEEDS) --label ppo \
 	  --out $(RL_OUT)/report.json --table $(RL_OUT)/table.md
 	$(RL_VENV)/bin/python -m loomlab.train --plot $(RL_RUN) --plot-report $(RL_OUT)/report.json --plot-out docs/rl_learning_curve.png

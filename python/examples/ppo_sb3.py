@@ -17,7 +17,7 @@ import argparse
 from _evaluate import SMOKE_STEPS, add_smoke_flag, skip_missing
 
 import loomlab
-from loomlab.evaluate import markdown_table
+from loomlab.evaluation import markdown_table
 from loomlab.train import sb3_vec_env
 
 

@@ -15,7 +15,7 @@ from gymnasium.utils.env_checker import check_env
 
 import loomlab
 from loomlab import _native
-from loomlab.evaluate import evaluate, load_policy, markdown_table
+from loomlab.evaluation import evaluate, load_policy, markdown_table
 from loomlab.train import main as train_main
 
 ESCAPE_DEFAULT = os.path.join(os.path.dirname(loomlab.__file__), "scenarios", "escape_default.toml")

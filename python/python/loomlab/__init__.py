@@ -39,7 +39,6 @@ from ._native import (
     SweepError,
 )
 from .env import ActionConfig, EscapeEnv, RewardConfig
-from .evaluate import evaluate
 from .vector import EscapeVectorEnv
 
 __version__ = _native.__version__
@@ -125,3 +124,13 @@ def _register() -> None:
 
 
 _register()
+
+
+def __getattr__(name: str):
+    # `loomlab.evaluate` is loaded on first use, so that `python -m loomlab.evaluation` (its CLI)
+    # does not find its module imported already
+    if name == "evaluate":
+        from .evaluation import evaluate
+
+        return evaluate
+    raise AttributeError(f"module 'loomlab' has no attribute {name!r}")

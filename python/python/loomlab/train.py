@@ -36,7 +36,7 @@ from typing import Any, Dict, List, Optional, Sequence
 
 import numpy as np
 
-from .evaluate import _run_episode, policy_function
+from .evaluation import _run_episode, policy_function
 
 ENV_IDS = {"discrete": "loomlab/EscapeDiscrete-v0", "continuous": "loomlab/Escape-v0"}
 PROGRESS_FIELDS = [
@@ -454,7 +454,7 @@ def _eval_row(learner: Any, args: argparse.Namespace, steps: int, wall: float, r
 
 def plot_progress(run_dirs: Sequence[str], png: str, report: Optional[str] = None) -> None:
     """Draws the learning curves (held-out collision and unnecessary-dodge rates over training steps)
-    of one or more runs into ``png``; with ``report`` (``python -m loomlab.evaluate --out``), the
+    of one or more runs into ``png``; with ``report`` (``python -m loomlab.evaluation --out``), the
     threshold controllers' and the reference rows' rates on the held-out evaluation as lines."""
     import matplotlib
 

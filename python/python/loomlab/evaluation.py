@@ -1,4 +1,5 @@
-"""``loomlab.evaluate``: a policy scored on a suite exactly as ``loomlab run`` scores detectors.
+"""``loomlab.evaluate`` (defined here; CLI ``python -m loomlab.evaluation``): a policy scored on a suite
+exactly as ``loomlab run`` scores detectors.
 
 The policy drives the robot through every episode of the suite (expanded with each seed as ``loomlab
 run SUITE --seed SEED`` expands it, each episode with its own simulator seed). The episode's
@@ -188,7 +189,7 @@ def main(argv: Optional[Sequence[str]] = None) -> None:
     from .train import parse_seeds
 
     p = argparse.ArgumentParser(
-        prog="python -m loomlab.evaluate",
+        prog="python -m loomlab.evaluation",
         description="Evaluate a trained policy on held-out seeds next to the threshold controllers and the "
         "reference rows (the report of `loomlab run` plus the policy's row).",
     )
