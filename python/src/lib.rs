@@ -15,7 +15,7 @@
 
 mod convert;
 mod errors;
-mod evaluate;
+mod evaluation;
 mod scenarios;
 mod sweep;
 
@@ -241,7 +241,7 @@ impl PyEscapeEnv {
     ) -> PyResult<Self> {
         let options = parse_options(options_json)?;
         let env = py.detach(|| {
-            let (source, episodes) = evaluate::suite_episodes(suite.as_deref(), seed.0, limit, &options)?;
+            let (source, episodes) = evaluation::suite_episodes(suite.as_deref(), seed.0, limit, &options)?;
             let ctx = loomlab_env::shared_gpu_context()?;
             EscapeEnv::for_episodes(&source, episodes, options, ctx)
         });
@@ -598,8 +598,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyEscapeVectorEnv>()?;
     m.add_class::<sweep::SweepPlan>()?;
     m.add_function(wrap_pyfunction!(sweep::run_suite, m)?)?;
-    m.add_function(wrap_pyfunction!(evaluate::evaluation_report, m)?)?;
-    m.add_function(wrap_pyfunction!(evaluate::calibrate_thresholds, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluation::evaluation_report, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluation::calibrate_thresholds, m)?)?;
     m.add_function(wrap_pyfunction!(scenario_names, m)?)?;
     m.add_function(wrap_pyfunction!(scenario_toml, m)?)?;
     m.add_function(wrap_pyfunction!(detector_ids, m)?)?;
