@@ -7,7 +7,7 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # Mesa's Vulkan loader complains on every device creation when XDG_RUNTIME_DIR is unset (CI, containers).
 export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 $$d && echo $$d)
 
-.PHONY: run test deps lint lint-rust lint-python rust-test python-test python-env python-examples suite-check sweep bless bench figures fmt
+.PHONY: run test deps lint lint-rust lint-python rust-test python-test python-env python-examples suite-check sweep bless bench figures fmt rl-env rl-train rl-table rl-result
 
 ## Run the default scenario suite: prints the results table, writes $(OUT)/report.json, the plots
 ## and $(OUT)/report.html (the page to open in a browser).
@@ -97,6 +97,37 @@ bless: deps
 
 ## Everything CI runs.
 test: deps lint rust-test suite-check python-test
+
+## RL on the detector signals (issue 17; README "Training a policy"). `make rl-result` trains PPO
+## (stable-baselines3, CPU torch) on loomlab/EscapeDiscrete-v0 with normalized observations for at
+## most RL_WALL_S seconds, evaluates it on held-out seeds next to the calibrated threshold
+## controllers and the reference rows, and draws docs/rl_learning_curve.png. Torch lives in its own
+## venv ($(RL_VENV)), never in `make test`'s. A finished run folder is never overwritten: remove
+## $(RL_OUT) (or set RL_OUT) to start again; `make rl-train` after an interruption resumes it.
+RL_VENV ?= .venv-rl
+RL_SEED ?= 0
+RL_WALL_S ?= 1620
+RL_OUT ?= out/rl
+RL_RUN = $(RL_OUT)/discrete-ppo-seed$(RL_SEED)
+RL_EVAL_SEEDS ?= 2000-2024
+RL_CALIBRATE_SEEDS ?= 7-14
+rl-env: deps
+	@test -x $(RL_VENV)/bin/python || $(PYTHON) -m venv $(RL_VENV)
+	$(RL_VENV)/bin/python -m pip install -q --upgrade pip maturin
+	cd python && VIRTUAL_ENV=$(abspath $(RL_VENV)) CARGO_TARGET_DIR=$${CARGO_TARGET_DIR:-$(CURDIR)/target} \
+	  $(abspath $(RL_VENV))/bin/maturin develop --release --extras rl
+
+rl-train: rl-env
+	$(RL_VENV)/bin/python -m loomlab.train --env discrete --seed $(RL_SEED) --timesteps 2000000 \
+	  --max-wall-s $(RL_WALL_S) --out $(RL_RUN) $$(test -e $(RL_RUN)/checkpoints/latest.json && echo --resume)
+
+rl-table: rl-env
+	$(RL_VENV)/bin/python -m loomlab.evaluation "$$($(RL_VENV)/bin/python -c 'import json,sys; print(json.load(open(sys.argv[1]))["path"])' $(RL_RUN)/checkpoints/latest.json)" \
+	  --seeds $(RL_EVAL_SEEDS) --calibrate-seeds $(RL_CALIBRATE_SEEDS) --label ppo \
+	  --out $(RL_OUT)/report.json --table $(RL_OUT)/table.md
+	$(RL_VENV)/bin/python -m loomlab.train --plot $(RL_RUN) --plot-report $(RL_OUT)/report.json --plot-out docs/rl_learning_curve.png
+
+rl-result: rl-train rl-table
 
 ## Criterion benchmarks (detector, baselines, simulator step).
 bench: deps

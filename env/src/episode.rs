@@ -7,11 +7,13 @@ use loomlab_detector::{DetectorSet, Frame};
 use loomlab_sim::{GpuContext, RobotState, Sim, StepOutput};
 use serde::{Deserialize, Serialize};
 
+use super::features::{FeatureSpec, Normalizer, ObsMode, feature_specs};
 use super::reward::StepFacts;
 use super::{
     ActionKind, EnvError, EnvOptions, EnvScenario, EpisodeRng, RewardTerms, ScenarioEpisodes, shared_gpu_context,
 };
 use loomlab_scenarios::metrics::{DetectorEpisode, GroundTruth, TraceSample, score_detector_episode};
+use loomlab_scenarios::reference::INDICATOR_THRESHOLD;
 use loomlab_scenarios::schema::EpisodeSpec;
 use loomlab_scenarios::truth::{open_loop_truth, threat_deadline};
 
@@ -76,7 +78,13 @@ pub struct Observation {
     pub robot: [f32; ROBOT_DIM],
     /// The egocentric frame, n·n grey levels row-major (row 0 at the top), if observed.
     pub frame: Option<Vec<u8>>,
+    /// The normalized features ([`crate::features`]), when [`EnvOptions::obs_mode`] is
+    /// [`ObsMode::Normalized`].
+    pub features: Option<Vec<f32>>,
 }
+
+/// The label of the agent's own row in [`EpisodeSummary::agent`].
+pub const AGENT_LABEL: &str = "agent";
 
 /// The scored outcome of an episode (reported with its last step).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -95,6 +103,11 @@ pub struct EpisodeSummary {
     pub episode_return: f64,
     /// Per detector: the scoring of its alarms (hit / miss / false alarm / correct rejection).
     pub detectors: Vec<DetectorEpisode>,
+    /// The agent scored as a detector row (label [`AGENT_LABEL`]): its "alarm" is the first
+    /// observation on which it departed from the cruise command (the time of the observation the
+    /// departing action was chosen on), classified against the same escape deadline as the
+    /// detectors; `collision` is the agent's closed-loop outcome.
+    pub agent: DetectorEpisode,
 }
 
 /// Ground truth and bookkeeping of one step (Gymnasium's `info`).
@@ -207,6 +220,13 @@ struct Running {
     last_command: VelocityCommand,
     /// The cruise command during the last step.
     last_cruise: VelocityCommand,
+    /// The agent's departures from cruising, one sample per step at the time of the observation
+    /// the action was chosen on (signal 1: departed, 0: cruised).
+    agent_trace: Vec<TraceSample>,
+    /// The last observation's time and reference-object truth (for the next agent sample).
+    last_t_s: f64,
+    last_ttc_s: Option<f64>,
+    last_angular_size_deg: Option<f64>,
 }
 
 /// One closed-loop episode at a time, stepped by an external agent: the environment of the Python
@@ -232,6 +252,7 @@ pub struct EscapeEnv {
     signal_names: Vec<Vec<String>>,
     /// Detectors, looming side and the shadow escape controller (driven by the first detector).
     agent: EscapeAgent,
+    normalizer: Normalizer,
     rng: EpisodeRng,
     running: Option<Running>,
 }
@@ -283,6 +304,31 @@ impl EscapeEnv {
     pub fn with_context(scenario: EnvScenario, options: EnvOptions, ctx: Arc<GpuContext>) -> Result<Self, EnvError> {
         options.validate()?;
         let base = scenario.load(&options, 0)?;
+        Self::build(scenario, base, options, ctx)
+    }
+
+    /// An environment over a fixed list of expanded episodes (e.g. a suite's, as `loomlab run`
+    /// expands it, for [`reset_to_episode`](Self::reset_to_episode)); `source` names them in errors
+    /// and as the scenario. [`reset`](Self::reset) draws among them (no random re-expansion). The
+    /// episodes must run the same detectors at the same frame size; the options' `detectors` and
+    /// `frame_size` are not applied (the episodes were expanded with them).
+    pub fn for_episodes(
+        source: &std::path::Path,
+        episodes: ScenarioEpisodes,
+        options: EnvOptions,
+        ctx: Arc<GpuContext>,
+    ) -> Result<Self, EnvError> {
+        options.validate()?;
+        episodes.check(source)?;
+        Self::build(EnvScenario::from_toml(String::new(), source), episodes, options, ctx)
+    }
+
+    fn build(
+        scenario: EnvScenario,
+        base: ScenarioEpisodes,
+        options: EnvOptions,
+        ctx: Arc<GpuContext>,
+    ) -> Result<Self, EnvError> {
         let first = &base.episodes[0];
         let n = first.world.camera.n;
         for key in options.thresholds.keys() {
@@ -326,6 +372,7 @@ impl EscapeEnv {
             detectors,
             signal_names,
             agent,
+            normalizer: Normalizer::default(),
             rng: EpisodeRng::from_entropy(),
             running: None,
             scenario,
@@ -391,6 +438,11 @@ impl EscapeEnv {
     /// Names of each detector's signal vector (`output` then its auxiliary signals).
     pub fn signal_names(&self) -> &[Vec<String>] {
         &self.signal_names
+    }
+
+    /// Names and declared bounds of the normalized features ([`crate::features`]), in order.
+    pub fn feature_specs(&self) -> Vec<FeatureSpec> {
+        feature_specs(&self.detector_labels())
     }
 
     /// The alarm thresholds of the current episode, in detector order.
@@ -507,7 +559,12 @@ impl EscapeEnv {
             episode_return: 0.0,
             last_command: cruise,
             last_cruise: cruise,
+            agent_trace: Vec::new(),
+            last_t_s: 0.0,
+            last_ttc_s: None,
+            last_angular_size_deg: None,
         });
+        self.normalizer.reset(self.detectors.len());
         self.process(&first, false, RewardTerms::default())
     }
 
@@ -565,6 +622,15 @@ impl EscapeEnv {
         };
         let cruise = r.spec.cruise.command_at(r.sim.time());
         let dt = r.spec.world.dt();
+        let departed = deviation(command, cruise)
+            .iter()
+            .any(|d| d.abs() > super::reward::DODGE_TOLERANCE);
+        r.agent_trace.push(TraceSample {
+            t_s: r.last_t_s,
+            signal: if departed { INDICATOR_THRESHOLD } else { 0.0 },
+            ttc_s: r.last_ttc_s,
+            angular_size_deg: r.last_angular_size_deg,
+        });
         let out = r.sim.step(&command.to_sim())?;
         r.steps += 1;
         r.last_command = command;
@@ -574,12 +640,16 @@ impl EscapeEnv {
         let (s0, c0) = r.start.yaw_rad.sin_cos();
         let progress_m = (out.robot.x_m - r.last_robot.x_m) * c0 + (out.robot.y_m - r.last_robot.y_m) * s0;
         r.last_robot = out.robot;
+        let first_dodge = !r.agent_trace[..r.agent_trace.len() - 1]
+            .iter()
+            .any(|s| s.signal >= INDICATOR_THRESHOLD);
         let facts = StepFacts {
             dt,
             collision,
             progress_m,
             deviation: deviation(command, cruise),
             threat: r.t_contact_s.is_some(),
+            first_dodge,
         };
         let terms = self.options.reward.terms(&facts);
         r.episode_return += terms.total();
@@ -614,6 +684,7 @@ impl EscapeEnv {
         let mut signals = Vec::with_capacity(nd);
         let mut alarm = Vec::with_capacity(nd);
         let mut theta_hat = None;
+        let mut looming_side = None;
         let (controller_continuous, controller_discrete);
         if out.frame_index == 0 {
             // the reset frame: detectors see their first frame in the first step
@@ -643,6 +714,7 @@ impl EscapeEnv {
                 v.extend(s.aux.iter().map(|(_, x)| finite_or_zero(*x)));
                 signals.push(v);
             }
+            looming_side = step.looming_side;
             controller_continuous = self.normalised(step.command);
             controller_discrete = DiscreteAction::from_command(step.command, cruise_now);
         }
@@ -672,6 +744,21 @@ impl EscapeEnv {
                 .options
                 .observe_frames
                 .then(|| out.frame.iter().map(|&v| to_u8(v)).collect()),
+            features: None,
+        };
+        let obs = match self.options.obs_mode {
+            ObsMode::Raw => obs,
+            ObsMode::Normalized => {
+                let dt = r.spec.world.dt();
+                let duration_s = r.frames as f64 * dt;
+                let features = self
+                    .normalizer
+                    .features(&obs, looming_side, dt, duration_s, &self.options.action, cmd);
+                Observation {
+                    features: Some(features),
+                    ..obs
+                }
+            }
         };
         let outcome = if done {
             let truth = GroundTruth {
@@ -690,6 +777,13 @@ impl EscapeEnv {
                     &r.spec.scoring,
                 )?);
             }
+            let agent = score_detector_episode(
+                AGENT_LABEL,
+                INDICATOR_THRESHOLD,
+                &r.agent_trace,
+                &truth,
+                &r.spec.scoring,
+            )?;
             Some(EpisodeSummary {
                 threat: truth.threat,
                 t_contact_s: truth.t_contact_s,
@@ -698,6 +792,7 @@ impl EscapeEnv {
                 steps: r.steps,
                 episode_return: r.episode_return,
                 detectors: scored,
+                agent,
             })
         } else {
             None
@@ -717,6 +812,11 @@ impl EscapeEnv {
             reward_terms: terms,
             outcome,
         };
+        if let Some(r) = self.running.as_mut() {
+            r.last_t_s = out.t_s;
+            r.last_ttc_s = ttc_s;
+            r.last_angular_size_deg = angular_size_deg.filter(|v| v.is_finite());
+        }
         Ok((obs, info))
     }
 

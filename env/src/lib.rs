@@ -44,6 +44,7 @@
 
 mod episode;
 mod error;
+pub mod features;
 mod options;
 mod reward;
 mod scenario;
@@ -54,10 +55,11 @@ use std::sync::{Arc, OnceLock};
 use loomlab_sim::GpuContext;
 
 pub use episode::{
-    Action, EpisodeSnapshot, EpisodeStart, EpisodeSummary, EscapeEnv, Observation, ROBOT_DIM, ROBOT_FIELDS,
-    ROBOT_LIMIT, SIGNAL_LIMIT, StepInfo, StepResult,
+    AGENT_LABEL, Action, EpisodeSnapshot, EpisodeStart, EpisodeSummary, EscapeEnv, Observation, ROBOT_DIM,
+    ROBOT_FIELDS, ROBOT_LIMIT, SIGNAL_LIMIT, StepInfo, StepResult,
 };
 pub use error::{EnvError, ErrorKind};
+pub use features::{FeatureSpec, ObsMode, feature_specs};
 pub use options::{ActionKind, EnvOptions, MAX_FRAME_SIZE};
 pub use reward::{DODGE_TOLERANCE, RewardConfig, RewardTerms};
 pub use scenario::{EnvScenario, ScenarioEpisodes};

@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use loomlab_agents::ActionConfig;
 use serde::{Deserialize, Serialize};
 
-use super::{EnvError, RewardConfig};
+use super::{EnvError, ObsMode, RewardConfig};
 
 /// Largest frame size the environment accepts.
 pub const MAX_FRAME_SIZE: u32 = 1024;
@@ -47,6 +47,8 @@ pub struct EnvOptions {
     pub frame_size: Option<u32>,
     /// Whether the observation includes the egocentric frame (n × n, 8 bit).
     pub observe_frames: bool,
+    /// Raw signals or normalized features ([`crate::features`]).
+    pub obs_mode: ObsMode,
     /// Continuous or discrete actions.
     pub action_kind: ActionKind,
     /// Scales of the action mappings.
@@ -66,6 +68,7 @@ impl Default for EnvOptions {
             thresholds: BTreeMap::new(),
             frame_size: None,
             observe_frames: false,
+            obs_mode: ObsMode::Raw,
             action_kind: ActionKind::Continuous,
             action: ActionConfig::default(),
             clip_actions: false,

@@ -10,6 +10,8 @@
 //! - `− unnecessary_dodge_per_s · dt` on every step whose command deviates from the cruise command
 //!   (by more than [`DODGE_TOLERANCE`] in any component) in an episode **without** a threat (ground
 //!   truth), i.e. the cost of escaping from nothing,
+//! - `− unnecessary_dodge_penalty` once, on the first such step of an episode without a threat
+//!   (the cost of a false alarm as the scores count it: any departure from cruising),
 //! - `− collision_penalty` once, on the step in which the robot is first touched.
 //!
 //! Every term is reported separately in [`RewardTerms`] so that agents and tests can see where the
@@ -37,6 +39,9 @@ pub struct RewardConfig {
     /// Cost per second of dodging (deviating from the cruise command) in an episode without a threat.
     /// Default 1.
     pub unnecessary_dodge_per_s: f64,
+    /// Subtracted once, on the first dodging step of an episode without a threat (a false alarm).
+    /// Default 0 (off).
+    pub unnecessary_dodge_penalty: f64,
 }
 
 impl Default for RewardConfig {
@@ -47,6 +52,7 @@ impl Default for RewardConfig {
             progress_per_m: 0.0,
             effort_per_s: 0.05,
             unnecessary_dodge_per_s: 1.0,
+            unnecessary_dodge_penalty: 0.0,
         }
     }
 }
@@ -60,6 +66,7 @@ impl RewardConfig {
             ("reward.progress_per_m", self.progress_per_m),
             ("reward.effort_per_s", self.effort_per_s),
             ("reward.unnecessary_dodge_per_s", self.unnecessary_dodge_per_s),
+            ("reward.unnecessary_dodge_penalty", self.unnecessary_dodge_penalty),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(EnvError::InvalidOption {
@@ -104,6 +111,8 @@ pub(crate) struct StepFacts {
     /// Applied command minus cruise command: (forward, yaw rate, lateral).
     pub deviation: [f64; 3],
     pub threat: bool,
+    /// No earlier step of the episode dodged.
+    pub first_dodge: bool,
 }
 
 impl StepFacts {
@@ -122,6 +131,11 @@ impl RewardConfig {
             effort: -self.effort_per_s * effort * f.dt,
             unnecessary_dodge: if !f.threat && f.dodging() {
                 -self.unnecessary_dodge_per_s * f.dt
+                    - if f.first_dodge {
+                        self.unnecessary_dodge_penalty
+                    } else {
+                        0.0
+                    }
             } else {
                 0.0
             },
@@ -140,6 +154,7 @@ mod tests {
             progress_m: 0.02,
             deviation: [0.0; 3],
             threat: true,
+            first_dodge: false,
         }
     }
 
@@ -165,6 +180,26 @@ mod tests {
         assert_eq!(t.unnecessary_dodge, -0.01);
         // the same dodge against a real threat is not "unnecessary"
         assert_eq!(cfg.terms(&StepFacts { threat: true, ..dodge }).unnecessary_dodge, 0.0);
+        // the one-time false-alarm penalty: on the first dodging step only, without a threat only
+        let once = RewardConfig {
+            unnecessary_dodge_penalty: 3.0,
+            ..cfg.clone()
+        };
+        let first = StepFacts {
+            first_dodge: true,
+            ..dodge
+        };
+        assert_eq!(once.terms(&first).unnecessary_dodge, -3.01);
+        assert_eq!(once.terms(&dodge).unnecessary_dodge, -0.01);
+        assert_eq!(once.terms(&StepFacts { threat: true, ..first }).unnecessary_dodge, 0.0);
+        assert_eq!(
+            once.terms(&StepFacts {
+                deviation: [0.0; 3],
+                ..first
+            })
+            .unnecessary_dodge,
+            0.0
+        );
 
         let hit = cfg.terms(&StepFacts {
             collision: true,

@@ -63,10 +63,30 @@ impl EnvScenario {
             episodes: parsed.expand_all()?,
             name: parsed.name,
         };
+        sc.check(&self.path)?;
+        Ok(sc)
+    }
+}
+
+/// A scenario's name and its expanded episodes (an environment draws from all of them).
+#[derive(Debug, Clone)]
+pub struct ScenarioEpisodes {
+    /// The scenario's name.
+    pub name: String,
+    /// Its episodes, expanded.
+    pub episodes: Vec<EpisodeSpec>,
+}
+
+impl ScenarioEpisodes {
+    /// Checks that an environment can run these episodes: at least one, and every episode runs the
+    /// same detectors at the same frame size (an environment observes a fixed set). `path` names
+    /// their source in errors.
+    pub fn check(&self, path: &Path) -> Result<(), EnvError> {
+        let sc = self;
         if sc.episodes.is_empty() {
             return Err(EnvError::Scenario(format!(
                 "{}: the scenario expands to no episode",
-                self.path.display()
+                path.display()
             )));
         }
         let labels = |e: &EpisodeSpec| e.detectors.iter().map(|d| d.label.clone()).collect::<Vec<_>>();
@@ -75,7 +95,7 @@ impl EnvScenario {
             return Err(EnvError::Scenario(format!(
                 "{}: episode {} runs detectors {:?} but episode 0 runs {:?}; an environment observes a fixed set \
                  of detectors, so do not sweep the detector list",
-                self.path.display(),
+                path.display(),
                 e.index,
                 labels(e),
                 first
@@ -89,21 +109,12 @@ impl EnvScenario {
             return Err(EnvError::Scenario(format!(
                 "{}: episode {} has frame size {} but episode 0 has {}; sweep the frame size with separate \
                  environments (or set the frame size option)",
-                self.path.display(),
+                path.display(),
                 e.index,
                 e.world.camera.n,
                 sc.episodes[0].world.camera.n
             )));
         }
-        Ok(sc)
+        Ok(())
     }
-}
-
-/// A scenario's name and its expanded episodes (an environment draws from all of them).
-#[derive(Debug, Clone)]
-pub struct ScenarioEpisodes {
-    /// The scenario's name.
-    pub name: String,
-    /// Its episodes, expanded.
-    pub episodes: Vec<EpisodeSpec>,
 }

@@ -336,6 +336,17 @@ fn threshold_agent_matches_runner(text: &str) -> (usize, usize) {
                 theirs.collision.map(|i| i.t_s)
             );
             assert_eq!(out.detectors[0].collision, run.outcome.detectors[0].collision);
+            // the agent's own row: its first departure from cruising is the detector's first
+            // alarm, so it is classified as the runner classifies the detector
+            let (agent, det) = (&out.agent, &run.outcome.detectors[0]);
+            assert_eq!(agent.detector, AGENT_LABEL);
+            assert_eq!(
+                agent.outcome, det.outcome,
+                "episode {index}: agent {agent:?}, runner {det:?}"
+            );
+            assert_eq!(agent.t_alarm_s, det.t_alarm_s, "episode {index}");
+            assert_eq!(agent.t_deadline_s, det.t_deadline_s, "episode {index}");
+            assert_eq!(agent.collision, det.collision, "episode {index}");
             if let Some(tc) = theirs.collision.map(|i| i.t_s) {
                 // reported in the contact's frame or the next (see above)
                 assert!(
@@ -434,4 +445,138 @@ fn vector_snapshots_replay_every_environment() {
     }
     let mut wrong = EscapeVectorEnv::new(scenario(), opts, 3).unwrap();
     assert_eq!(wrong.restore(&snap).unwrap_err().kind(), ErrorKind::Scenario);
+}
+
+/// Steps every episode of `env` (by index, with its own seed) with an agent that cruises, dodges
+/// left or right, stops and wobbles, and checks that every normalized feature is finite and within
+/// its declared bounds; returns the number of steps checked.
+fn assert_features_in_bounds(env: &mut EscapeEnv, what: &str) -> usize {
+    let specs = env.feature_specs();
+    let mut checked = 0;
+    let check = |obs: &Observation, where_: &str| {
+        let f = obs.features.as_ref().expect("normalized observations carry features");
+        assert_eq!(f.len(), specs.len(), "{where_}");
+        for (v, s) in f.iter().zip(&specs) {
+            assert!(
+                v.is_finite() && *v >= s.low && *v <= s.high,
+                "{where_}: feature {} = {v} outside its declared bounds [{}, {}]",
+                s.name,
+                s.low,
+                s.high
+            );
+        }
+    };
+    for index in 0..env.episodes().len() {
+        let (obs, _) = env.reset_to_episode(index, None).unwrap();
+        check(&obs, &format!("{what} episode {index} reset"));
+        for t in 0.. {
+            // a different behaviour per episode: cruise, dodge left, right, stop, alternate
+            let a = match index % 5 {
+                4 => (t / 15 % 4) as i64,
+                k => k as i64,
+            };
+            let r = env.step(Action::Discrete(a)).unwrap();
+            check(&r.obs, &format!("{what} episode {index} step {t}"));
+            checked += 1;
+            if r.terminated || r.truncated {
+                break;
+            }
+        }
+    }
+    checked
+}
+
+/// The env's default scenario set (`escape_default`, the scenario of `loomlab/Escape-v0`), with a
+/// few random expansions, and the whole default suite of `loomlab run` at n = 32: every normalized
+/// feature stays within its declared bounds.
+#[test]
+fn normalized_features_stay_in_bounds_on_the_default_scenarios() {
+    let opts = EnvOptions {
+        obs_mode: ObsMode::Normalized,
+        action_kind: ActionKind::Discrete,
+        frame_size: Some(32),
+        ..Default::default()
+    };
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let escape = EnvScenario::from_file(&root.join("python/python/loomlab/scenarios/escape_default.toml")).unwrap();
+    let ctx = shared_gpu_context().unwrap();
+    let mut steps = 0;
+    for seed in [0, 1000] {
+        let eps = escape.load(&opts, seed).unwrap();
+        let mut env = EscapeEnv::for_episodes(&escape.path, eps, opts.clone(), ctx.clone()).unwrap();
+        steps += assert_features_in_bounds(&mut env, &format!("escape_default seed {seed}"));
+    }
+    let suite_path = root.join(loomlab_scenarios::DEFAULT_SUITE);
+    let load = loomlab_scenarios::LoadOptions {
+        seed: 0,
+        size: Some(32),
+        detectors: None,
+        detector_entries: None,
+    };
+    let suite = loomlab_scenarios::load_suite(&suite_path, &load).unwrap();
+    let episodes = suite.episodes().collect::<Result<Vec<_>, _>>().unwrap();
+    assert!(episodes.len() > 100, "the whole default suite ({})", episodes.len());
+    let eps = ScenarioEpisodes {
+        name: "default".into(),
+        episodes,
+    };
+    let mut env = EscapeEnv::for_episodes(&suite_path, eps, opts, ctx).unwrap();
+    steps += assert_features_in_bounds(&mut env, "default suite");
+    assert!(steps > 10_000, "{steps} steps checked");
+}
+
+#[test]
+fn normalized_features_follow_the_raw_observation() {
+    let mut raw = EscapeEnv::new(scenario(), options(ActionKind::Discrete)).unwrap();
+    let mut norm = EscapeEnv::new(
+        scenario(),
+        EnvOptions {
+            obs_mode: ObsMode::Normalized,
+            ..options(ActionKind::Discrete)
+        },
+    )
+    .unwrap();
+    let names: Vec<String> = norm.feature_specs().into_iter().map(|f| f.name).collect();
+    let at = |name: &str| names.iter().position(|n| n == name).unwrap();
+    let a = run(&mut raw, 5, |_| Action::Discrete(0));
+    let b = run(&mut norm, 5, |_| Action::Discrete(0));
+    assert_eq!(a.len(), b.len());
+    let mut last_theta = 0.0;
+    for (x, y) in a.iter().zip(&b) {
+        assert!(x.obs.features.is_none());
+        let f = y.obs.features.as_ref().unwrap();
+        assert_eq!(x.obs.signals, y.obs.signals, "the raw part is unchanged");
+        let expect = features::log_compress(x.obs.signals[0][0]) as f32;
+        assert_eq!(f[at("hopfield.log_output")], expect);
+        let theta = f64::from(x.obs.theta_hat_deg).to_radians();
+        assert!((f64::from(f[at("theta_hat_rad")]) - theta).abs() < 1e-6);
+        let rate = ((theta - last_theta) / raw.dt()).clamp(-10.0, 10.0);
+        assert!((f64::from(f[at("theta_hat_rate_rps")]) - rate).abs() < 1e-3, "{rate}");
+        last_theta = theta;
+        assert_eq!(f[at("soc.alarm")], f32::from(u8::from(x.obs.alarm[1])));
+        assert!((f[at("robot.x")] - (x.obs.robot[0] / 5.0).clamp(-1.0, 1.0)).abs() < 1e-6);
+        assert!((f[at("robot.time")] - x.obs.robot[6] / (raw.duration_steps() as f32 * raw.dt() as f32)).abs() < 1e-5);
+    }
+}
+
+#[test]
+fn reset_envs_resets_now_and_cancels_the_pending_autoreset() {
+    let opts = EnvOptions {
+        max_episode_steps: Some(5),
+        ..options(ActionKind::Discrete)
+    };
+    let mut a = EscapeVectorEnv::new(scenario(), opts.clone(), 2).unwrap();
+    a.reset(Some(7)).unwrap();
+    let mut last = Vec::new();
+    for _ in 0..5 {
+        last = a.step(&[Action::Discrete(0); 2]).unwrap();
+    }
+    assert!(last.iter().all(|r| r.truncated));
+    let fresh = a.reset_envs(&[1]).unwrap();
+    assert_eq!(fresh.len(), 1);
+    assert_eq!(fresh[0].1.step, 0);
+    let next = a.step(&[Action::Discrete(0); 2]).unwrap();
+    assert_eq!(next[0].info.step, 0, "environment 0 auto-resets (its action ignored)");
+    assert_eq!(next[1].info.step, 1, "environment 1 was reset already: it steps");
+    assert_eq!(a.reset_envs(&[2]).unwrap_err().kind(), ErrorKind::Scenario);
 }

@@ -130,6 +130,27 @@ impl EscapeVectorEnv {
         Ok(results)
     }
 
+    /// Resets the environments `indices` now (each continues its seed stream) and clears their
+    /// pending next-step auto-reset: what a same-step auto-reset (Stable-Baselines3's `VecEnv`)
+    /// calls for the environments whose episode just ended. Returns their `(obs, info)` in the
+    /// order of `indices`.
+    pub fn reset_envs(&mut self, indices: &[usize]) -> Result<Vec<(Observation, StepInfo)>, EnvError> {
+        let n = self.envs.len();
+        if let Some(&bad) = indices.iter().find(|&&i| i >= n) {
+            return Err(EnvError::option(
+                "indices",
+                bad,
+                format!("environment indices must be < num_envs = {n}"),
+            ));
+        }
+        let mut out = Vec::with_capacity(indices.len());
+        for &i in indices {
+            out.push(self.envs[i].reset(None).map_err(|e| e.in_env(i))?);
+            self.autoreset[i] = false;
+        }
+        Ok(out)
+    }
+
     /// The state that reproduces every environment: see [`VectorSnapshot`].
     pub fn snapshot(&self) -> VectorSnapshot {
         VectorSnapshot {

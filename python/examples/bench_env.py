@@ -17,8 +17,8 @@ import numpy as np
 import loomlab
 
 
-def bench_single(n: int, steps: int, observe_frames: bool) -> float:
-    env = loomlab.EscapeEnv(frame_size=n, observe_frames=observe_frames)
+def bench_single(n: int, steps: int, observe_frames: bool, obs_mode: str = "raw") -> float:
+    env = loomlab.EscapeEnv(frame_size=n, observe_frames=observe_frames, obs_mode=obs_mode)
     env.reset(seed=0)
     action = np.array([0.3, 0.0, 0.0], dtype=np.float32)
     done_steps = 0
@@ -31,8 +31,8 @@ def bench_single(n: int, steps: int, observe_frames: bool) -> float:
     return done_steps / (time.perf_counter() - t0)
 
 
-def bench_vector(n: int, steps: int, num_envs: int, observe_frames: bool) -> float:
-    envs = loomlab.EscapeVectorEnv(num_envs, frame_size=n, observe_frames=observe_frames)
+def bench_vector(n: int, steps: int, num_envs: int, observe_frames: bool, obs_mode: str = "raw") -> float:
+    envs = loomlab.EscapeVectorEnv(num_envs, frame_size=n, observe_frames=observe_frames, obs_mode=obs_mode)
     envs.reset(seed=0)
     actions = np.tile(np.array([0.3, 0.0, 0.0], dtype=np.float32), (num_envs, 1))
     calls = max(1, steps // num_envs)
@@ -48,6 +48,7 @@ def main() -> None:
     p.add_argument("--sizes", type=int, nargs="+", default=[64, 128])
     p.add_argument("--num-envs", type=int, default=8)
     p.add_argument("--frames", action="store_true", help="observe frames too")
+    p.add_argument("--obs-mode", choices=["raw", "normalized"], default="raw", help="observation mode")
     p.add_argument("--smoke", action="store_true", help="a quick check: 20 steps at n = 32, 2 envs")
     args = p.parse_args()
     if args.smoke:
@@ -56,8 +57,8 @@ def main() -> None:
     print(f"adapter: {env.adapter}")
     print(f"{'n':>5} {'single steps/s':>15} {'vector N=' + str(args.num_envs) + ' steps/s':>22}")
     for n in args.sizes:
-        s = bench_single(n, args.steps, args.frames)
-        v = bench_vector(n, args.steps, args.num_envs, args.frames)
+        s = bench_single(n, args.steps, args.frames, args.obs_mode)
+        v = bench_vector(n, args.steps, args.num_envs, args.frames, args.obs_mode)
         print(f"{n:>5} {s:>15.0f} {v:>22.0f}")
 
 

@@ -9,7 +9,7 @@ use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use loomlab_env::{ActionKind, EpisodeSummary, Observation, ROBOT_DIM, StepInfo, StepResult};
+use loomlab_env::{ActionKind, EpisodeSummary, ObsMode, Observation, ROBOT_DIM, StepInfo, StepResult};
 
 use crate::Meta;
 
@@ -18,10 +18,25 @@ fn inf_if_none(v: Option<f64>) -> f64 {
     v.unwrap_or(f64::INFINITY)
 }
 
-/// The observation dict of one environment (per-detector signals under the detector labels).
-pub fn obs_dict<'py>(py: Python<'py>, labels: &[String], obs: &Observation, n: usize) -> PyResult<Bound<'py, PyDict>> {
+/// The observation of one environment: raw, a dict (per-detector signals under the detector
+/// labels); normalized, the feature vector (a dict `{features, frame}` when frames are observed).
+pub fn obs_dict<'py>(py: Python<'py>, meta: &Meta, obs: &Observation) -> PyResult<Bound<'py, PyAny>> {
+    let n = meta.frame_size as usize;
+    if meta.obs_mode == ObsMode::Normalized {
+        let f = obs.features.as_deref().unwrap_or_default();
+        let features = PyArray1::from_slice(py, f).into_any();
+        return match &obs.frame {
+            None => Ok(features),
+            Some(frame) => {
+                let d = PyDict::new(py);
+                d.set_item("features", features)?;
+                d.set_item("frame", PyArray1::from_slice(py, frame).reshape([n, n])?)?;
+                Ok(d.into_any())
+            }
+        };
+    }
     let d = PyDict::new(py);
-    for (label, s) in labels.iter().zip(&obs.signals) {
+    for (label, s) in meta.detector_labels.iter().zip(&obs.signals) {
         d.set_item(label, PyArray1::from_slice(py, s))?;
     }
     d.set_item("theta_hat", PyArray1::from_slice(py, &[obs.theta_hat_deg]))?;
@@ -31,7 +46,7 @@ pub fn obs_dict<'py>(py: Python<'py>, labels: &[String], obs: &Observation, n: u
     if let Some(f) = &obs.frame {
         d.set_item("frame", PyArray1::from_slice(py, f).reshape([n, n])?)?;
     }
-    Ok(d)
+    Ok(d.into_any())
 }
 
 fn reward_terms_dict<'py>(py: Python<'py>, info: &StepInfo) -> PyResult<Bound<'py, PyDict>> {
@@ -66,7 +81,14 @@ pub fn outcome_dict<'py>(py: Python<'py>, o: &EpisodeSummary) -> PyResult<Bound<
         dets.set_item(&e.detector, x)?;
     }
     d.set_item("detectors", dets)?;
+    d.set_item("agent", json_value(py, &o.agent)?)?;
     Ok(d)
+}
+
+/// A serialisable value as Python data (through its JSON form: dicts, lists, numbers, None).
+pub fn json_value<'py, T: serde::Serialize>(py: Python<'py>, value: &T) -> PyResult<Bound<'py, PyAny>> {
+    let text = serde_json::to_string(value).map_err(|e| crate::errors::LoomlabError::new_err(e.to_string()))?;
+    py.import("json")?.call_method1("loads", (text,))
 }
 
 /// The info dict of one environment.
@@ -128,7 +150,19 @@ impl<'py> Batch<'py> {
         let m = results.len();
         let n = meta.frame_size as usize;
         let obs = PyDict::new(py);
-        for (k, id) in meta.detector_labels.iter().enumerate() {
+        let features = (meta.obs_mode == ObsMode::Normalized).then(|| {
+            let width = meta.feature_names.len();
+            let mut v = Vec::with_capacity(m * width);
+            for r in results {
+                match &r.obs.features {
+                    Some(f) => v.extend_from_slice(f),
+                    None => v.resize(v.len() + width, 0.0),
+                }
+            }
+            (v, width)
+        });
+        let raw = features.is_none();
+        for (k, id) in meta.detector_labels.iter().enumerate().filter(|_| raw) {
             let width = meta.signal_names[k].len();
             let mut v = Vec::with_capacity(m * width);
             for r in results {
@@ -136,16 +170,20 @@ impl<'py> Batch<'py> {
             }
             obs.set_item(id, PyArray1::from_vec(py, v).reshape([m, width])?)?;
         }
-        let theta: Vec<f32> = results.iter().map(|r| r.obs.theta_hat_deg).collect();
-        obs.set_item("theta_hat", PyArray1::from_vec(py, theta).reshape([m, 1])?)?;
-        let d = meta.detector_labels.len();
-        let alarm: Vec<i8> = results
-            .iter()
-            .flat_map(|r| r.obs.alarm.iter().map(|&a| i8::from(a)))
-            .collect();
-        obs.set_item("alarm", PyArray1::from_vec(py, alarm).reshape([m, d])?)?;
-        let robot: Vec<f32> = results.iter().flat_map(|r| r.obs.robot).collect();
-        obs.set_item("robot", PyArray1::from_vec(py, robot).reshape([m, ROBOT_DIM])?)?;
+        if let Some((v, width)) = features {
+            obs.set_item("features", PyArray1::from_vec(py, v).reshape([m, width])?)?;
+        } else {
+            let theta: Vec<f32> = results.iter().map(|r| r.obs.theta_hat_deg).collect();
+            obs.set_item("theta_hat", PyArray1::from_vec(py, theta).reshape([m, 1])?)?;
+            let d = meta.detector_labels.len();
+            let alarm: Vec<i8> = results
+                .iter()
+                .flat_map(|r| r.obs.alarm.iter().map(|&a| i8::from(a)))
+                .collect();
+            obs.set_item("alarm", PyArray1::from_vec(py, alarm).reshape([m, d])?)?;
+            let robot: Vec<f32> = results.iter().flat_map(|r| r.obs.robot).collect();
+            obs.set_item("robot", PyArray1::from_vec(py, robot).reshape([m, ROBOT_DIM])?)?;
+        }
         if meta.observe_frames {
             let mut frames = Vec::with_capacity(m * n * n);
             for r in results {

@@ -15,6 +15,7 @@
 
 mod convert;
 mod errors;
+mod evaluation;
 mod scenarios;
 mod sweep;
 
@@ -26,8 +27,8 @@ use pyo3::types::{PyDict, PyList, PyTuple};
 
 use loomlab_agents::{ActionConfig, ContinuousAction, DiscreteAction};
 use loomlab_env::{
-    Action, ActionKind, EnvError, EnvOptions, EscapeEnv, EscapeVectorEnv, ROBOT_FIELDS, RewardConfig, StepResult,
-    VectorSnapshot,
+    Action, ActionKind, EnvError, EnvOptions, EscapeEnv, EscapeVectorEnv, ObsMode, ROBOT_FIELDS, RewardConfig,
+    StepResult, VectorSnapshot,
 };
 
 use crate::errors::{Seed, to_py};
@@ -74,6 +75,10 @@ struct Meta {
     duration_steps: u64,
     action_kind: ActionKind,
     observe_frames: bool,
+    obs_mode: ObsMode,
+    feature_names: Vec<String>,
+    feature_low: Vec<f32>,
+    feature_high: Vec<f32>,
     adapter: String,
 }
 
@@ -90,6 +95,10 @@ impl Meta {
             duration_steps: env.duration_steps(),
             action_kind: env.options().action_kind,
             observe_frames: env.options().observe_frames,
+            obs_mode: env.options().obs_mode,
+            feature_names: env.feature_specs().into_iter().map(|f| f.name).collect(),
+            feature_low: env.feature_specs().iter().map(|f| f.low).collect(),
+            feature_high: env.feature_specs().iter().map(|f| f.high).collect(),
             adapter: env.adapter(),
         }
     }
@@ -155,6 +164,26 @@ macro_rules! meta_getters {
             fn adapter(&self) -> String {
                 self.meta.adapter.clone()
             }
+            /// `"raw"` or `"normalized"`.
+            #[getter]
+            fn obs_mode(&self) -> &'static str {
+                self.meta.obs_mode.as_str()
+            }
+            /// Names of the normalized features, in order.
+            #[getter]
+            fn feature_names(&self) -> Vec<String> {
+                self.meta.feature_names.clone()
+            }
+            /// Declared lower bounds of the normalized features.
+            #[getter]
+            fn feature_low(&self) -> Vec<f32> {
+                self.meta.feature_low.clone()
+            }
+            /// Declared upper bounds of the normalized features.
+            #[getter]
+            fn feature_high(&self) -> Vec<f32> {
+                self.meta.feature_high.clone()
+            }
             /// Names of the robot observation entries.
             #[getter]
             fn robot_fields(&self) -> Vec<&'static str> {
@@ -198,12 +227,53 @@ impl PyEscapeEnv {
         })
     }
 
+    /// An environment over the episodes of a suite (a folder, list file or scenario file, or a
+    /// shipped scenario name; `None`: the default scenario) expanded with `seed` as `loomlab run
+    /// SUITE --seed SEED --limit LIMIT` expands them, for `reset_to_episode` (`loomlab.evaluate`).
+    #[staticmethod]
+    #[pyo3(signature = (suite, seed, limit=None, options_json="{}"))]
+    fn from_suite(
+        py: Python<'_>,
+        suite: Option<String>,
+        seed: Seed,
+        limit: Option<usize>,
+        options_json: &str,
+    ) -> PyResult<Self> {
+        let options = parse_options(options_json)?;
+        let env = py.detach(|| {
+            let (source, episodes) = evaluation::suite_episodes(suite.as_deref(), seed.0, limit, &options)?;
+            let ctx = loomlab_env::shared_gpu_context()?;
+            EscapeEnv::for_episodes(&source, episodes, options, ctx)
+        });
+        let env = env.map_err(to_py)?;
+        Ok(Self {
+            meta: Meta::of(&env),
+            inner: Mutex::new(Some(env)),
+        })
+    }
+
+    /// Number of expanded episodes (`reset_to_episode` indices).
+    #[getter]
+    fn num_episodes(&self, py: Python<'_>) -> PyResult<usize> {
+        with_open(py, &self.inner, "num_episodes", |env| Ok(env.episodes().len()))
+    }
+
     /// Starts an episode: `(obs, info)`. The seed is an integer in [0, 2**64) (else `ValueError`).
     #[pyo3(signature = (seed=None))]
     fn reset<'py>(&self, py: Python<'py>, seed: Option<Seed>) -> PyResult<Bound<'py, PyTuple>> {
         let (obs, info) = with_open(py, &self.inner, "reset()", |env| env.reset(seed.map(|s| s.0)))?;
-        let n = self.meta.frame_size as usize;
-        let o = convert::obs_dict(py, &self.meta.detector_labels, &obs, n)?;
+        let o = convert::obs_dict(py, &self.meta, &obs)?;
+        let i = convert::info_dict(py, &info, self.meta.action_kind)?;
+        PyTuple::new(py, [o.into_any(), i.into_any()])
+    }
+
+    /// Starts expanded episode `index` with its own simulator seed, as `loomlab run` runs it:
+    /// `(obs, info)`. The seed stream is untouched.
+    fn reset_to_episode<'py>(&self, py: Python<'py>, index: usize) -> PyResult<Bound<'py, PyTuple>> {
+        let (obs, info) = with_open(py, &self.inner, "reset_to_episode()", |env| {
+            env.reset_to_episode(index, None)
+        })?;
+        let o = convert::obs_dict(py, &self.meta, &obs)?;
         let i = convert::info_dict(py, &info, self.meta.action_kind)?;
         PyTuple::new(py, [o.into_any(), i.into_any()])
     }
@@ -242,8 +312,7 @@ impl PyEscapeEnv {
         match last {
             None => Ok(None),
             Some((obs, info)) => {
-                let n = self.meta.frame_size as usize;
-                let o = convert::obs_dict(py, &self.meta.detector_labels, &obs, n)?;
+                let o = convert::obs_dict(py, &self.meta, &obs)?;
                 let i = convert::info_dict(py, &info, self.meta.action_kind)?;
                 Ok(Some(PyTuple::new(py, [o.into_any(), i.into_any()])?))
             }
@@ -266,8 +335,7 @@ impl PyEscapeEnv {
 impl PyEscapeEnv {
     fn step<'py>(&self, py: Python<'py>, action: Action) -> PyResult<Bound<'py, PyTuple>> {
         let r: StepResult = with_open(py, &self.inner, "step()", |env| env.step(action))?;
-        let n = self.meta.frame_size as usize;
-        let o = convert::obs_dict(py, &self.meta.detector_labels, &r.obs, n)?;
+        let o = convert::obs_dict(py, &self.meta, &r.obs)?;
         let i = convert::info_dict(py, &r.info, self.meta.action_kind)?;
         PyTuple::new(
             py,
@@ -403,6 +471,13 @@ impl PyEscapeVectorEnv {
         self.step(py, acts)
     }
 
+    /// Resets the environments `indices` now (their seed streams continue) and clears their pending
+    /// next-step auto-reset: `(obs, info)` batched over `indices`, in that order.
+    fn reset_envs<'py>(&self, py: Python<'py>, indices: Vec<usize>) -> PyResult<Bound<'py, PyTuple>> {
+        let out = with_open(py, &self.inner, "reset_envs()", |vec| vec.reset_envs(&indices))?;
+        self.reset_batch(py, out.into_iter().map(Some).collect())
+    }
+
     /// The latest frames, `(num_envs, n, n)` uint8.
     fn frames<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let n = self.meta.frame_size as usize;
@@ -523,6 +598,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyEscapeVectorEnv>()?;
     m.add_class::<sweep::SweepPlan>()?;
     m.add_function(wrap_pyfunction!(sweep::run_suite, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluation::evaluation_report, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluation::calibrate_thresholds, m)?)?;
     m.add_function(wrap_pyfunction!(scenario_names, m)?)?;
     m.add_function(wrap_pyfunction!(scenario_toml, m)?)?;
     m.add_function(wrap_pyfunction!(detector_ids, m)?)?;
@@ -531,6 +608,16 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ROBOT_FIELDS", PyList::new(py, ROBOT_FIELDS)?)?;
     m.add("SIGNAL_LIMIT", loomlab_env::SIGNAL_LIMIT)?;
     m.add("ROBOT_LIMIT", loomlab_env::ROBOT_LIMIT)?;
+    let scales = PyDict::new(py);
+    for (k, v) in loomlab_env::features::FEATURE_SCALES {
+        scales.set_item(k, v)?;
+    }
+    m.add("FEATURE_SCALES", scales)?;
+    m.add(
+        "OBS_MODES",
+        PyTuple::new(py, [ObsMode::Raw.as_str(), ObsMode::Normalized.as_str()])?,
+    )?;
+    m.add("AGENT_LABEL", loomlab_env::AGENT_LABEL)?;
     m.add("REWARD_DEFAULTS", defaults_dict(py, &RewardConfig::default())?)?;
     m.add("ACTION_DEFAULTS", defaults_dict(py, &ActionConfig::default())?)?;
     let discrete: Vec<String> = DiscreteAction::ALL.iter().map(snake_name).collect::<PyResult<_>>()?;

@@ -25,7 +25,7 @@ fn to_py(e: SweepError) -> PyErr {
     }
 }
 
-fn run_to_py(e: RunError) -> PyErr {
+pub(crate) fn run_to_py(e: RunError) -> PyErr {
     let msg = e.to_string();
     match e {
         RunError::Gpu(_) | RunError::Sim { .. } => errors::RenderError::new_err(msg),
@@ -36,7 +36,7 @@ fn run_to_py(e: RunError) -> PyErr {
 
 /// One runner (GPU context, renderer pool, worker threads) per process, made on first use and
 /// kept for later shards: Ray reuses worker processes, so each pays the GPU start-up once.
-fn runner(jobs: Option<usize>) -> Result<Arc<Runner>, RunError> {
+pub(crate) fn runner(jobs: Option<usize>) -> Result<Arc<Runner>, RunError> {
     static RUNNER: Mutex<Option<Arc<Runner>>> = Mutex::new(None);
     let mut slot = RUNNER.lock().unwrap_or_else(|e| e.into_inner());
     if let Some(r) = slot.as_ref()

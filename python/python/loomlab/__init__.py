@@ -8,7 +8,9 @@ Importing the package registers the Gymnasium ids
 both with a native vector entry point, so ``gymnasium.make_vec(id, num_envs=N)`` steps N
 environments on Rust threads.
 
-:func:`run_suite` runs a scenario suite in-process; ``python -m loomlab.sweep`` runs detector
+:func:`run_suite` runs a scenario suite in-process; :func:`evaluate` scores a policy on a suite next to
+its detectors and reference rows, as ``loomlab run`` scores them; ``python -m loomlab.train`` trains
+one (PPO with the optional extra ``loomlab[rl]``, or a pure-numpy CEM); ``python -m loomlab.sweep`` runs detector
 parameter sweeps on Ray and :mod:`loomlab.rllib` registers the environments with RLlib. Ray is an
 optional extra (``pip install 'loomlab[ray]'``) that importing this package never loads.
 """
@@ -53,6 +55,7 @@ __all__ = [
     "ScenarioError",
     "SweepError",
     "detector_ids",
+    "evaluate",
     "run_suite",
     "scenario_names",
     "scenario_toml",
@@ -121,3 +124,13 @@ def _register() -> None:
 
 
 _register()
+
+
+def __getattr__(name: str):
+    # `loomlab.evaluate` is loaded on first use, so that `python -m loomlab.evaluation` (its CLI)
+    # does not find its module imported already
+    if name == "evaluate":
+        from .evaluation import evaluate
+
+        return evaluate
+    raise AttributeError(f"module 'loomlab' has no attribute {name!r}")

@@ -14,6 +14,8 @@ __all__ = [
     "EscapeVectorEnv",
     "SweepPlan",
     "run_suite",
+    "evaluation_report",
+    "calibrate_thresholds",
     "scenario_names",
     "scenario_toml",
     "detector_ids",
@@ -31,6 +33,9 @@ __all__ = [
     "ACTION_DEFAULTS",
     "DISCRETE_ACTIONS",
     "CONTINUOUS_ACTION_NAMES",
+    "FEATURE_SCALES",
+    "OBS_MODES",
+    "AGENT_LABEL",
     "__version__",
 ]
 
@@ -42,6 +47,9 @@ REWARD_DEFAULTS: Dict[str, float]
 ACTION_DEFAULTS: Dict[str, float]
 DISCRETE_ACTIONS: Tuple[str, ...]
 CONTINUOUS_ACTION_NAMES: Tuple[str, ...]
+FEATURE_SCALES: Dict[str, float]
+OBS_MODES: Tuple[str, ...]
+AGENT_LABEL: str
 
 class LoomlabError(Exception):
     """Base class of every error raised by loomlab."""
@@ -61,7 +69,8 @@ class ActionError(LoomlabError):
 class SweepError(LoomlabError):
     """A sweep's output folder holds another sweep, or a shard's results do not match the plan."""
 
-_Obs = Dict[str, npt.NDArray[Any]]
+# raw: a dict of arrays; normalized: the feature array (a dict {features, frame} with frames)
+_Obs = Any
 _Info = Dict[str, Any]
 
 @final
@@ -71,6 +80,13 @@ class EscapeEnv:
     def __new__(
         cls, scenario: Optional[str] = None, scenario_toml: Optional[str] = None, options_json: str = "{}"
     ) -> Self: ...
+    @staticmethod
+    def from_suite(
+        suite: Optional[str], seed: int, limit: Optional[int] = None, options_json: str = "{}"
+    ) -> EscapeEnv: ...
+    @property
+    def num_episodes(self) -> int: ...
+    def reset_to_episode(self, index: int) -> Tuple[_Obs, _Info]: ...
     @property
     def scenario_name(self) -> str: ...
     @property
@@ -93,6 +109,14 @@ class EscapeEnv:
     def observe_frames(self) -> bool: ...
     @property
     def adapter(self) -> str: ...
+    @property
+    def obs_mode(self) -> str: ...
+    @property
+    def feature_names(self) -> List[str]: ...
+    @property
+    def feature_low(self) -> List[float]: ...
+    @property
+    def feature_high(self) -> List[float]: ...
     @property
     def robot_fields(self) -> List[str]: ...
     def reset(self, seed: Optional[int] = None) -> Tuple[_Obs, _Info]: ...
@@ -139,6 +163,14 @@ class EscapeVectorEnv:
     @property
     def adapter(self) -> str: ...
     @property
+    def obs_mode(self) -> str: ...
+    @property
+    def feature_names(self) -> List[str]: ...
+    @property
+    def feature_low(self) -> List[float]: ...
+    @property
+    def feature_high(self) -> List[float]: ...
+    @property
     def robot_fields(self) -> List[str]: ...
     @property
     def num_envs(self) -> int: ...
@@ -149,6 +181,7 @@ class EscapeVectorEnv:
     def step_discrete(
         self, actions: npt.NDArray[np.int64]
     ) -> Tuple[_Obs, npt.NDArray[np.float64], npt.NDArray[np.bool_], npt.NDArray[np.bool_], _Info]: ...
+    def reset_envs(self, indices: List[int]) -> Tuple[_Obs, _Info]: ...
     def frames(self) -> npt.NDArray[np.uint8]: ...
     def snapshot(self) -> str: ...
     def restore(self, snapshot_json: str) -> Optional[Tuple[_Obs, _Info]]: ...
@@ -187,6 +220,23 @@ def run_suite(
     detectors_file: Optional[str] = None,
     jobs: Optional[int] = None,
 ) -> str: ...
+def evaluation_report(
+    suite: Optional[str],
+    seeds: List[int],
+    label: str,
+    agent_rows_json: str,
+    limit: Optional[int] = None,
+    options_json: str = "{}",
+    jobs: Optional[int] = None,
+) -> str: ...
+def calibrate_thresholds(
+    suite: Optional[str],
+    seeds: List[int],
+    false_alarm_rate: float,
+    limit: Optional[int] = None,
+    options_json: str = "{}",
+    jobs: Optional[int] = None,
+) -> Dict[str, Optional[float]]: ...
 def scenario_names() -> List[str]: ...
 def scenario_toml(name: str) -> str: ...
 def detector_ids() -> List[str]: ...

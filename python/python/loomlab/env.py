@@ -31,6 +31,9 @@ DISCRETE_ACTIONS: Tuple[str, ...] = tuple(_native.DISCRETE_ACTIONS)
 CONTINUOUS_ACTION_NAMES: Tuple[str, ...] = tuple(_native.CONTINUOUS_ACTION_NAMES)
 """Names of the continuous action components (each in [-1, 1]; Rust ``ContinuousAction::NAMES``)."""
 
+OBS_MODES: Tuple[str, ...] = tuple(_native.OBS_MODES)
+"""Observation modes: ``"raw"`` (detector outputs as they are) and ``"normalized"`` (bounded features)."""
+
 _REWARD = _native.REWARD_DEFAULTS
 _ACTION = _native.ACTION_DEFAULTS
 
@@ -41,7 +44,8 @@ class RewardConfig:
 
     ``survival_per_s*dt`` (no collision) ``+ progress_per_m*Δs`` (metres along the start heading)
     ``- effort_per_s*|u - u_cruise|²*dt`` ``- unnecessary_dodge_per_s*dt`` (dodging in an episode
-    without a threat) ``- collision_penalty`` (once, on contact).
+    without a threat) ``- unnecessary_dodge_penalty`` (once, on the first such step: a false alarm)
+    ``- collision_penalty`` (once, on contact).
 
     The defaults are Rust's ``RewardConfig::default()`` (``loomlab._native.REWARD_DEFAULTS``).
     """
@@ -51,6 +55,7 @@ class RewardConfig:
     progress_per_m: float = _REWARD["progress_per_m"]
     effort_per_s: float = _REWARD["effort_per_s"]
     unnecessary_dodge_per_s: float = _REWARD["unnecessary_dodge_per_s"]
+    unnecessary_dodge_penalty: float = _REWARD["unnecessary_dodge_penalty"]
 
 
 @dataclass
@@ -127,6 +132,7 @@ def build_options(
     clip_actions: bool = False,
     reward: Union[RewardConfig, Mapping[str, float], None] = None,
     max_episode_steps: Optional[int] = None,
+    obs_mode: str = "raw",
 ) -> Dict[str, Any]:
     """The options dict passed (as JSON, :func:`options_json`) to the native environment.
 
@@ -142,6 +148,8 @@ def build_options(
             detectors = list(_native.detector_ids())
     if action_type not in ("continuous", "discrete"):
         raise ScenarioError(f"action_type must be 'continuous' or 'discrete', got {action_type!r}")
+    if obs_mode not in OBS_MODES:
+        raise _option_error("obs_mode", obs_mode, f"must be one of {', '.join(map(repr, OBS_MODES))}")
     opts: Dict[str, Any] = {
         "detectors": _json_option("detectors", list(detectors) if detectors is not None else None),
         "thresholds": _json_option("thresholds", dict(thresholds or {})),
@@ -150,6 +158,7 @@ def build_options(
         "action_kind": action_type,
         "clip_actions": _bool_option("clip_actions", clip_actions),
         "max_episode_steps": _json_option("max_episode_steps", max_episode_steps),
+        "obs_mode": obs_mode,
     }
     if action_config is not None:
         opts["action"] = _json_option("action_config", _as_dict(action_config))
@@ -158,8 +167,22 @@ def build_options(
     return opts
 
 
-def make_spaces(native: Any) -> Tuple[spaces.Dict, spaces.Space]:
+def make_spaces(native: Any) -> Tuple[spaces.Space, spaces.Space]:
     """The single-environment observation and action spaces of a native environment."""
+    if native.action_kind == "discrete":
+        action: spaces.Space = spaces.Discrete(len(DISCRETE_ACTIONS))
+    else:
+        action = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
+    if native.obs_mode == "normalized":
+        features = spaces.Box(
+            np.asarray(native.feature_low, dtype=np.float32),
+            np.asarray(native.feature_high, dtype=np.float32),
+            dtype=np.float32,
+        )
+        if not native.observe_frames:
+            return features, action
+        n = native.frame_size
+        return spaces.Dict({"features": features, "frame": spaces.Box(0, 255, shape=(n, n), dtype=np.uint8)}), action
     obs: Dict[str, spaces.Space] = {}
     for label, names in zip(native.detector_labels, native.signal_names):
         lim = _native.SIGNAL_LIMIT
@@ -171,10 +194,6 @@ def make_spaces(native: Any) -> Tuple[spaces.Dict, spaces.Space]:
     if native.observe_frames:
         n = native.frame_size
         obs["frame"] = spaces.Box(0, 255, shape=(n, n), dtype=np.uint8)
-    if native.action_kind == "discrete":
-        action: spaces.Space = spaces.Discrete(len(DISCRETE_ACTIONS))
-    else:
-        action = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
     return spaces.Dict(obs), action
 
 
@@ -194,6 +213,7 @@ _OPTION_KEYS = (
     "clip_actions",
     "reward",
     "max_episode_steps",
+    "obs_mode",
 )
 
 
@@ -245,6 +265,64 @@ class EscapeEnv(gym.Env):
     looming-detector signals (and optionally the camera frame) and commands velocities to avoid
     collisions without needless dodges.
 
+    ## Description
+
+    One step is one camera period (1/120 s by default). The world, the rendering, the detectors and
+    the ground truth run in Rust (``loomlab_env::EscapeEnv``). At every reset an open-loop pass
+    finds whether the episode is a *threat* (an object touches the robot if it keeps cruising), its
+    contact time and its escape deadline.
+
+    ## Action Space
+
+    - ``loomlab/Escape-v0``: ``Box(-1, 1, (3,), float32)``: ``[forward, yaw_rate, lateral]``, scaled
+      by ``ActionConfig``'s maxima (3 m/s, 1.5 rad/s, 1.5 m/s) to an absolute velocity command.
+    - ``loomlab/EscapeDiscrete-v0``: ``Discrete(4)``: 0 none (cruise), 1 dodge left, 2 dodge right
+      (the cruise command plus ``dodge_speed_mps`` sideways), 3 stop.
+
+    ## Observation Space
+
+    ``obs_mode="raw"`` (default): a ``Dict`` of one ``Box(-1e6, 1e6)`` per detector label (its
+    output then its auxiliary signals, ``signal_names``), ``theta_hat`` (θ̂ in degrees, [0, 180]),
+    ``alarm`` (``MultiBinary(D)``), ``robot`` (``x_m, y_m, yaw_rad, forward_mps, yaw_rate_rps,
+    lateral_mps, t_s``) and, with ``observe_frames``, ``frame`` (n×n uint8).
+
+    ``obs_mode="normalized"``: one ``Box(low, high, (3·D + 10,), float32)`` of bounded features a
+    policy network can take as they are (``D`` detectors; names in ``self._native.feature_names``,
+    scales in ``loomlab._native.FEATURE_SCALES``; Rust ``loomlab_env::features`` is their one
+    definition); with ``observe_frames`` a ``Dict`` ``{"features", "frame"}``:
+
+    ==========================================  ============================================  ===========
+    feature                                     definition                                    range
+    ==========================================  ============================================  ===========
+    ``{label}.log_output`` (per detector)       sign(y)·ln(1+|y|)/ln(1+1e6), y the output     [-1, 1]
+    ``{label}.log_output_rate`` (per detector)  tanh(d log_output/dt / 2 s⁻¹)                 [-1, 1]
+    ``theta_hat_rad``                           θ̂ of the first detector giving one (rad)      [0, π]
+    ``theta_hat_rate_rps``                      dθ̂/dt (rad/s), clamped                        [-10, 10]
+    ``{label}.alarm`` (per detector)            trigger signal ≥ threshold                    {0, 1}
+    ``looming_side``                            image x of the looming object, 0 unknown      [-1, 1]
+    ``robot.x``, ``robot.y``                    position from the start pose / 5 m, clamped   [-1, 1]
+    ``robot.yaw``                               heading from the start heading / π            [-1, 1]
+    ``robot.forward/yaw_rate/lateral``          last command / the action scales, clamped     [-1, 1]
+    ``robot.time``                              episode time / episode duration               [0, 1]
+    ==========================================  ============================================  ===========
+
+    The reset observation has zero signals (the detectors see their first frame in the first step).
+
+    ## Rewards
+
+    Per step (:class:`RewardConfig`, every weight configurable): ``+survival_per_s·dt`` while
+    untouched, ``+progress_per_m·Δs``, ``−effort_per_s·|u − u_cruise|²·dt``,
+    ``−unnecessary_dodge_per_s·dt`` while dodging in an episode without a threat,
+    ``−unnecessary_dodge_penalty`` once on the first such step (a false alarm), and
+    ``−collision_penalty`` once on contact. ``info["reward_terms"]`` reports each term.
+
+    ## Episode End
+
+    Terminated when the robot is touched or the scenario's duration is over; truncated after
+    ``max_episode_steps``. The last ``info`` holds ``outcome``: the threat, the collision, every
+    detector's scored row and ``outcome["agent"]``, the agent scored as a detector (its alarm is the
+    first observation on which it departed from cruising): what :func:`loomlab.evaluate` reports.
+
     Args:
         scenario: a shipped scenario name (``loomlab.scenario_names()``) or a path to a scenario TOML
             file; ``None``: the default scenario.
@@ -259,6 +337,7 @@ class EscapeEnv(gym.Env):
         clip_actions: clamp continuous actions into [-1, 1] instead of raising :class:`ActionError`.
         reward: reward weights (:class:`RewardConfig` or dict).
         max_episode_steps: truncate episodes after this many steps.
+        obs_mode: ``"raw"`` or ``"normalized"`` (see Observation Space).
         render_mode: ``"rgb_array"`` or ``None``.
     """
 
@@ -278,6 +357,7 @@ class EscapeEnv(gym.Env):
         clip_actions: bool = False,
         reward: Union[RewardConfig, Mapping[str, float], None] = None,
         max_episode_steps: Optional[int] = None,
+        obs_mode: str = "raw",
         render_mode: Optional[str] = None,
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -294,6 +374,7 @@ class EscapeEnv(gym.Env):
             clip_actions=clip_actions,
             reward=reward,
             max_episode_steps=max_episode_steps,
+            obs_mode=obs_mode,
             render_mode=render_mode,
         )
         self._native = _native.EscapeEnv(self._kwargs["scenario"], scenario_toml, _native_options(self._kwargs))

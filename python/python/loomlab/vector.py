@@ -64,6 +64,7 @@ class EscapeVectorEnv(VectorEnv):
         clip_actions: bool = False,
         reward: Union[RewardConfig, Mapping[str, float], None] = None,
         max_episode_steps: Optional[int] = None,
+        obs_mode: str = "raw",
         render_mode: Optional[str] = None,
     ) -> None:
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
@@ -84,6 +85,7 @@ class EscapeVectorEnv(VectorEnv):
                 clip_actions=clip_actions,
                 reward=reward,
                 max_episode_steps=max_episode_steps,
+                obs_mode=obs_mode,
                 render_mode=render_mode,
             ),
         )
@@ -97,6 +99,8 @@ class EscapeVectorEnv(VectorEnv):
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=int(round(1.0 / self._native.dt)))
         self._discrete = self._native.action_kind == "discrete"
+        # normalized without frames: one feature vector (the native side batches it as a dict)
+        self._flat = self._native.obs_mode == "normalized" and not self._native.observe_frames
 
     @property
     def detector_ids(self) -> list:
@@ -129,7 +133,7 @@ class EscapeVectorEnv(VectorEnv):
         if options:
             raise ScenarioError(f"reset() takes no options, got {sorted(options)}")
         obs, info = self._native.reset(seed)
-        return obs, self._merge_outcomes(info)
+        return self._obs(obs), self._merge_outcomes(info)
 
     def step(self, actions: Any):
         """Steps every environment (those whose episode ended in the last step are reset instead).
@@ -159,7 +163,19 @@ class EscapeVectorEnv(VectorEnv):
                 )
             result = self._native.step_continuous(np.ascontiguousarray(a))
         obs, reward, terminated, truncated, info = result
-        return obs, reward, terminated, truncated, self._merge_outcomes(info)
+        return self._obs(obs), reward, terminated, truncated, self._merge_outcomes(info)
+
+    def _obs(self, obs: Dict[str, Any]) -> Any:
+        return obs["features"] if self._flat else obs
+
+    def reset_envs(self, indices: Sequence[int]):
+        """Resets the environments ``indices`` now (their seed streams continue) and cancels their
+        pending next-step auto-reset: ``(observations, infos)`` batched over ``indices`` in that order.
+        For same-step auto-reset adapters (Stable-Baselines3's ``VecEnv``, :mod:`loomlab.train`)."""
+        self._check_open("reset_envs()")
+        obs, info = self._native.reset_envs([int(i) for i in indices])
+        info.pop("_outcomes", None)
+        return self._obs(obs), info
 
     def render(self) -> Optional[np.ndarray]:
         """The latest frames as ``(num_envs, n, n, 3)`` uint8 (``render_mode="rgb_array"``)."""
