@@ -6,7 +6,7 @@
 //! The first three are rigid motions that parry's nonlinear time-of-impact query handles exactly; the
 //! ballistic one is solved by conservative advancement on parry's exact distance query.
 
-use rapier3d::parry::query::{self, NonlinearRigidMotion};
+use rapier3d::parry::query::{self, NonlinearRigidMotion, ShapeCastOptions};
 use rapier3d::parry::shape::Shape;
 use rapier3d::prelude::Pose;
 
@@ -154,6 +154,15 @@ impl Segment {
         })
     }
 
+    /// The velocity of a motion without rotation (hold: zero, linear), `None` for the others.
+    fn translation_velocity(&self) -> Option<DVec3> {
+        match self.motion {
+            Motion::Hold => Some(DVec3::ZERO),
+            Motion::Linear { velocity } => Some(velocity),
+            Motion::Arc { .. } | Motion::Ballistic { .. } => None,
+        }
+    }
+
     /// Upper bound on the speed of any point within `radius` of the body origin over `[t0, t0 + span]`.
     fn speed_bound(&self, radius: f64, t: f64, span: f64) -> f64 {
         match self.motion {
@@ -281,6 +290,24 @@ pub fn time_of_impact(
         let s0 = seg.t0.max(now);
         let s1 = seg.t1.min(end);
         if s1 < s0 || (s1 == s0 && s0 > now) {
+            continue;
+        }
+        // pure translations (hold / linear): parry's linear shape cast, exact and much cheaper than
+        // the nonlinear one's bisection
+        if let (Some(va), Some(vb)) = (a_motion.translation_velocity(), seg.translation_velocity()) {
+            let pa = a_motion.pose_at(s0).to_parry(origin) * a.local;
+            let pb = seg.pose_at(s0).to_parry(origin) * b.local;
+            let options = ShapeCastOptions {
+                stop_at_penetration: true,
+                ..ShapeCastOptions::with_max_time_of_impact((s1 - s0) as f32)
+            };
+            let hit = query::cast_shapes(&pa, va.as_vec3(), a.shape, &pb, vb.as_vec3(), b.shape, options)
+                .ok()
+                .flatten()
+                .map(|h| s0 + f64::from(h.time_of_impact));
+            if hit.is_some() {
+                return hit;
+            }
             continue;
         }
         let hit = match (
