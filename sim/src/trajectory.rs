@@ -271,6 +271,10 @@ pub struct PlacedShape<'a> {
 /// Turning radius above which time-of-impact queries treat an arc as a straight line (m).
 const MAX_ARC_RADIUS_M: f64 = 1.0e5;
 
+/// Distance within which the linear-cast filter of [`time_of_impact`] counts two translating bodies
+/// as meeting, before the exact query (m).
+const PREFILTER_DISTANCE_M: f32 = 1e-3;
+
 /// Distance tolerance of the conservative advancement used for ballistic segments (m).
 const BALLISTIC_TOLERANCE_M: f64 = 1e-4;
 
@@ -292,23 +296,25 @@ pub fn time_of_impact(
         if s1 < s0 || (s1 == s0 && s0 > now) {
             continue;
         }
-        // pure translations (hold / linear): parry's linear shape cast, exact and much cheaper than
-        // the nonlinear one's bisection
+        // pure translations (hold / linear): parry's linear shape cast tells cheaply whether they
+        // meet at all (the nonlinear cast bisects the whole horizon to say no); when they do, the
+        // nonlinear cast below gives the time to its tighter tolerance
         if let (Some(va), Some(vb)) = (a_motion.translation_velocity(), seg.translation_velocity()) {
             let pa = a_motion.pose_at(s0).to_parry(origin) * a.local;
             let pb = seg.pose_at(s0).to_parry(origin) * b.local;
+            // a generous filter: a touch within 1 mm counts (f32 misses touches exactly at s1)
             let options = ShapeCastOptions {
                 stop_at_penetration: true,
+                target_distance: PREFILTER_DISTANCE_M,
                 ..ShapeCastOptions::with_max_time_of_impact((s1 - s0) as f32)
             };
             let hit = query::cast_shapes(&pa, va.as_vec3(), a.shape, &pb, vb.as_vec3(), b.shape, options)
                 .ok()
                 .flatten()
-                .map(|h| s0 + f64::from(h.time_of_impact));
-            if hit.is_some() {
-                return hit;
+                .is_some();
+            if !hit {
+                continue;
             }
-            continue;
         }
         let hit = match (
             a_motion.parry_motion(now, origin, &a.local),
