@@ -111,11 +111,14 @@ def test_ground_truth_collision_and_scored_outcome(short_kwargs):
         if terminated or truncated:
             break
     assert terminated and not truncated and info["collision"]
-    assert abs(info["t_s"] - info["t_contact_s"]) <= env.dt + 1e-9
+    # reported in the frame of the contact or the next (rapier finds a contact in the narrow
+    # phase that opens a step)
+    assert 0 <= info["t_s"] - info["t_contact_s"] <= 2 * env.dt + 1e-9
     out = info["outcome"]
     assert out["threat"] and out["collision"] and not out["evaded"]
     assert set(out["detectors"]) == {"hopfield", "soc"}
-    assert {d["outcome"] for d in out["detectors"].values()} <= {"hit", "miss"}
+    # a contact this early can be unavoidable for a dodge that must accelerate (dynamic physics)
+    assert {d["outcome"] for d in out["detectors"].values()} <= {"hit", "miss", "unavoidable"}
     assert out["episode_return"] == pytest.approx(total)
     assert info["reward_terms"]["collision"] == -10.0
     with pytest.raises(loomlab.LoomlabError):
