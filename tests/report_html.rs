@@ -8,47 +8,10 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
-use common::{loomlab, s, text};
-
-const BALL: &str = r#"description = "slow ball"
-[episode]
-duration_s = 2.2
-seed = 1
-[world]
-sky_luminance = 0.5
-camera = { n = 32 }
-ground = { enabled = false }
-[[world.projectiles]]
-target = "camera"
-radius_m = 0.15
-speed_mps = 3.0
-launch_distance_m = 5.0
-launch_time_s = 0.2
-miss_angle_deg = 180.0
-texture = { kind = "uniform", luminance = 0.0 }
-[[detectors]]
-id = "hopfield"
-[[detectors]]
-id = "soc"
-threshold = 0.01
-[sweep]
-"world.projectiles.0.miss_distance_m" = [0.0, 2.0]
-"#;
-
-fn suite(dir: &Path) -> PathBuf {
-    let suite = dir.join("suite");
-    std::fs::create_dir_all(&suite).unwrap();
-    std::fs::write(suite.join("ball.toml"), BALL).unwrap();
-    std::fs::write(
-        suite.join("fast_ball.toml"),
-        BALL.replace("speed_mps = 3.0", "speed_mps = 5.0"),
-    )
-    .unwrap();
-    suite
-}
+use common::{loomlab, s, text, tiny_suite};
 
 /// The Chromium binary, if one is installed.
 fn chromium() -> Option<String> {
@@ -133,7 +96,7 @@ fn alarm_frames_marked(gif: &Path) -> Vec<bool> {
 #[test]
 fn run_report_html_renders_in_headless_chromium() {
     let dir = common::tmp("report-html", "run");
-    let suite = suite(&dir);
+    let suite = tiny_suite(&dir);
     let out = dir.join("out");
     let baseline = dir.join("baseline.json");
     let o = loomlab(&[
@@ -256,7 +219,7 @@ fn run_report_html_renders_in_headless_chromium() {
 #[test]
 fn no_html_writes_no_page_and_overwrite_removes_an_old_one() {
     let dir = common::tmp("report-html", "no-html");
-    let suite = suite(&dir);
+    let suite = tiny_suite(&dir);
     let out = dir.join("out");
     let o = loomlab(&[
         "run",

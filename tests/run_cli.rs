@@ -3,51 +3,12 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use common::{loomlab, s, text};
-
-const BALL: &str = r#"# A slow ball at a standing robot, hitting it or passing 2 m to its right.
-description = "slow ball"
-[episode]
-duration_s = 2.2
-seed = 1
-[world]
-sky_luminance = 0.5
-camera = { n = 32 }
-ground = { enabled = false }
-[[world.projectiles]]
-target = "camera"
-radius_m = 0.15
-speed_mps = 3.0
-launch_distance_m = 5.0
-launch_time_s = 0.2
-miss_angle_deg = 180.0
-texture = { kind = "uniform", luminance = 0.0 }
-[[detectors]]
-id = "hopfield"
-[[detectors]]
-id = "soc"
-threshold = 0.01
-[sweep]
-"world.projectiles.0.miss_distance_m" = [0.0, 2.0]
-"#;
+use common::{BALL, loomlab, s, text, tiny_suite};
 
 fn tmp(name: &str) -> PathBuf {
     common::tmp("run-cli", name)
-}
-
-/// A suite folder with two scenarios of two episodes each.
-fn tiny_suite(dir: &Path) -> PathBuf {
-    let suite = dir.join("suite");
-    std::fs::create_dir_all(&suite).unwrap();
-    std::fs::write(suite.join("ball.toml"), BALL).unwrap();
-    std::fs::write(
-        suite.join("fast_ball.toml"),
-        BALL.replace("speed_mps = 3.0", "speed_mps = 5.0"),
-    )
-    .unwrap();
-    suite
 }
 
 /// The report's detector labels, without the reference rows.
