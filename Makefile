@@ -4,72 +4,96 @@ SHELL := /bin/bash
 CARGO ?= cargo
 OUT ?= out/run
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+VENV ?= .venv
+PYTHON ?= python3
 # Mesa's Vulkan loader complains on every device creation when XDG_RUNTIME_DIR is unset (CI, containers).
 export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 $$d && echo $$d)
 
-.PHONY: run test deps lint lint-rust lint-python rust-test python-test python-env python-examples suite-check sweep bless bench figures fmt rl-env rl-train rl-table rl-result
+.PHONY: run test deps lint lint-rust lint-python rust-build rust-test python-test python-venv python-env python-examples suite-check sweep bless bench figures fmt rl-env rl-train rl-table rl-result
+
+# One build for everything that runs code: `make run`, the tests, the suite check, the Python
+# binding and the sweep tests all use the release profile of one workspace (one Cargo.lock, the
+# pyo3 crate a member), so a fresh machine compiles the dependency graph once (plus one `check`
+# pass for clippy and rustdoc). Measured on the 2-core CI machine (see the README's
+# "Development" section): a dev build for the tests plus a release build for the suite costs more
+# than one release build, and the suite runs 1.3x slower in a dev build.
+PROFILE ?= release
+CARGO_PROFILE = --profile $(PROFILE)
+TARGET_DIR = $${CARGO_TARGET_DIR:-$(CURDIR)/target}
+BIN = $(TARGET_DIR)/$(PROFILE)/loomlab
 
 ## Run the default scenario suite: prints the results table, writes $(OUT)/report.json, the plots
 ## and $(OUT)/report.html (the page to open in a browser).
 ## A previous run in $(OUT) is kept: moved to $(OUT)-<time of its last episode> first (`loomlab run`
 ## itself refuses to write over a run; `loomlab run --resume` continues an interrupted one).
 run: deps
-	@if [ -e $(OUT)/manifest.json ] || [ -e $(OUT)/episodes.csv ]; then 	  old=$(OUT)-$$(date -r $(OUT)/episodes.csv +%Y%m%d-%H%M%S 2>/dev/null || date +%Y%m%d-%H%M%S); 	  while [ -e $$old ]; do old=$$old-1; done; 	  mv $(OUT) $$old && echo "make run: the previous run in $(OUT) is now in $$old"; 	fi
+	@if [ -e $(OUT)/manifest.json ] || [ -e $(OUT)/episodes.csv ]; then \
+	  old=$(OUT)-$$(date -r $(OUT)/episodes.csv +%Y%m%d-%H%M%S 2>/dev/null || date +%Y%m%d-%H%M%S); \
+	  while [ -e $$old ]; do old=$$old-1; done; \
+	  mv $(OUT) $$old && echo "make run: the previous run in $(OUT) is now in $$old"; \
+	fi
 	$(CARGO) run --release -- run --out $(OUT)
 
-## Install system packages: Mesa's lavapipe (software Vulkan) so wgpu renders without a GPU, and
-## Chromium, in which tests/report_html.rs opens report.html headless.
+## Install system packages (once; quiet; a clear message when it fails): Mesa's lavapipe (software
+## Vulkan) so wgpu renders without a GPU, and Chromium, in which tests/report_html.rs opens
+## report.html headless. Uses sudo when not root.
+APT_INSTALL = $(SUDO) apt-get update -qq >/dev/null && $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends
 deps:
 	@if ! ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1; then \
-	  echo "installing mesa-vulkan-drivers (lavapipe) ..."; \
-	  $(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq mesa-vulkan-drivers libvulkan1; \
+	  echo "deps: installing mesa-vulkan-drivers (lavapipe, software Vulkan) with apt-get ..."; \
+	  $(APT_INSTALL) mesa-vulkan-drivers libvulkan1 >/tmp/loomlab-apt-mesa.log 2>&1 || { \
+	    echo "deps: apt-get install mesa-vulkan-drivers libvulkan1 failed (log: /tmp/loomlab-apt-mesa.log); install them by hand, then run make again" >&2; exit 1; }; \
 	fi
 	@if ! command -v chromium >/dev/null 2>&1; then \
-	  echo "installing chromium (headless browser for the report.html test) ..."; \
-	  $(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium; \
+	  echo "deps: installing chromium (headless browser for the report.html test) with apt-get ..."; \
+	  $(APT_INSTALL) chromium >/tmp/loomlab-apt-chromium.log 2>&1 || { \
+	    echo "deps: apt-get install chromium failed (log: /tmp/loomlab-apt-chromium.log); install it by hand, then run make again" >&2; exit 1; }; \
 	fi
 
-## Formatting and lints (warnings are errors): the root workspace, and the Python side (the pyo3
-## crate in python/, its own workspace, ruff, and the stubs checked against the built module).
+## Formatting and lints (warnings are errors) of the whole workspace, the pyo3 crate included, and
+## of the Python side (ruff, and the stubs checked against the built module).
 lint: lint-rust lint-python
 
-lint-rust:
+# pyo3's build script needs an interpreter: the venv's (clippy checks the binding too).
+lint-rust: python-venv
 	$(CARGO) fmt --all -- --check
-	$(CARGO) clippy --workspace --all-targets -- -D warnings
+	PYO3_PYTHON=$(abspath $(VENV))/bin/python $(CARGO) clippy --workspace --all-targets -- -D warnings
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --workspace --no-deps --lib
 
-# pyo3's build script needs an interpreter: the venv's (so clippy reuses maturin's build of pyo3).
-PY_CARGO_ENV = PYO3_PYTHON=$(abspath $(VENV))/bin/python CARGO_TARGET_DIR=$${CARGO_TARGET_DIR:-$(CURDIR)/target}
 lint-python: python-env
-	cd python && $(CARGO) fmt -- --check
-	cd python && $(PY_CARGO_ENV) $(CARGO) clippy --all-targets -- -D warnings
 	$(VENV)/bin/ruff check python
 	$(VENV)/bin/ruff format --check python
 	cd python && $(abspath $(VENV))/bin/python -m mypy.stubtest loomlab._native --allowlist stubtest-allowlist.txt
 
+## Compile every test binary and the CLI (what CI overlaps with the installs).
+rust-build:
+	$(CARGO) test $(CARGO_PROFILE) --workspace --exclude loomlab-python --no-run
+
 ## All Rust tests (unit, integration, doc).
 rust-test: deps
-	$(CARGO) test --workspace
+	$(CARGO) test $(CARGO_PROFILE) --workspace --exclude loomlab-python
 
 ## The Python package (python): a venv in $(VENV), maturin build into the workspace's target
 ## directory (reusing the dependencies rust-test compiled), pytest.
-VENV ?= .venv
-PYTHON ?= python3
-python-env: deps
-	@test -x $(VENV)/bin/python || $(PYTHON) -m venv $(VENV) || { \
-	  echo "installing python3-venv ..."; rm -rf $(VENV); \
-	  $(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv && \
-	  $(PYTHON) -m venv $(VENV); }
-	$(VENV)/bin/python -m pip install -q --upgrade pip maturin numpy gymnasium pytest "ray[tune]>=2.9" ruff mypy
-	cd python && VIRTUAL_ENV=$(abspath $(VENV)) CARGO_TARGET_DIR=$${CARGO_TARGET_DIR:-$(CURDIR)/target} \
-	  $(abspath $(VENV))/bin/maturin develop
+python-venv:
+	@test -x $(VENV)/bin/python || $(PYTHON) -m venv $(VENV) 2>/dev/null || { \
+	  echo "python-venv: installing python3-venv with apt-get ..."; rm -rf $(VENV); \
+	  $(APT_INSTALL) python3-venv >/tmp/loomlab-apt-venv.log 2>&1 && $(PYTHON) -m venv $(VENV); } || { \
+	  echo "python-venv: could not create $(VENV) (log: /tmp/loomlab-apt-venv.log)" >&2; exit 1; }
+	@test -e $(VENV)/.loomlab-deps || { echo "python-venv: pip install maturin numpy gymnasium pytest ray[tune] ruff mypy into $(VENV) ..."; \
+	  $(VENV)/bin/python -m pip install -q --disable-pip-version-check --upgrade pip maturin numpy gymnasium pytest "ray[tune]>=2.9" ruff mypy \
+	  && touch $(VENV)/.loomlab-deps; } || { echo "python-venv: pip install failed (see above)" >&2; exit 1; }
+
+python-env: deps python-venv
+	cd python && VIRTUAL_ENV=$(abspath $(VENV)) CARGO_TARGET_DIR=$(TARGET_DIR) \
+	  $(abspath $(VENV))/bin/maturin develop -q $(CARGO_PROFILE)
 
 ## pytest, the sweep tests on a local Ray with 2 CPUs included (the RLlib training test needs torch,
 ## which is not installed here: `pip install 'loomlab[rllib]'` to run it), then every example in
 ## python/examples for a few steps. The sweep tests run the `loomlab` binary: built here first.
 python-test: python-env
-	$(CARGO) build --bin loomlab
-	cd python && LOOMLAB_BIN=$${CARGO_TARGET_DIR:-$(CURDIR)/target}/debug/loomlab $(abspath $(VENV))/bin/python -m pytest -q
+	$(CARGO) build $(CARGO_PROFILE) --bin loomlab
+	cd python && LOOMLAB_BIN=$(BIN) $(abspath $(VENV))/bin/python -m pytest -q
 	$(MAKE) --no-print-directory python-examples
 
 ## Smoke-run every example for a few steps (`--smoke`); those whose optional dependency (torch,
@@ -89,14 +113,17 @@ sweep: python-env
 ## regression; tolerances in scenarios/README.md).
 BASELINE ?= scenarios/baseline/default-report.json
 suite-check: deps
-	$(CARGO) run -- run --out out/suite-check --overwrite --baseline $(BASELINE) --brief --no-plots --no-html
+	$(CARGO) run $(CARGO_PROFILE) -- run --out out/suite-check --overwrite --baseline $(BASELINE) --brief --no-plots --no-html
 
 ## Re-run the default suite and make its report the new baseline (after an intended change).
 bless: deps
 	$(CARGO) run --release -- run --out out/bless --overwrite --baseline $(BASELINE) --bless
 
-## Everything CI runs.
-test: deps lint rust-test suite-check python-test
+## Everything CI runs. First the installs (apt, pip) run beside the compilation of every test
+## binary, which needs neither; then lints, tests, the suite check and the Python side, in order.
+test:
+	@$(MAKE) --no-print-directory -j3 deps python-venv rust-build
+	@$(MAKE) --no-print-directory lint rust-test suite-check python-test
 
 ## RL on the detector signals (issue 17; README "Training a policy"). `make rl-result` trains PPO
 ## (stable-baselines3, CPU torch) on loomlab/EscapeDiscrete-v0 with normalized observations for at

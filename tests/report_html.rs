@@ -6,7 +6,7 @@
 //! does); without Chromium the browser checks are skipped with a message saying so (the page's
 //! files are still checked). `LOOMLAB_CHROMIUM` names another browser binary.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::Command;

@@ -1,7 +1,7 @@
 //! End-to-end tests of `loomlab run` on a tiny suite (4 episodes, 32×32 frames): outputs, the
 //! report contract (design §7), regression mode and exit codes. Needs a GPU adapter (lavapipe).
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 

@@ -2,7 +2,7 @@
 //! keeping every finished episode, and `--resume` runs only the missing episodes to the same
 //! report as an uninterrupted run. Needs a GPU adapter (lavapipe).
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};

@@ -448,9 +448,10 @@ fn vector_snapshots_replay_every_environment() {
 }
 
 /// Steps every episode of `env` (by index, with its own seed) with an agent that cruises, dodges
-/// left or right, stops and wobbles, and checks that every normalized feature is finite and within
-/// its declared bounds; returns the number of steps checked.
-fn assert_features_in_bounds(env: &mut EscapeEnv, what: &str) -> usize {
+/// left or right, stops and wobbles (the behaviour chosen by `first_index + index`, so that a suite
+/// split into chunks is walked exactly as a whole), and checks that every normalized feature is
+/// finite and within its declared bounds; returns the number of steps checked.
+fn assert_features_in_bounds(env: &mut EscapeEnv, what: &str, first_index: usize) -> usize {
     let specs = env.feature_specs();
     let mut checked = 0;
     let check = |obs: &Observation, where_: &str| {
@@ -471,7 +472,7 @@ fn assert_features_in_bounds(env: &mut EscapeEnv, what: &str) -> usize {
         check(&obs, &format!("{what} episode {index} reset"));
         for t in 0.. {
             // a different behaviour per episode: cruise, dodge left, right, stop, alternate
-            let a = match index % 5 {
+            let a = match (first_index + index) % 5 {
                 4 => (t / 15 % 4) as i64,
                 k => k as i64,
             };
@@ -504,7 +505,7 @@ fn normalized_features_stay_in_bounds_on_the_default_scenarios() {
     for seed in [0, 1000] {
         let eps = escape.load(&opts, seed).unwrap();
         let mut env = EscapeEnv::for_episodes(&escape.path, eps, opts.clone(), ctx.clone()).unwrap();
-        steps += assert_features_in_bounds(&mut env, &format!("escape_default seed {seed}"));
+        steps += assert_features_in_bounds(&mut env, &format!("escape_default seed {seed}"), 0);
     }
     let suite_path = root.join(loomlab_scenarios::DEFAULT_SUITE);
     let load = loomlab_scenarios::LoadOptions {
@@ -516,12 +517,29 @@ fn normalized_features_stay_in_bounds_on_the_default_scenarios() {
     let suite = loomlab_scenarios::load_suite(&suite_path, &load).unwrap();
     let episodes = suite.episodes().collect::<Result<Vec<_>, _>>().unwrap();
     assert!(episodes.len() > 100, "the whole default suite ({})", episodes.len());
-    let eps = ScenarioEpisodes {
-        name: "default".into(),
-        episodes,
-    };
-    let mut env = EscapeEnv::for_episodes(&suite_path, eps, opts, ctx).unwrap();
-    steps += assert_features_in_bounds(&mut env, "default suite");
+    // The suite is walked in contiguous chunks on parallel threads (one renderer each), with the
+    // same agent per episode as one serial walk.
+    let threads = std::thread::available_parallelism().map_or(2, |n| n.get()).clamp(2, 8);
+    let chunk = episodes.len().div_ceil(threads);
+    let chunks: Vec<(usize, Vec<_>)> =
+        episodes.chunks(chunk).enumerate().map(|(i, c)| (i * chunk, c.to_vec())).collect();
+    steps += std::thread::scope(|scope| {
+        let walkers: Vec<_> = chunks
+            .into_iter()
+            .map(|(first, episodes)| {
+                let (opts, ctx, suite_path) = (opts.clone(), ctx.clone(), &suite_path);
+                scope.spawn(move || {
+                    let eps = ScenarioEpisodes {
+                        name: "default".into(),
+                        episodes,
+                    };
+                    let mut env = EscapeEnv::for_episodes(suite_path, eps, opts, ctx).unwrap();
+                    assert_features_in_bounds(&mut env, &format!("default suite from episode {first}"), first)
+                })
+            })
+            .collect();
+        walkers.into_iter().map(|w| w.join().unwrap()).sum::<usize>()
+    });
     assert!(steps > 10_000, "{steps} steps checked");
 }
 

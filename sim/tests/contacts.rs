@@ -2,7 +2,7 @@
 //! dynamic physics. rapier reports a contact in the narrow phase that opens a step, so with dynamic
 //! physics a contact may be reported one step after the touch; its exact time is found either way.
 
-mod common;
+use crate::common;
 
 use loomlab_sim::{
     Command, NamedTarget, ObjectKind, PartDesc, PhysicsMode, ProjectileDesc, SceneryDesc, ShapeDesc, Sim, Target,

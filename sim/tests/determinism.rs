@@ -1,6 +1,6 @@
 //! Same description and seed ⇒ same trajectory, ground truth and frame hashes (on the same adapter).
 
-mod common;
+use crate::common;
 
 use common::{frame_hash, rendering_sim};
 use loomlab_sim::{Command, Renderer, ShakeDesc, Sim, Texture, WorldDesc};

@@ -1,8 +1,8 @@
 //! Image goldens: a few scenes rendered at n = 128 and compared with committed PNGs under
 //! `sim/tests/goldens/` with a tolerance (wgpu-examples style; never byte equality, so that other
-//! adapters and drivers pass too). Regenerate with `LOOMLAB_BLESS=1 cargo test -p loomlab-sim --test goldens`.
+//! adapters and drivers pass too). Regenerate with `LOOMLAB_BLESS=1 cargo test -p loomlab-sim --test sim goldens`.
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 
@@ -120,7 +120,7 @@ fn check_golden(name: &str, desc: &WorldDesc, steps: u32, command: Command) {
     write_png(&actual_path, &frame, n).unwrap();
     let (golden, gn) = read_png(&path).unwrap_or_else(|e| {
         panic!(
-            "missing golden {}: {e}; create it with LOOMLAB_BLESS=1 cargo test -p loomlab-sim --test goldens",
+            "missing golden {}: {e}; create it with LOOMLAB_BLESS=1 cargo test -p loomlab-sim --test sim goldens",
             path.display()
         )
     });

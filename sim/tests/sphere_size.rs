@@ -1,7 +1,7 @@
 //! A sphere of known size at a known distance must render with the pixel diameter its true angular
 //! size predicts (within 1 px), at n = 128 and 256, including odd sizes (row padding).
 
-mod common;
+use crate::common;
 
 use loomlab_sim::{Command, NamedTarget, ProjectileDesc, Target, Texture, WorldDesc};
 

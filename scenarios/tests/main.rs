@@ -1,0 +1,9 @@
+//! Integration tests of the scenario layer: one test binary, one module per concern.
+
+mod deadline;
+mod hopfield_rendered;
+mod parser_fuzz;
+mod runner;
+mod schema;
+mod scoring;
+mod sweep;
