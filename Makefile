@@ -9,7 +9,7 @@ PYTHON ?= python3
 # Mesa's Vulkan loader complains on every device creation when XDG_RUNTIME_DIR is unset (CI, containers).
 export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 $$d && echo $$d)
 
-.PHONY: run test deps lint lint-rust lint-python rust-build rust-test python-test python-venv python-env python-examples suite-check sweep bless bench figures fmt rl-env rl-train rl-table rl-result
+.PHONY: run test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-venv python-env python-examples suite-check sweep bless bench figures fmt rl-env rl-train rl-table rl-result
 
 # One build for everything that runs code: `make run`, the tests, the suite check, the Python
 # binding and the sweep tests all use the release profile of one workspace (one Cargo.lock, the
@@ -55,7 +55,7 @@ deps:
 lint: lint-rust lint-python
 
 # pyo3's build script needs an interpreter: the venv's (clippy checks the binding too).
-lint-rust: python-venv
+lint-rust: python-venv check-features
 	$(CARGO) fmt --all -- --check
 	PYO3_PYTHON=$(abspath $(VENV))/bin/python $(CARGO) clippy --workspace --all-targets -- -D warnings
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --workspace --no-deps --lib
@@ -65,13 +65,26 @@ lint-python: python-env
 	$(VENV)/bin/ruff format --check python
 	cd python && $(abspath $(VENV))/bin/python -m mypy.stubtest loomlab._native --allowlist stubtest-allowlist.txt
 
-## Compile every test binary and the CLI (what CI overlaps with the installs).
+## Compile every test binary and the CLI (what CI overlaps with the installs). The binding is in
+## the selection (its lib has no tests: nothing links libpython) so that its dependencies' features
+## are unified with the tests', and maturin reuses what this compiled.
 rust-build:
-	$(CARGO) test $(CARGO_PROFILE) --workspace --exclude loomlab-python --no-run
+	$(CARGO) test $(CARGO_PROFILE) --workspace --no-run
 
 ## All Rust tests (unit, integration, doc).
 rust-test: deps
-	$(CARGO) test $(CARGO_PROFILE) --workspace --exclude loomlab-python
+	$(CARGO) test $(CARGO_PROFILE) --workspace
+
+## The binding alone (maturin's build) must resolve the same dependency features as the workspace's
+## test build, or maturin compiles ~60 crates a second time: compares `cargo tree -e features` of
+## both for every package they share (fix: name the missing feature in python/Cargo.toml).
+FEATURE_SET = sed 's/ (\*)$$//; s/ (proc-macro)//' | sort -u
+check-features:
+	@$(CARGO) tree -q --workspace -e normal,build,dev -f '{p}|{f}' --prefix none | $(FEATURE_SET) > target/features-workspace.txt
+	@$(CARGO) tree -q -p loomlab-python -e normal,build -f '{p}|{f}' --prefix none | $(FEATURE_SET) > target/features-binding.txt
+	@awk -F'|' 'NR == FNR { shared[$$1] = 1; next } shared[$$1]' target/features-binding.txt target/features-workspace.txt \
+	  | diff -u --label workspace --label binding - target/features-binding.txt \
+	  || { echo "check-features: the binding's dependency features differ from the test build's (above); name them in python/Cargo.toml" >&2; exit 1; }
 
 ## The Python package (python): a venv in $(VENV), maturin build into the workspace's target
 ## directory (reusing the dependencies rust-test compiled), pytest.
