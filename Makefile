@@ -9,7 +9,7 @@ PYTHON ?= python3
 # Mesa's Vulkan loader complains on every device creation when XDG_RUNTIME_DIR is unset (CI, containers).
 export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 $$d && echo $$d)
 
-.PHONY: run test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-venv python-env python-examples suite-check sweep bless bench figures fmt rl-env rl-train rl-table rl-result
+.PHONY: run cli test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-venv python-env python-examples suite-check sweep bless bench figures fmt rl-env rl-train rl-table rl-result
 
 # One build for everything that runs code: `make run`, the tests, the suite check, the Python
 # binding and the sweep tests all use the release profile of one workspace (one Cargo.lock, the
@@ -26,18 +26,23 @@ BIN = $(TARGET_DIR)/$(PROFILE)/loomlab
 ## and $(OUT)/report.html (the page to open in a browser).
 ## A previous run in $(OUT) is kept: moved to $(OUT)-<time of its last episode> first (`loomlab run`
 ## itself refuses to write over a run; `loomlab run --resume` continues an interrupted one).
-run: deps
+run: deps cli
 	@if [ -e $(OUT)/manifest.json ] || [ -e $(OUT)/episodes.csv ]; then \
 	  old=$(OUT)-$$(date -r $(OUT)/episodes.csv +%Y%m%d-%H%M%S 2>/dev/null || date +%Y%m%d-%H%M%S); \
 	  while [ -e $$old ]; do old=$$old-1; done; \
 	  mv $(OUT) $$old && echo "make run: the previous run in $(OUT) is now in $$old"; \
 	fi
-	$(CARGO) run --release -- run --out $(OUT)
+	$(BIN) run --out $(OUT)
+
+## The `loomlab` binary. Built with the whole workspace selected, so that it resolves the same
+## dependency features as the test build (see check-features) and reuses what that compiled.
+cli:
+	$(CARGO) build $(CARGO_PROFILE) --workspace --bins
 
 ## Install system packages (once; quiet; a clear message when it fails): Mesa's lavapipe (software
 ## Vulkan) so wgpu renders without a GPU, and Chromium, in which tests/report_html.rs opens
 ## report.html headless. Uses sudo when not root.
-APT_INSTALL = $(SUDO) apt-get update -qq >/dev/null && $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends
+APT_INSTALL = $(SUDO) apt-get -o DPkg::Lock::Timeout=300 update -qq >/dev/null && $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get -o DPkg::Lock::Timeout=300 install -y -qq --no-install-recommends
 deps:
 	@if ! ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1; then \
 	  echo "deps: installing mesa-vulkan-drivers (lavapipe, software Vulkan) with apt-get ..."; \
@@ -57,8 +62,8 @@ lint: lint-rust lint-python
 # pyo3's build script needs an interpreter: the venv's (clippy checks the binding too).
 lint-rust: python-venv check-features
 	$(CARGO) fmt --all -- --check
-	PYO3_PYTHON=$(abspath $(VENV))/bin/python $(CARGO) clippy --workspace --all-targets -- -D warnings
-	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --workspace --no-deps --lib
+	PYO3_PYTHON=$(abspath $(VENV))/bin/python $(CARGO) clippy $(CARGO_PROFILE) --workspace --all-targets -- -D warnings
+	PYO3_PYTHON=$(abspath $(VENV))/bin/python RUSTDOCFLAGS="-D warnings" $(CARGO) doc $(CARGO_PROFILE) --workspace --no-deps --lib
 
 lint-python: python-env
 	$(VENV)/bin/ruff check python
@@ -104,8 +109,7 @@ python-env: deps python-venv
 ## pytest, the sweep tests on a local Ray with 2 CPUs included (the RLlib training test needs torch,
 ## which is not installed here: `pip install 'loomlab[rllib]'` to run it), then every example in
 ## python/examples for a few steps. The sweep tests run the `loomlab` binary: built here first.
-python-test: python-env
-	$(CARGO) build $(CARGO_PROFILE) --bin loomlab
+python-test: python-env cli
 	cd python && LOOMLAB_BIN=$(BIN) $(abspath $(VENV))/bin/python -m pytest -q
 	$(MAKE) --no-print-directory python-examples
 
@@ -125,12 +129,12 @@ sweep: python-env
 ## The default suite must not regress against its committed baseline report (exit 1 lists every
 ## regression; tolerances in scenarios/README.md).
 BASELINE ?= scenarios/baseline/default-report.json
-suite-check: deps
-	$(CARGO) run $(CARGO_PROFILE) -- run --out out/suite-check --overwrite --baseline $(BASELINE) --brief --no-plots --no-html
+suite-check: deps cli
+	$(BIN) run --out out/suite-check --overwrite --baseline $(BASELINE) --brief --no-plots --no-html
 
 ## Re-run the default suite and make its report the new baseline (after an intended change).
-bless: deps
-	$(CARGO) run --release -- run --out out/bless --overwrite --baseline $(BASELINE) --bless
+bless: deps cli
+	$(BIN) run --out out/bless --overwrite --baseline $(BASELINE) --bless
 
 ## Everything CI runs. First the installs (apt, pip) run beside the compilation of every test
 ## binary, which needs neither; then lints, tests, the suite check and the Python side, in order.
