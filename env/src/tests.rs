@@ -521,8 +521,11 @@ fn normalized_features_stay_in_bounds_on_the_default_scenarios() {
     // same agent per episode as one serial walk.
     let threads = std::thread::available_parallelism().map_or(2, |n| n.get()).clamp(2, 8);
     let chunk = episodes.len().div_ceil(threads);
-    let chunks: Vec<(usize, Vec<_>)> =
-        episodes.chunks(chunk).enumerate().map(|(i, c)| (i * chunk, c.to_vec())).collect();
+    let chunks: Vec<(usize, Vec<_>)> = episodes
+        .chunks(chunk)
+        .enumerate()
+        .map(|(i, c)| (i * chunk, c.to_vec()))
+        .collect();
     steps += std::thread::scope(|scope| {
         let walkers: Vec<_> = chunks
             .into_iter()
