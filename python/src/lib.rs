@@ -1,8 +1,8 @@
 //! `loomlab._native`: the Rust engine of the `loomlab` Python package.
 //!
 //! Thin glue over [`loomlab_env`], one name per type on both sides: the Python class
-//! `_native.EscapeEnv` ([`PyEscapeEnv`]) wraps a [`loomlab_env::EscapeEnv`] and
-//! `_native.EscapeVectorEnv` ([`PyEscapeVectorEnv`]) a [`loomlab_env::EscapeVectorEnv`], whose results
+//! `_native.EscapeEnv` (`PyEscapeEnv`) wraps a [`loomlab_env::EscapeEnv`] and
+//! `_native.EscapeVectorEnv` (`PyEscapeVectorEnv`) a [`loomlab_env::EscapeVectorEnv`], whose results
 //! come back as batched numpy arrays; the Gymnasium classes `loomlab.EscapeEnv` and
 //! `loomlab.EscapeVectorEnv` wrap them. Defaults and action names are exported
 //! (`REWARD_DEFAULTS`, `ACTION_DEFAULTS`, `DISCRETE_ACTIONS`, `CONTINUOUS_ACTION_NAMES`) so that the
