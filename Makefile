@@ -13,10 +13,11 @@ export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 
 
 # One build for everything that runs code: `make run`, the tests, the suite check, the Python
 # binding and the sweep tests all use the release profile of one workspace (one Cargo.lock, the
-# pyo3 crate a member), so a fresh machine compiles the dependency graph once (plus one `check`
-# pass for clippy and rustdoc). Measured on the 2-core CI machine (see the README's
-# "Development" section): a dev build for the tests plus a release build for the suite costs more
-# than one release build, and the suite runs 1.3x slower in a dev build.
+# pyo3 crate a member, the same dependency features everywhere: check-features), so a fresh machine
+# compiles the dependency graph once, plus one `check` pass shared by clippy and rustdoc. Before,
+# CI compiled it three times (a dev build for the tests and the suite check, the binding's own
+# workspace, and that workspace's clippy pass) and took 31-37 minutes; the README's "Development"
+# section has the measured time per step.
 PROFILE ?= release
 CARGO_PROFILE = --profile $(PROFILE)
 TARGET_DIR = $${CARGO_TARGET_DIR:-$(CURDIR)/target}
@@ -137,10 +138,15 @@ bless: deps cli
 	$(BIN) run --out out/bless --overwrite --baseline $(BASELINE) --bless
 
 ## Everything CI runs. First the installs (apt, pip) run beside the compilation of every test
-## binary, which needs neither; then lints, tests, the suite check and the Python side, in order.
+## binary, which needs neither; then lints, tests, the suite check and the Python side, in order,
+## each step's wall time printed ("== make test: STEP took N s").
+STEP = @s=$$(date +%s); $(MAKE) --no-print-directory $(1) && echo "== make test: $(1) took $$(( $$(date +%s) - s )) s"
 test:
-	@$(MAKE) --no-print-directory -j3 deps python-venv rust-build
-	@$(MAKE) --no-print-directory lint rust-test suite-check python-test
+	$(call STEP,-j3 deps python-venv rust-build)
+	$(call STEP,lint)
+	$(call STEP,rust-test)
+	$(call STEP,suite-check)
+	$(call STEP,python-test)
 
 ## RL on the detector signals (issue 17; README "Training a policy"). `make rl-result` trains PPO
 ## (stable-baselines3, CPU torch) on loomlab/EscapeDiscrete-v0 with normalized observations for at
