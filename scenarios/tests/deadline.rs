@@ -356,9 +356,10 @@ fn the_backward_search_equals_the_exhaustive_scan_where_evasion_is_not_monotone(
     // (and unknown: the controller's default side) make evasion non-monotone in the trigger
     // frame; the backward search must still stop at the exhaustive scan's latest evading frame.
     let mut nonmonotone = 0;
-    for (r, offset, period) in [(0.15, 0.15, 2), (0.3, 0.1, 3), (0.15, -0.12, 5), (0.2, 0.0, 4)] {
+    for (r, offset, angle, period) in [(0.15, 0.15, 0.0, 2), (0.3, 0.1, 0.0, 3), (0.15, 0.12, 180.0, 5), (0.2, 0.0, 0.0, 4)] {
         let mut ep = episode(r, 4.0, LAUNCH_M, 1);
         ep.world.projectiles[0].miss_distance_m = offset as f32;
+        ep.world.projectiles[0].miss_angle_deg = angle as f32;
         for pattern in 0..3 {
             let side = |k: usize| match (pattern, (k / period) % 3) {
                 (0, 0) | (1, 1) => Some(0.5),
