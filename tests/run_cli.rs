@@ -621,6 +621,18 @@ fn combinations_that_cannot_work_are_refused() {
         std::os::unix::fs::symlink(dir.join("gone.toml"), linked.join("gone.toml")).unwrap();
         bad(&["run", s(&linked), "--out", s(&out)], &["gone.toml", "symbolic link", "does not exist"]);
     }
+    // speeds the simulator cannot resolve (an object passing through the robot between two
+    // physics substeps) are refused, naming the substeps that would resolve them
+    let fast = dir.join("fast.toml");
+    std::fs::write(&fast, BALL.replace("speed_mps = 3.0", "speed_mps = 3000.0")).unwrap();
+    bad(&["run", s(&fast), "--out", s(&out)], &["world.projectiles[0].speed_mps", "3000", "physics_substeps to at least 42"]);
+    let car = dir.join("car.toml");
+    std::fs::write(
+        &car,
+        "[world]\ncamera = { n = 32 }\n[[world.vehicles]]\nstart = [10.0, 0.0]\nheading_deg = 180.0\nspeed_mps = 1e7\nparts = [{ shape = { kind = \"box\", size = [1.0, 1.0, 1.0] } }]\n",
+    )
+    .unwrap();
+    bad(&["run", s(&car), "--out", s(&out)], &["world.vehicles[0].speed_mps", "lower the speed"]);
     // a list file listing a list file
     let inner = dir.join("inner.toml");
     std::fs::write(&inner, "scenarios = [\"suite/ball.toml\"]\n").unwrap();
