@@ -59,7 +59,19 @@ fn main() {
     match result {
         Ok(code) => std::process::exit(code),
         Err(e) => {
-            errln!("error: {e:#}");
+            // the chain of causes, each once (a message that already quotes its cause, like
+            // "cannot read F: No such file", is not followed by the cause again)
+            let mut text = String::new();
+            for cause in e.chain() {
+                let c = cause.to_string();
+                if !text.contains(&c) {
+                    if !text.is_empty() {
+                        text += ": ";
+                    }
+                    text += &c;
+                }
+            }
+            errln!("error: {text}");
             if let Some(cmd) = cli::run_dir::RESUME_HINT
                 .lock()
                 .unwrap_or_else(|e| e.into_inner())

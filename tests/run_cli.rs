@@ -678,3 +678,63 @@ fn combinations_that_cannot_work_are_refused() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn messages_name_the_right_key_and_value() {
+    let dir = tmp("messages");
+    let out = dir.join("out");
+    let check = |edit: &dyn Fn(&str) -> String, extra: &[&str], want: &[&str], not: &[&str]| {
+        let f = dir.join("m.toml");
+        std::fs::write(&f, edit(BALL)).unwrap();
+        let o = loomlab(&[&["run", s(&f), "--out", s(&out)][..], extra].concat());
+        let e = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{e}");
+        for w in want {
+            assert!(e.contains(w), "`{w}` not in {e}");
+        }
+        for n in not {
+            assert!(!e.contains(n), "`{n}` in {e}");
+        }
+    };
+    check(
+        &|t| t.replace("camera = { n = 32 }", "camera = { n = 32, pitch_deg = nan }"),
+        &[],
+        &["world.camera.pitch_deg", "NaN"],
+        &["world.camera.position"],
+    );
+    check(
+        &|t| t.replace("camera = { n = 32 }", "camera = { n = 32, shake = { translation_m = 1e9 } }"),
+        &[],
+        &["world.camera.shake.translation_m"],
+        &["launch_position"],
+    );
+    check(
+        &|t| format!("{t}\n[[world.projectiles]]\nname = \"b\"\n[[world.projectiles]]\nname = \"b\"\n"),
+        &[],
+        &["world.projectiles[2].name", "world.projectiles[1].name", "`b`"],
+        &["`world.name`"],
+    );
+    check(
+        &|t| t.replace("ground = { enabled = false }", "").replace("radius_m = 0.15", "radius_m = 1e9"),
+        &[],
+        &["world.projectiles[0].radius_m", "1000000000"],
+        &["launch_position"],
+    );
+    check(&|t| t.to_string(), &["--size", "1"], &["--size 1", "20..=2048"], &["world.camera.n"]);
+    check(
+        &|t| t.replace("target = \"camera\"", "target = \"robott\""),
+        &[],
+        &["world.projectiles[0].target", "unknown target `robott`", "\"robot\", \"camera\""],
+        &["untagged"],
+    );
+    // an OS error is printed once
+    let o = loomlab(&["run", s(&dir.join("missing")), "--out", s(&out)]);
+    let e = text(&o.stderr);
+    assert_eq!(e.matches("os error").count(), 1, "{e}");
+    // no "plots in" with --no-plots
+    let suite = tiny_suite(&dir);
+    let o = loomlab(&["run", s(&suite), "--out", s(&dir.join("np")), "--limit", "1", "--no-plots", "--no-html"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(!text(&o.stdout).contains("plots in"), "{}", text(&o.stdout));
+    let _ = std::fs::remove_dir_all(&dir);
+}

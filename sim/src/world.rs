@@ -360,10 +360,19 @@ impl WorldDesc {
         for (i, p) in self.projectiles.iter().enumerate() {
             objects.push(p.build(i, &frame, sub_seed(seed, 200_000 + i as u64))?);
         }
-        let mut names = std::collections::HashSet::new();
-        for o in &objects {
-            if !names.insert(o.name.as_str()) {
-                return Err(SimError::invalid("name", &o.name, "object names must be unique"));
+        // objects are built in this order: scenery, vehicles, projectiles
+        let keys = (0..self.scenery.len())
+            .map(|i| format!("world.scenery[{i}].name"))
+            .chain((0..self.vehicles.len()).map(|i| format!("world.vehicles[{i}].name")))
+            .chain((0..self.projectiles.len()).map(|i| format!("world.projectiles[{i}].name")));
+        let mut names = std::collections::HashMap::new();
+        for (o, key) in objects.iter().zip(keys) {
+            if let Some(first) = names.insert(o.name.as_str(), key.clone()) {
+                return Err(SimError::invalid(
+                    key,
+                    &o.name,
+                    format!("object names must be unique; {first} is `{}` too", o.name),
+                ));
             }
         }
         self.check_resolvable_speeds()?;

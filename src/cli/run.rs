@@ -144,6 +144,15 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
     if args.jobs == Some(0) {
         bail!("--jobs must be at least 1");
     }
+    if let Some(n) = args.size
+        && !(loomlab_sim::MIN_FRAME_SIZE..=loomlab_sim::MAX_N).contains(&n)
+    {
+        bail!(
+            "--size {n}: must be in {}..={} pixels (the detectors need frames of at least {0}×{0})",
+            loomlab_sim::MIN_FRAME_SIZE,
+            loomlab_sim::MAX_N
+        );
+    }
     if let Some(fa) = args.calibrate
         && !(0.0..=1.0).contains(&fa)
     {
