@@ -14,7 +14,8 @@
 //!   see `loomlab_report`.
 //!
 //! Exit codes: 0 done (no regression), 1 regressions against `--baseline` (each one listed),
-//! 2 bad input (unreadable or invalid scenario, unknown key, missing file, bad option).
+//! 2 bad input (unreadable or invalid scenario, unknown key, missing file, bad option), 3 an
+//! output could not be written (disk full, permissions: the run stays resumable), 130 interrupted.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
