@@ -363,10 +363,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
                     .write_all(line.as_bytes())
                     .map_err(|e| format!("cannot write {}: {e}", samples_path.display()))?;
             }
-            csv.lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .write_episode(&run.outcome)
-                .map_err(|e| e.to_string())?;
+            // the trace before the row: an episode in episodes.csv has its whole trace (one cut
+            // short by a failure is written again when the episode runs again on --resume)
             if args.traces {
                 let name = trace_file_name(&run.outcome.scenario, run.outcome.episode);
                 run_dir
@@ -374,6 +372,10 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
                     .map_err(|e| format!("{e:#}"))?;
                 write_trace(&traces_dir, run).map_err(|e| format!("cannot write {}: {e}", traces_dir.join(&name).display()))?;
             }
+            csv.lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .write_episode(&run.outcome)
+                .map_err(|e| e.to_string())?;
             bar.inc(1);
             finished.fetch_add(1, Ordering::Relaxed);
             Ok(())
