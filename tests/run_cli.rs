@@ -467,7 +467,16 @@ fn overwrite_deletes_only_the_files_the_run_wrote() {
     let e = text(&o.stderr);
     assert!(e.contains("deletes only the files that run wrote"), "{e}");
     // --overwrite (without --traces this time): the run's traces go, the user's files stay
-    let o = loomlab(&["run", s(&suite), "--out", s(&out), "--limit", "1", "--overwrite", "--no-html"]);
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--limit",
+        "1",
+        "--overwrite",
+        "--no-html",
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     for f in ["traces/mine.csv", "exemplars/mine.gif", "traces/sub/deep.txt"] {
         assert_eq!(std::fs::read_to_string(out.join(f)).unwrap(), "keep", "{f}");
@@ -484,7 +493,14 @@ fn overwrite_deletes_only_the_files_the_run_wrote() {
 #[test]
 fn a_name_with_a_path_is_refused_before_anything_is_written() {
     let dir = tmp("escape");
-    for name in ["../../escape/evil", "sub/x", "<script>alert(1)</script>", "..", ".hidden", "a b"] {
+    for name in [
+        "../../escape/evil",
+        "sub/x",
+        "<script>alert(1)</script>",
+        "..",
+        ".hidden",
+        "a b",
+    ] {
         let suite = named_suite(&dir, name);
         let out = dir.join("deep/er/out");
         let o = loomlab(&["run", s(&suite), "--out", s(&out), "--traces"]);
@@ -549,7 +565,10 @@ fn random_scenario_names_never_make_a_path_outside_the_output_folder() {
             );
         }
     }
-    assert!(accepted > 100 && refused > 100, "{accepted} accepted, {refused} refused");
+    assert!(
+        accepted > 100 && refused > 100,
+        "{accepted} accepted, {refused} refused"
+    );
 }
 
 #[test]
@@ -610,8 +629,15 @@ fn combinations_that_cannot_work_are_refused() {
     };
     // a θ̂ trigger on a detector without θ̂ would never alarm
     let soc = dir.join("soc.toml");
-    std::fs::write(&soc, BALL.replace("threshold = 0.01", "threshold = 0.01\ntrigger = \"angular_size_deg\"")).unwrap();
-    bad(&["run", s(&soc), "--out", s(&out)], &["detectors[1].trigger", "soc", "θ̂"]);
+    std::fs::write(
+        &soc,
+        BALL.replace("threshold = 0.01", "threshold = 0.01\ntrigger = \"angular_size_deg\""),
+    )
+    .unwrap();
+    bad(
+        &["run", s(&soc), "--out", s(&out)],
+        &["detectors[1].trigger", "soc", "θ̂"],
+    );
     // a dangling symlink in a suite folder is an error, not a smaller suite
     #[cfg(unix)]
     {
@@ -619,20 +645,33 @@ fn combinations_that_cannot_work_are_refused() {
         std::fs::create_dir_all(&linked).unwrap();
         std::fs::write(linked.join("ball.toml"), BALL).unwrap();
         std::os::unix::fs::symlink(dir.join("gone.toml"), linked.join("gone.toml")).unwrap();
-        bad(&["run", s(&linked), "--out", s(&out)], &["gone.toml", "symbolic link", "does not exist"]);
+        bad(
+            &["run", s(&linked), "--out", s(&out)],
+            &["gone.toml", "symbolic link", "does not exist"],
+        );
     }
     // speeds the simulator cannot resolve (an object passing through the robot between two
     // physics substeps) are refused, naming the substeps that would resolve them
     let fast = dir.join("fast.toml");
     std::fs::write(&fast, BALL.replace("speed_mps = 3.0", "speed_mps = 3000.0")).unwrap();
-    bad(&["run", s(&fast), "--out", s(&out)], &["world.projectiles[0].speed_mps", "3000", "physics_substeps to at least 42"]);
+    bad(
+        &["run", s(&fast), "--out", s(&out)],
+        &[
+            "world.projectiles[0].speed_mps",
+            "3000",
+            "physics_substeps to at least 42",
+        ],
+    );
     let car = dir.join("car.toml");
     std::fs::write(
         &car,
         "[world]\ncamera = { n = 32 }\n[[world.vehicles]]\nstart = [10.0, 0.0]\nheading_deg = 180.0\nspeed_mps = 1e7\nparts = [{ shape = { kind = \"box\", size = [1.0, 1.0, 1.0] } }]\n",
     )
     .unwrap();
-    bad(&["run", s(&car), "--out", s(&out)], &["world.vehicles[0].speed_mps", "lower the speed"]);
+    bad(
+        &["run", s(&car), "--out", s(&out)],
+        &["world.vehicles[0].speed_mps", "lower the speed"],
+    );
     // a list file listing a list file
     let inner = dir.join("inner.toml");
     std::fs::write(&inner, "scenarios = [\"suite/ball.toml\"]\n").unwrap();
@@ -642,29 +681,74 @@ fn combinations_that_cannot_work_are_refused() {
     // --bless with --limit would replace the baseline with a part of the suite
     let baseline = dir.join("base.json");
     bad(
-        &["run", s(&suite), "--out", s(&out), "--baseline", s(&baseline), "--bless", "--limit", "2"],
+        &[
+            "run",
+            s(&suite),
+            "--out",
+            s(&out),
+            "--baseline",
+            s(&baseline),
+            "--bless",
+            "--limit",
+            "2",
+        ],
         &["--bless", "--limit 2", "drop --limit"],
     );
     assert!(!baseline.exists() && !out.exists());
     // a baseline of another suite is not compared
-    let o = loomlab(&["run", s(&suite), "--out", s(&out), "--no-html", "--no-plots", "--baseline", s(&baseline), "--bless"]);
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--no-html",
+        "--no-plots",
+        "--baseline",
+        s(&baseline),
+        "--bless",
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     let other = dir.join("other");
     std::fs::create_dir_all(&other).unwrap();
     std::fs::write(other.join("ball.toml"), BALL).unwrap();
     bad(
-        &["run", s(&other), "--out", s(&dir.join("o2")), "--baseline", s(&baseline)],
+        &[
+            "run",
+            s(&other),
+            "--out",
+            s(&dir.join("o2")),
+            "--baseline",
+            s(&baseline),
+        ],
         &["another suite", "fast_ball"],
     );
     bad(
-        &["run", s(&other), "--out", s(&dir.join("o2")), "--baseline", s(&baseline), "--bless"],
+        &[
+            "run",
+            s(&other),
+            "--out",
+            s(&dir.join("o2")),
+            "--baseline",
+            s(&baseline),
+            "--bless",
+        ],
         &["another suite", "refusing to replace it"],
     );
     // --resume without the --traces the run was started with
     let t = dir.join("t");
     let mut child = common::loomlab_command();
     let o = child
-        .args(["run", s(&suite), "--out", s(&t), "--limit", "1", "--traces", "--no-html", "--no-plots"])
+        .args([
+            "run",
+            s(&suite),
+            "--out",
+            s(&t),
+            "--limit",
+            "1",
+            "--traces",
+            "--no-html",
+            "--no-plots",
+        ])
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
@@ -673,7 +757,17 @@ fn combinations_that_cannot_work_are_refused() {
     m["state"] = "interrupted".into();
     std::fs::write(t.join("manifest.json"), m.to_string()).unwrap();
     bad(
-        &["run", s(&suite), "--out", s(&t), "--limit", "1", "--no-html", "--no-plots", "--resume"],
+        &[
+            "run",
+            s(&suite),
+            "--out",
+            s(&t),
+            "--limit",
+            "1",
+            "--no-html",
+            "--no-plots",
+            "--resume",
+        ],
         &["--traces", "Resume it with its own command"],
     );
     let _ = std::fs::remove_dir_all(&dir);
@@ -703,7 +797,12 @@ fn messages_name_the_right_key_and_value() {
         &["world.camera.position"],
     );
     check(
-        &|t| t.replace("camera = { n = 32 }", "camera = { n = 32, shake = { translation_m = 1e9 } }"),
+        &|t| {
+            t.replace(
+                "camera = { n = 32 }",
+                "camera = { n = 32, shake = { translation_m = 1e9 } }",
+            )
+        },
         &[],
         &["world.camera.shake.translation_m"],
         &["launch_position"],
@@ -715,16 +814,28 @@ fn messages_name_the_right_key_and_value() {
         &["`world.name`"],
     );
     check(
-        &|t| t.replace("ground = { enabled = false }", "").replace("radius_m = 0.15", "radius_m = 1e9"),
+        &|t| {
+            t.replace("ground = { enabled = false }", "")
+                .replace("radius_m = 0.15", "radius_m = 1e9")
+        },
         &[],
         &["world.projectiles[0].radius_m", "1000000000"],
         &["launch_position"],
     );
-    check(&|t| t.to_string(), &["--size", "1"], &["--size 1", "20..=2048"], &["world.camera.n"]);
+    check(
+        &|t| t.to_string(),
+        &["--size", "1"],
+        &["--size 1", "20..=2048"],
+        &["world.camera.n"],
+    );
     check(
         &|t| t.replace("target = \"camera\"", "target = \"robott\""),
         &[],
-        &["world.projectiles[0].target", "unknown target `robott`", "\"robot\", \"camera\""],
+        &[
+            "world.projectiles[0].target",
+            "unknown target `robott`",
+            "\"robot\", \"camera\"",
+        ],
         &["untagged"],
     );
     // an OS error is printed once
@@ -733,7 +844,16 @@ fn messages_name_the_right_key_and_value() {
     assert_eq!(e.matches("os error").count(), 1, "{e}");
     // no "plots in" with --no-plots
     let suite = tiny_suite(&dir);
-    let o = loomlab(&["run", s(&suite), "--out", s(&dir.join("np")), "--limit", "1", "--no-plots", "--no-html"]);
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&dir.join("np")),
+        "--limit",
+        "1",
+        "--no-plots",
+        "--no-html",
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     assert!(!text(&o.stdout).contains("plots in"), "{}", text(&o.stdout));
     let _ = std::fs::remove_dir_all(&dir);

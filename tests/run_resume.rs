@@ -280,7 +280,14 @@ fn a_resumed_run_draws_the_plots_of_an_uninterrupted_run() {
     for f in ["ball.toml", "fast_ball.toml"] {
         let p = suite.join(f);
         let t = std::fs::read_to_string(&p).unwrap();
-        std::fs::write(&p, t.replace("[[detectors]]\nid = \"soc\"", "[[detectors]]\nid = \"hopfield\"\n[[detectors]]\nid = \"soc\"")).unwrap();
+        std::fs::write(
+            &p,
+            t.replace(
+                "[[detectors]]\nid = \"soc\"",
+                "[[detectors]]\nid = \"hopfield\"\n[[detectors]]\nid = \"soc\"",
+            ),
+        )
+        .unwrap();
     }
     let full = dir.join("full");
     let args = |out: &Path| -> Vec<String> {
@@ -374,19 +381,40 @@ fn an_interrupt_stops_an_episode_in_flight_and_a_second_one_keeps_the_state_true
     let suite = long_suite(&dir);
     // one interrupt: the episode in flight gives up, the run is interrupted (not finished)
     let out = dir.join("one");
-    let args = ["run", s(&suite), "--out", s(&out), "--jobs", "1", "--no-html", "--no-plots"];
+    let args = [
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--jobs",
+        "1",
+        "--no-html",
+        "--no-plots",
+    ];
     let child = start_running(&args, &out);
     interrupt(&child);
     let o = child.wait_with_output().unwrap();
     let e = text(&o.stderr);
     assert_eq!(o.status.code(), Some(130), "{e}");
-    assert!(e.contains("interrupted: 0 of 1 episodes done") && e.contains("--resume"), "{e}");
+    assert!(
+        e.contains("interrupted: 0 of 1 episodes done") && e.contains("--resume"),
+        "{e}"
+    );
     assert!(!e.contains("finishing the episodes in flight"), "{e}");
     assert_eq!(manifest_state(&out), "interrupted");
     assert!(rows(&out).is_empty());
     // two interrupts: the state is `interrupted`, not `running`, and no stale partial report
     let out = dir.join("two");
-    let args = ["run", s(&suite), "--out", s(&out), "--jobs", "1", "--no-html", "--no-plots"];
+    let args = [
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--jobs",
+        "1",
+        "--no-html",
+        "--no-plots",
+    ];
     let child = start_running(&args, &out);
     interrupt(&child);
     interrupt(&child);
@@ -407,7 +435,16 @@ fn a_write_failure_exits_3_with_the_state_and_a_resume_hint() {
     let out = dir.join("traces_blocked");
     std::fs::create_dir_all(&out).unwrap();
     std::fs::write(out.join("traces"), "mine").unwrap();
-    let o = loomlab(&["run", s(&suite), "--out", s(&out), "--limit", "2", "--traces", "--no-html"]);
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--limit",
+        "2",
+        "--traces",
+        "--no-html",
+    ]);
     let e = text(&o.stderr);
     assert_eq!(o.status.code(), Some(3), "{e}");
     assert!(e.contains("traces") && e.contains("resume with"), "{e}");
@@ -416,13 +453,34 @@ fn a_write_failure_exits_3_with_the_state_and_a_resume_hint() {
     // a plot cannot be written after every episode is done: not `complete`, and resumable
     let out = dir.join("plot_blocked");
     std::fs::create_dir_all(out.join("roc.png")).unwrap();
-    let o = loomlab(&["run", s(&suite), "--out", s(&out), "--limit", "2", "--no-html", "--jobs", "1"]);
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--limit",
+        "2",
+        "--no-html",
+        "--jobs",
+        "1",
+    ]);
     let e = text(&o.stderr);
     assert_eq!(o.status.code(), Some(3), "{e}");
     assert!(e.contains("roc.png") && e.contains("--resume"), "{e}");
     assert_eq!(manifest_state(&out), "interrupted");
     std::fs::remove_dir(out.join("roc.png")).unwrap();
-    let o = loomlab(&["run", s(&suite), "--out", s(&out), "--limit", "2", "--no-html", "--jobs", "1", "--resume"]);
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--limit",
+        "2",
+        "--no-html",
+        "--jobs",
+        "1",
+        "--resume",
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     assert_eq!(manifest_state(&out), "complete");
     assert!(out.join("roc.png").is_file());

@@ -203,7 +203,10 @@ pub fn write_trace(dir: &Path, run: &EpisodeRun) -> std::io::Result<()> {
         }
         text.push('\n');
     }
-    std::fs::write(dir.join(trace_file_name(&run.outcome.scenario, run.outcome.episode)), text)
+    std::fs::write(
+        dir.join(trace_file_name(&run.outcome.scenario, run.outcome.episode)),
+        text,
+    )
 }
 
 /// The file name of an episode's trace CSV (in the `traces/` folder of a run).

@@ -438,7 +438,10 @@ pub fn check_file_name(name: &str) -> Result<(), String> {
         return Err("a name must not be empty".into());
     }
     if name.len() > MAX_FILE_NAME {
-        return Err(format!("a name has at most {MAX_FILE_NAME} characters, this one {}", name.chars().count()));
+        return Err(format!(
+            "a name has at most {MAX_FILE_NAME} characters, this one {}",
+            name.chars().count()
+        ));
     }
     if let Some(bad) = name.chars().find(|&c| !allowed(c)) {
         return Err(format!(

@@ -356,7 +356,12 @@ fn the_backward_search_equals_the_exhaustive_scan_where_evasion_is_not_monotone(
     // (and unknown: the controller's default side) make evasion non-monotone in the trigger
     // frame; the backward search must still stop at the exhaustive scan's latest evading frame.
     let mut nonmonotone = 0;
-    for (r, offset, angle, period) in [(0.15, 0.15, 0.0, 2), (0.3, 0.1, 0.0, 3), (0.15, 0.12, 180.0, 5), (0.2, 0.0, 0.0, 4)] {
+    for (r, offset, angle, period) in [
+        (0.15, 0.15, 0.0, 2),
+        (0.3, 0.1, 0.0, 3),
+        (0.15, 0.12, 180.0, 5),
+        (0.2, 0.0, 0.0, 4),
+    ] {
         let mut ep = episode(r, 4.0, LAUNCH_M, 1);
         ep.world.projectiles[0].miss_distance_m = offset as f32;
         ep.world.projectiles[0].miss_angle_deg = angle as f32;
@@ -367,7 +372,11 @@ fn the_backward_search_equals_the_exhaustive_scan_where_evasion_is_not_monotone(
                 _ => None,
             };
             let (fast, all) = both(&ep, side);
-            assert_eq!(fast.frame, all.frame, "r {r}, offset {offset}, period {period}, pattern {pattern}: {:?}", all.evading);
+            assert_eq!(
+                fast.frame, all.frame,
+                "r {r}, offset {offset}, period {period}, pattern {pattern}: {:?}",
+                all.evading
+            );
             assert_eq!(fast.t_s, all.t_s);
             assert!(fast.replays <= all.replays);
             if !all.monotone() {
@@ -375,7 +384,10 @@ fn the_backward_search_equals_the_exhaustive_scan_where_evasion_is_not_monotone(
             }
         }
     }
-    assert!(nonmonotone > 0, "the cases include evasion that is not monotone in the trigger frame");
+    assert!(
+        nonmonotone > 0,
+        "the cases include evasion that is not monotone in the trigger frame"
+    );
 }
 
 #[test]

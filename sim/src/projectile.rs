@@ -54,12 +54,14 @@ impl<'de> Deserialize<'de> for Target {
             fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Target, A::Error> {
                 let mut p = [0.0f32; 3];
                 for (i, c) in p.iter_mut().enumerate() {
-                    *c = seq
-                        .next_element()?
-                        .ok_or_else(|| serde::de::Error::custom(format!("a target point has 3 numbers [x, y, z], got {i}")))?;
+                    *c = seq.next_element()?.ok_or_else(|| {
+                        serde::de::Error::custom(format!("a target point has 3 numbers [x, y, z], got {i}"))
+                    })?;
                 }
                 if seq.next_element::<serde::de::IgnoredAny>()?.is_some() {
-                    return Err(serde::de::Error::custom("a target point has 3 numbers [x, y, z], got more"));
+                    return Err(serde::de::Error::custom(
+                        "a target point has 3 numbers [x, y, z], got more",
+                    ));
                 }
                 Ok(Target::Point(p))
             }

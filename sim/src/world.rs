@@ -269,7 +269,11 @@ impl WorldDesc {
             )?;
         }
         for (i, v) in self.vehicles.iter().enumerate() {
-            let size = v.parts.iter().map(|p| min_extent(&p.shape)).fold(f64::INFINITY, f64::min);
+            let size = v
+                .parts
+                .iter()
+                .map(|p| min_extent(&p.shape))
+                .fold(f64::INFINITY, f64::min);
             if size.is_finite() {
                 check(format!("world.vehicles[{i}].speed_mps"), v.speed_mps, size)?;
             }

@@ -234,7 +234,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<i32> {
         let harmless = if c.harmless { " [harmless]" } else { "" };
         outln!(
             "contact: {} ({}) at t = {:.4} s{exact}, impact speed {:.2} m/s{impulse}{harmless}",
-            c.name, c.kind, c.t_s, c.impact_speed_mps
+            c.name,
+            c.kind,
+            c.t_s,
+            c.impact_speed_mps
         );
     }
     outln!("wrote {}", args.out.display());

@@ -234,11 +234,17 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
             && let Err(why) = same_suite(&base, &counts, args.seed)
         {
             let what = if args.bless {
-                format!("refusing to replace it (delete {} first to start a new baseline)", path.display())
+                format!(
+                    "refusing to replace it (delete {} first to start a new baseline)",
+                    path.display()
+                )
             } else {
                 "compare with a baseline of the same suite, --seed and --limit".to_string()
             };
-            bail!("--baseline {}: a baseline of another suite or selection ({why}); {what}", path.display());
+            bail!(
+                "--baseline {}: a baseline of another suite or selection ({why}); {what}",
+                path.display()
+            );
         }
     }
 
@@ -352,41 +358,43 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
             break;
         }
         let specs: Vec<&EpisodeSpec> = chunk.iter().map(|(_, ep)| ep).collect();
-        let runs = runner.run_until(&specs, &stop, |_, run| {
-            // the samples first: an episode in episodes.csv always has its samples
-            {
-                use std::io::Write as _;
-                let line = EpisodeSamples::of(run).to_line() + "\n";
-                samples_file
-                    .lock()
+        let runs = runner
+            .run_until(&specs, &stop, |_, run| {
+                // the samples first: an episode in episodes.csv always has its samples
+                {
+                    use std::io::Write as _;
+                    let line = EpisodeSamples::of(run).to_line() + "\n";
+                    samples_file
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .write_all(line.as_bytes())
+                        .map_err(|e| format!("cannot write {}: {e}", samples_path.display()))?;
+                }
+                // the trace before the row: an episode in episodes.csv has its whole trace (one cut
+                // short by a failure is written again when the episode runs again on --resume)
+                if args.traces {
+                    let name = trace_file_name(&run.outcome.scenario, run.outcome.episode);
+                    run_dir
+                        .record(&format!("{TRACES_DIR}/{name}"))
+                        .map_err(|e| format!("{e:#}"))?;
+                    write_trace(&traces_dir, run)
+                        .map_err(|e| format!("cannot write {}: {e}", traces_dir.join(&name).display()))?;
+                }
+                csv.lock()
                     .unwrap_or_else(|e| e.into_inner())
-                    .write_all(line.as_bytes())
-                    .map_err(|e| format!("cannot write {}: {e}", samples_path.display()))?;
-            }
-            // the trace before the row: an episode in episodes.csv has its whole trace (one cut
-            // short by a failure is written again when the episode runs again on --resume)
-            if args.traces {
-                let name = trace_file_name(&run.outcome.scenario, run.outcome.episode);
-                run_dir
-                    .record(&format!("{TRACES_DIR}/{name}"))
-                    .map_err(|e| format!("{e:#}"))?;
-                write_trace(&traces_dir, run).map_err(|e| format!("cannot write {}: {e}", traces_dir.join(&name).display()))?;
-            }
-            csv.lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .write_episode(&run.outcome)
-                .map_err(|e| e.to_string())?;
-            bar.inc(1);
-            finished.fetch_add(1, Ordering::Relaxed);
-            Ok(())
-        })
-        .map_err(|e| match e {
-            loomlab_scenarios::RunError::Callback(m) => anyhow::Error::msg(m).context(CannotWrite(format!(
-                "cannot save a finished episode in {}",
-                out.display()
-            ))),
-            other => other.into(),
-        })?;
+                    .write_episode(&run.outcome)
+                    .map_err(|e| e.to_string())?;
+                bar.inc(1);
+                finished.fetch_add(1, Ordering::Relaxed);
+                Ok(())
+            })
+            .map_err(|e| match e {
+                loomlab_scenarios::RunError::Callback(m) => anyhow::Error::msg(m).context(CannotWrite(format!(
+                    "cannot save a finished episode in {}",
+                    out.display()
+                ))),
+                other => other.into(),
+            })?;
         for ((pos, _), run) in chunk.iter().zip(runs) {
             if let Some(run) = run {
                 samples.add(&run);
@@ -434,35 +442,6 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
         return Ok(130);
     }
 
-    // the plots' samples from every episode, this invocation's and earlier ones' (in suite order)
-    let samples = {
-        let text = std::fs::read_to_string(&samples_path)
-            .with_context(|| CannotWrite(format!("cannot read {}", samples_path.display())))?;
-        let mut by_pos: BTreeMap<usize, EpisodeSamples> = BTreeMap::new();
-        for line in text.lines() {
-            if let Some(es) = EpisodeSamples::from_line(line)
-                && let Some(p) = position(&es.scenario, es.episode)
-            {
-                by_pos.insert(p, es); // a later line (an episode run again) replaces an earlier one
-            }
-        }
-        let mut all = PlotSamples::default();
-        for es in by_pos.values() {
-            all.add_points(es);
-        }
-        if let Some(best) = by_pos.values().min_by_key(|es| es.rank) {
-            let live = samples
-                .sample()
-                .filter(|r| r.outcome.scenario == best.scenario && r.outcome.episode == best.episode);
-            let run = match live {
-                Some(r) => r.clone(),
-                // the sample episode ran in an earlier invocation: simulate it again (deterministic)
-                None => runner.run_episode(&offsets[best.scenario.as_str()].1.episode(best.episode)?)?,
-            };
-            all.set_sample(run);
-        }
-        all
-    };
     let report = Report::from_episodes(&meta, &outcomes);
     let report_path = out.join(REPORT);
     run_dir.record(REPORT)?;
@@ -485,6 +464,46 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
     if let Some(code) = stopped(&mut run_dir)? {
         return Ok(code);
     }
+    // the plots' samples from every episode, this invocation's and earlier ones' (in suite order)
+    let samples = {
+        let text = std::fs::read_to_string(&samples_path)
+            .with_context(|| CannotWrite(format!("cannot read {}", samples_path.display())))?;
+        let mut by_pos: BTreeMap<usize, EpisodeSamples> = BTreeMap::new();
+        for line in text.lines() {
+            if let Some(es) = EpisodeSamples::from_line(line)
+                && let Some(p) = position(&es.scenario, es.episode)
+            {
+                by_pos.insert(p, es); // a later line (an episode run again) replaces an earlier one
+            }
+        }
+        let mut all = PlotSamples::default();
+        for es in by_pos.values() {
+            all.add_points(es);
+        }
+        // the sample episode (trace.png, the page's trace plot), unless nothing is drawn
+        if let Some(best) = by_pos.values().min_by_key(|es| es.rank)
+            && !(args.no_plots && args.no_html)
+        {
+            let live = samples
+                .sample()
+                .filter(|r| r.outcome.scenario == best.scenario && r.outcome.episode == best.episode);
+            let run = match live {
+                Some(r) => r.clone(),
+                // the sample episode ran in an earlier invocation: simulate it again (deterministic)
+                None => match runner.run_episode(&offsets[best.scenario.as_str()].1.episode(best.episode)?) {
+                    Ok(r) => r,
+                    Err(e) => {
+                        if let Some(code) = stopped(&mut run_dir)? {
+                            return Ok(code);
+                        }
+                        return Err(e.into());
+                    }
+                },
+            };
+            all.set_sample(run);
+        }
+        all
+    };
     if !args.no_plots {
         for f in run_figures(&report, &outcomes, Some(&samples)) {
             // through a temporary file (same extension: the encoder goes by it), listed first
@@ -547,7 +566,9 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
         outln!("{}", report.format_table(!args.brief).trim_end());
         outln!(
             "\nescape deadlines: {} physics-only replays for {} threats, {:.1} s of worker time",
-            work.replays, work.deadlines, work.deadline_s
+            work.replays,
+            work.deadlines,
+            work.deadline_s
         );
         let earlier = if resumed.is_empty() {
             String::new()
@@ -563,7 +584,10 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
             runner.jobs()
         );
         if args.no_plots {
-            outln!("wrote {} and episodes.csv (no plots: --no-plots)", report_path.display());
+            outln!(
+                "wrote {} and episodes.csv (no plots: --no-plots)",
+                report_path.display()
+            );
         } else {
             outln!(
                 "wrote {} and episodes.csv, plots in {}",
@@ -598,7 +622,9 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
             let hit = c.hit_rate.map_or("n/a".to_string(), |h| format!("{h:.2}"));
             outln!(
                 "  {:<10} threshold {t:<12} FA rate {:.2} over {} non-threats, hit rate {hit}",
-                c.label, c.false_alarm_rate, c.non_threats
+                c.label,
+                c.false_alarm_rate,
+                c.non_threats
             );
         }
     }
@@ -816,9 +842,7 @@ fn interrupt_flag() -> Arc<AtomicBool> {
         if WRITING_REPORT.load(Ordering::SeqCst) {
             errln!("\ninterrupt: every episode is saved; stopping after the file being written ...");
         } else {
-            errln!(
-                "\ninterrupt: stopping (finished episodes are saved; those in flight run again on --resume) ..."
-            );
+            errln!("\ninterrupt: stopping (finished episodes are saved; those in flight run again on --resume) ...");
         }
     });
     if let Err(e) = installed {
