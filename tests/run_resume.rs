@@ -486,3 +486,29 @@ fn a_write_failure_exits_3_with_the_state_and_a_resume_hint() {
     assert!(out.join("roc.png").is_file());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_long_run_without_a_terminal_prints_progress_lines() {
+    // stderr is a pipe here (no progress bar): progress lines come while the long episode runs
+    let dir = tmp("progress");
+    let suite = long_suite(&dir);
+    let out = dir.join("out");
+    let o = loomlab_command()
+        .args([
+            "run",
+            s(&suite),
+            "--out",
+            s(&out),
+            "--jobs",
+            "1",
+            "--no-html",
+            "--no-plots",
+        ])
+        .env("LOOMLAB_PROGRESS_S", "1")
+        .output()
+        .unwrap();
+    let e = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{e}");
+    assert!(e.contains("progress: 0 of 1 episodes done in 0 min"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -749,11 +749,13 @@ impl Html<'_> {
     }
 }
 
-/// Seconds between two progress lines when stderr is not a terminal (no progress bar there).
+/// Seconds between two progress lines when stderr is not a terminal (no progress bar there);
+/// the environment variable `LOOMLAB_PROGRESS_S` sets another interval (e.g. for a log).
 const HEARTBEAT_S: u64 = 10;
 
 /// Progress lines on a non-terminal stderr (a log file, CI): `progress: 12 of 349 episodes done
-/// in 1 min 20 s`, every [`HEARTBEAT_S`] seconds while episodes run (even inside one long one).
+/// in 1 min 20 s`, every [`HEARTBEAT_S`] seconds (or `LOOMLAB_PROGRESS_S`) while episodes run,
+/// even inside one long episode.
 struct Heartbeat {
     done: Arc<AtomicBool>,
     thread: Option<std::thread::JoinHandle<()>>,
@@ -763,14 +765,19 @@ impl Heartbeat {
     fn start(finished: Arc<std::sync::atomic::AtomicUsize>, todo: usize) -> Self {
         let done = Arc::new(AtomicBool::new(false));
         let flag = Arc::clone(&done);
+        let every = std::env::var("LOOMLAB_PROGRESS_S")
+            .ok()
+            .and_then(|v| v.parse::<u64>().ok())
+            .filter(|&s| s > 0)
+            .unwrap_or(HEARTBEAT_S);
         let thread = std::thread::spawn(move || {
             let started = Instant::now();
-            let mut next = HEARTBEAT_S;
+            let mut next = every;
             while !flag.load(Ordering::SeqCst) {
                 std::thread::park_timeout(std::time::Duration::from_millis(200));
                 let secs = started.elapsed().as_secs();
                 if secs >= next && !flag.load(Ordering::SeqCst) {
-                    next = secs + HEARTBEAT_S;
+                    next = secs + every;
                     errln!(
                         "progress: {} of {todo} episodes done in {} min {} s",
                         finished.load(Ordering::Relaxed),
