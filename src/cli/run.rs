@@ -280,6 +280,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
     };
     let mut manifest = Manifest::new(fingerprint.hex(), &suite_path, total);
     manifest.traces = args.traces;
+    // the handler first: an interrupt from the moment the manifest says `running` is handled
+    let stop = interrupt_flag();
     let Prepared {
         dir: mut run_dir,
         done,
@@ -300,7 +302,6 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
         );
     }
 
-    let stop = interrupt_flag();
     let gpu = GpuContext::new()?;
     let runner = Runner::with_context(Arc::clone(&gpu), args.jobs)?.with_cancel(Arc::clone(&stop));
     if let Some(jobs) = args.jobs
