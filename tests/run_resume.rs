@@ -512,3 +512,50 @@ fn a_long_run_without_a_terminal_prints_progress_lines() {
     assert!(e.contains("progress: 0 of 1 episodes done in 0 min"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn an_interrupt_while_the_report_is_written_is_not_reported_as_a_finished_run() {
+    // every episode done (report.json written), the page and its GIFs being written: an
+    // interrupt stops there with 130 and `interrupted`, and --resume writes the rest
+    let dir = tmp("report_phase");
+    let suite = suite(&dir);
+    for i in 0..4 {
+        let t = std::fs::read_to_string(suite.join("ball.toml")).unwrap();
+        std::fs::write(
+            suite.join(format!("more_{i}.toml")),
+            t.replace("camera = { n = 32 }", "camera = { n = 64 }"),
+        )
+        .unwrap();
+    }
+    let out = dir.join("out");
+    let args = ["run", s(&suite), "--out", s(&out), "--no-plots"];
+    let child = loomlab_command()
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    while !out.join("report.json").exists() {
+        assert!(
+            started.elapsed() < Duration::from_secs(300),
+            "the episodes did not finish"
+        );
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    interrupt(&child);
+    let o = child.wait_with_output().unwrap();
+    let e = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{e}");
+    assert!(!e.contains("finishing the episodes in flight"), "{e}");
+    assert!(
+        e.contains("interrupted while writing the report") && e.contains("--resume"),
+        "{e}"
+    );
+    assert_eq!(manifest_state(&out), "interrupted");
+    let o = loomlab(&[&args[..], &["--resume"]].concat());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert_eq!(manifest_state(&out), "complete");
+    assert!(out.join("report.html").is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}
