@@ -2,6 +2,23 @@
 //! one module per subcommand (`cli/`) and maps errors to exit codes; every capability lives in the
 //! library crates (`loomlab-detector`, `loomlab-sim`, `loomlab-agents`, `loomlab-scenarios`).
 
+/// `println!` that never panics: a closed stdout (`loomlab run … | head -1`) stops the printing,
+/// not the program (its files and run state are what matter; see README "Reliability").
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout().lock(), $($arg)*);
+    }};
+}
+
+/// `eprintln!` that never panics (a closed stderr is ignored).
+macro_rules! errln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr().lock(), $($arg)*);
+    }};
+}
+
 mod cli;
 
 use clap::{Parser, Subcommand};
@@ -28,6 +45,9 @@ enum Command {
     Run(cli::run::RunArgs),
 }
 
+/// Exit code of a failure to write an output (disk full, permissions): not the user's input.
+const EXIT_IO: i32 = 3;
+
 fn main() {
     let cli = Cli::parse();
     let result: anyhow::Result<i32> = match cli.command {
@@ -39,8 +59,29 @@ fn main() {
     match result {
         Ok(code) => std::process::exit(code),
         Err(e) => {
-            eprintln!("error: {e:#}");
-            std::process::exit(2);
+            // the chain of causes, each once (a message that already quotes its cause, like
+            // "cannot read F: No such file", is not followed by the cause again)
+            let mut text = String::new();
+            for cause in e.chain() {
+                let c = cause.to_string();
+                if !text.contains(&c) {
+                    if !text.is_empty() {
+                        text += ": ";
+                    }
+                    text += &c;
+                }
+            }
+            errln!("error: {text}");
+            if let Some(cmd) = cli::run_dir::RESUME_HINT
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .take()
+            {
+                errln!("the finished episodes are saved; resume with:\n  {cmd}");
+            }
+            // 3: an output could not be written (disk full, permissions), 2: bad input
+            let io = e.downcast_ref::<cli::run_dir::CannotWrite>().is_some();
+            std::process::exit(if io { EXIT_IO } else { 2 });
         }
     }
 }

@@ -411,3 +411,450 @@ fn episodes_csv_is_identical_for_one_and_two_workers() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+// ---- issue 29: nothing lost, nothing escapes, nothing silent ----
+
+/// One scenario file: the slow ball of `BALL` (2 episodes) under `name`.
+fn named_suite(dir: &std::path::Path, name: &str) -> PathBuf {
+    let suite = dir.join("suite");
+    std::fs::create_dir_all(&suite).unwrap();
+    let text = format!("name = {}\n{BALL}", toml::Value::String(name.into()));
+    std::fs::write(suite.join("ball.toml"), text).unwrap();
+    suite
+}
+
+/// Every file under `dir` (relative paths).
+fn files_under(dir: &std::path::Path) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.push(p.strip_prefix(dir).unwrap().display().to_string());
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn overwrite_deletes_only_the_files_the_run_wrote() {
+    let dir = tmp("overwrite");
+    let suite = tiny_suite(&dir);
+    let out = dir.join("out");
+    // the user's own files, in the folders a run writes to, before any run
+    std::fs::create_dir_all(out.join("traces")).unwrap();
+    std::fs::create_dir_all(out.join("exemplars")).unwrap();
+    std::fs::write(out.join("traces/mine.csv"), "keep").unwrap();
+    std::fs::write(out.join("exemplars/mine.gif"), "keep").unwrap();
+    std::fs::create_dir_all(out.join("traces/sub")).unwrap();
+    std::fs::write(out.join("traces/sub/deep.txt"), "keep").unwrap();
+    let base = ["run", s(&suite), "--out", s(&out), "--limit", "2", "--traces"];
+    // user files alone are not a run: no refusal, and they survive the run
+    let o = loomlab(&base);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(out.join("traces/ball_0000.csv").is_file() && out.join("report.html").is_file());
+    let listed = std::fs::read_to_string(out.join("written.txt")).unwrap();
+    assert!(listed.lines().any(|l| l == "traces/ball_0000.csv"), "{listed}");
+    assert!(!listed.contains("mine"), "{listed}");
+    // a rerun is refused, and the message says what --overwrite deletes
+    let o = loomlab(&base);
+    assert_eq!(o.status.code(), Some(2));
+    let e = text(&o.stderr);
+    assert!(e.contains("deletes only the files that run wrote"), "{e}");
+    // --overwrite (without --traces this time): the run's traces go, the user's files stay
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--limit",
+        "1",
+        "--overwrite",
+        "--no-html",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    for f in ["traces/mine.csv", "exemplars/mine.gif", "traces/sub/deep.txt"] {
+        assert_eq!(std::fs::read_to_string(out.join(f)).unwrap(), "keep", "{f}");
+    }
+    assert!(!out.join("traces/ball_0000.csv").exists() && !out.join("report.html").exists());
+    assert!(
+        files_under(&out.join("exemplars")) == ["mine.gif"],
+        "{:?}",
+        files_under(&out.join("exemplars"))
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_name_with_a_path_is_refused_before_anything_is_written() {
+    let dir = tmp("escape");
+    for name in [
+        "../../escape/evil",
+        "sub/x",
+        "<script>alert(1)</script>",
+        "..",
+        ".hidden",
+        "a b",
+    ] {
+        let suite = named_suite(&dir, name);
+        let out = dir.join("deep/er/out");
+        let o = loomlab(&["run", s(&suite), "--out", s(&out), "--traces"]);
+        assert_eq!(o.status.code(), Some(2), "{name}: {}", text(&o.stderr));
+        let e = text(&o.stderr);
+        assert!(e.contains("name") && e.contains("ball.toml"), "{name}: {e}");
+        assert!(!out.exists(), "{name}: nothing written");
+        assert!(!dir.join("escape").exists() && !dir.join("deep/escape").exists());
+    }
+    // an unusual but valid name: the whole run, report.html included
+    let suite = named_suite(&dir, "Ball_1.2+fast-v3");
+    let out = dir.join("ok");
+    let o = loomlab(&["run", s(&suite), "--out", s(&out), "--traces", "--limit", "1"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(out.join("report.html").is_file());
+    assert!(out.join("traces/Ball_1.2+fast-v3_0000.csv").is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn random_scenario_names_never_make_a_path_outside_the_output_folder() {
+    // property test (seeded, bounded): every name the schema accepts gives trace and exemplar
+    // files directly inside their folder of --out; the others are refused
+    use loomlab_report::run_plots::trace_file_name;
+    use loomlab_scenarios::schema::check_file_name;
+    use std::path::Component;
+    let alphabet: Vec<char> = "aZ09_-.+/\\:<>&\"' \u{0}\n~$*?é…".chars().collect();
+    let mut state: u64 = 0x2929_2929;
+    let mut next = |n: usize| {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state % n as u64) as usize
+    };
+    let (mut accepted, mut refused) = (0, 0);
+    for _ in 0..20_000 {
+        let len = next(12);
+        let name: String = (0..len).map(|_| alphabet[next(alphabet.len())]).collect();
+        let ok = check_file_name(&name).is_ok();
+        // what the schema says agrees: a scenario file with this name loads iff the check passes
+        if next(50) == 0 {
+            let text = format!("name = {}\n{BALL}", toml::Value::String(name.clone()));
+            let parsed = loomlab_scenarios::parse_scenario(
+                &text,
+                std::path::Path::new("x.toml"),
+                None,
+                &loomlab_scenarios::LoadOptions::default(),
+            );
+            assert_eq!(parsed.is_ok(), ok, "{name:?}: {:?}", parsed.err());
+        }
+        if !ok {
+            refused += 1;
+            continue;
+        }
+        accepted += 1;
+        for file in [trace_file_name(&name, 7), format!("{name}_0007.gif")] {
+            let p = std::path::Path::new(&file);
+            let parts: Vec<Component> = p.components().collect();
+            assert!(
+                parts.len() == 1 && matches!(parts[0], Component::Normal(_)) && !file.starts_with('.'),
+                "{name:?} gives {file:?}"
+            );
+        }
+    }
+    assert!(
+        accepted > 100 && refused > 100,
+        "{accepted} accepted, {refused} refused"
+    );
+}
+
+#[test]
+fn a_closed_stdout_never_panics_nor_changes_the_run_state() {
+    use std::process::Stdio;
+    let dir = tmp("pipe");
+    let suite = tiny_suite(&dir);
+    let out = dir.join("out");
+    let run = |extra: &[&str]| {
+        let mut child = common::loomlab_command()
+            .args(["run", s(&suite), "--out", s(&out), "--limit", "2", "--no-html"])
+            .args(extra)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        drop(child.stdout.take()); // the reader is gone (`| head -1` after its line, `| true`)
+        child.wait_with_output().unwrap()
+    };
+    let o = run(&[]);
+    let e = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{e}");
+    assert!(!e.contains("panicked") && !e.contains("Broken pipe"), "{e}");
+    let state = |d: &std::path::Path| -> String {
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join("manifest.json")).unwrap()).unwrap();
+        m["state"].as_str().unwrap().to_string()
+    };
+    assert_eq!(state(&out), "complete");
+    // a resume of an interrupted run with a closed stdout: it resumes, to the truth
+    let mut m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    m["state"] = "interrupted".into();
+    std::fs::write(out.join("manifest.json"), m.to_string()).unwrap();
+    let csv = std::fs::read_to_string(out.join("episodes.csv")).unwrap();
+    let keep: Vec<&str> = csv.lines().take(1 + (csv.lines().count() - 1) / 2).collect();
+    std::fs::write(out.join("episodes.csv"), keep.join("\n") + "\n").unwrap();
+    let o = run(&["--resume"]);
+    let e = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{e}");
+    assert!(!e.contains("panicked"), "{e}");
+    assert_eq!(state(&out), "complete");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn combinations_that_cannot_work_are_refused() {
+    let dir = tmp("refuse");
+    let suite = tiny_suite(&dir);
+    let out = dir.join("out");
+    let bad = |args: &[&str], want: &[&str]| {
+        let o = loomlab(args);
+        let e = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {e}");
+        for w in want {
+            assert!(e.contains(w), "{args:?}: `{w}` not in {e}");
+        }
+    };
+    // a θ̂ trigger on a detector without θ̂ would never alarm
+    let soc = dir.join("soc.toml");
+    std::fs::write(
+        &soc,
+        BALL.replace("threshold = 0.01", "threshold = 0.01\ntrigger = \"angular_size_deg\""),
+    )
+    .unwrap();
+    bad(
+        &["run", s(&soc), "--out", s(&out)],
+        &["detectors[1].trigger", "soc", "θ̂"],
+    );
+    // a dangling symlink in a suite folder is an error, not a smaller suite
+    #[cfg(unix)]
+    {
+        let linked = dir.join("linked");
+        std::fs::create_dir_all(&linked).unwrap();
+        std::fs::write(linked.join("ball.toml"), BALL).unwrap();
+        std::os::unix::fs::symlink(dir.join("gone.toml"), linked.join("gone.toml")).unwrap();
+        bad(
+            &["run", s(&linked), "--out", s(&out)],
+            &["gone.toml", "symbolic link", "does not exist"],
+        );
+    }
+    // speeds the simulator cannot resolve (an object passing through the robot between two
+    // physics substeps) are refused, naming the substeps that would resolve them
+    let fast = dir.join("fast.toml");
+    std::fs::write(&fast, BALL.replace("speed_mps = 3.0", "speed_mps = 3000.0")).unwrap();
+    bad(
+        &["run", s(&fast), "--out", s(&out)],
+        &[
+            "world.projectiles[0].speed_mps",
+            "3000",
+            "physics_substeps to at least 42",
+        ],
+    );
+    let car = dir.join("car.toml");
+    std::fs::write(
+        &car,
+        "[world]\ncamera = { n = 32 }\n[[world.vehicles]]\nstart = [10.0, 0.0]\nheading_deg = 180.0\nspeed_mps = 1e7\nparts = [{ shape = { kind = \"box\", size = [1.0, 1.0, 1.0] } }]\n",
+    )
+    .unwrap();
+    bad(
+        &["run", s(&car), "--out", s(&out)],
+        &["world.vehicles[0].speed_mps", "lower the speed"],
+    );
+    // a list file listing a list file
+    let inner = dir.join("inner.toml");
+    std::fs::write(&inner, "scenarios = [\"suite/ball.toml\"]\n").unwrap();
+    let outer = dir.join("outer.toml");
+    std::fs::write(&outer, "scenarios = [\"inner.toml\"]\n").unwrap();
+    bad(&["run", s(&outer), "--out", s(&out)], &["inner.toml", "list file"]);
+    // --bless with --limit would replace the baseline with a part of the suite
+    let baseline = dir.join("base.json");
+    bad(
+        &[
+            "run",
+            s(&suite),
+            "--out",
+            s(&out),
+            "--baseline",
+            s(&baseline),
+            "--bless",
+            "--limit",
+            "2",
+        ],
+        &["--bless", "--limit 2", "drop --limit"],
+    );
+    assert!(!baseline.exists() && !out.exists());
+    // a baseline of another suite is not compared
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--no-html",
+        "--no-plots",
+        "--baseline",
+        s(&baseline),
+        "--bless",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let other = dir.join("other");
+    std::fs::create_dir_all(&other).unwrap();
+    std::fs::write(other.join("ball.toml"), BALL).unwrap();
+    bad(
+        &[
+            "run",
+            s(&other),
+            "--out",
+            s(&dir.join("o2")),
+            "--baseline",
+            s(&baseline),
+        ],
+        &["another suite", "fast_ball"],
+    );
+    bad(
+        &[
+            "run",
+            s(&other),
+            "--out",
+            s(&dir.join("o2")),
+            "--baseline",
+            s(&baseline),
+            "--bless",
+        ],
+        &["another suite", "refusing to replace it"],
+    );
+    // --resume without the --traces the run was started with
+    let t = dir.join("t");
+    let mut child = common::loomlab_command();
+    let o = child
+        .args([
+            "run",
+            s(&suite),
+            "--out",
+            s(&t),
+            "--limit",
+            "1",
+            "--traces",
+            "--no-html",
+            "--no-plots",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let mut m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(t.join("manifest.json")).unwrap()).unwrap();
+    m["state"] = "interrupted".into();
+    std::fs::write(t.join("manifest.json"), m.to_string()).unwrap();
+    bad(
+        &[
+            "run",
+            s(&suite),
+            "--out",
+            s(&t),
+            "--limit",
+            "1",
+            "--no-html",
+            "--no-plots",
+            "--resume",
+        ],
+        &["--traces", "Resume it with its own command"],
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn messages_name_the_right_key_and_value() {
+    let dir = tmp("messages");
+    let out = dir.join("out");
+    let check = |edit: &dyn Fn(&str) -> String, extra: &[&str], want: &[&str], not: &[&str]| {
+        let f = dir.join("m.toml");
+        std::fs::write(&f, edit(BALL)).unwrap();
+        let o = loomlab(&[&["run", s(&f), "--out", s(&out)][..], extra].concat());
+        let e = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{e}");
+        for w in want {
+            assert!(e.contains(w), "`{w}` not in {e}");
+        }
+        for n in not {
+            assert!(!e.contains(n), "`{n}` in {e}");
+        }
+    };
+    check(
+        &|t| t.replace("camera = { n = 32 }", "camera = { n = 32, pitch_deg = nan }"),
+        &[],
+        &["world.camera.pitch_deg", "NaN"],
+        &["world.camera.position"],
+    );
+    check(
+        &|t| {
+            t.replace(
+                "camera = { n = 32 }",
+                "camera = { n = 32, shake = { translation_m = 1e9 } }",
+            )
+        },
+        &[],
+        &["world.camera.shake.translation_m"],
+        &["launch_position"],
+    );
+    check(
+        &|t| format!("{t}\n[[world.projectiles]]\nname = \"b\"\n[[world.projectiles]]\nname = \"b\"\n"),
+        &[],
+        &["world.projectiles[2].name", "world.projectiles[1].name", "`b`"],
+        &["`world.name`"],
+    );
+    check(
+        &|t| {
+            t.replace("ground = { enabled = false }", "")
+                .replace("radius_m = 0.15", "radius_m = 1e9")
+        },
+        &[],
+        &["world.projectiles[0].radius_m", "1000000000"],
+        &["launch_position"],
+    );
+    check(
+        &|t| t.to_string(),
+        &["--size", "1"],
+        &["--size 1", "20..=2048"],
+        &["world.camera.n"],
+    );
+    check(
+        &|t| t.replace("target = \"camera\"", "target = \"robott\""),
+        &[],
+        &[
+            "world.projectiles[0].target",
+            "unknown target `robott`",
+            "\"robot\", \"camera\"",
+        ],
+        &["untagged"],
+    );
+    // an OS error is printed once
+    let o = loomlab(&["run", s(&dir.join("missing")), "--out", s(&out)]);
+    let e = text(&o.stderr);
+    assert_eq!(e.matches("os error").count(), 1, "{e}");
+    // no "plots in" with --no-plots
+    let suite = tiny_suite(&dir);
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&dir.join("np")),
+        "--limit",
+        "1",
+        "--no-plots",
+        "--no-html",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(!text(&o.stdout).contains("plots in"), "{}", text(&o.stdout));
+    let _ = std::fs::remove_dir_all(&dir);
+}

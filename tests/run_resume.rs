@@ -261,3 +261,301 @@ fn jobs_are_clamped_to_the_cpus_with_a_note() {
     assert!(e.contains("--jobs 100000 clamped to"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The manifest of `dir`, edited by `f`.
+fn edit_manifest(dir: &Path, f: impl FnOnce(&mut serde_json::Value)) {
+    let mut m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("manifest.json")).unwrap()).unwrap();
+    f(&mut m);
+    std::fs::write(dir.join("manifest.json"), m.to_string()).unwrap();
+}
+
+const PLOTS: [&str; 5] = ["roc.png", "rates.png", "collisions.png", "theta_hat.png", "trace.png"];
+
+#[test]
+fn a_resumed_run_draws_the_plots_of_an_uninterrupted_run() {
+    let dir = tmp("plots");
+    let suite = suite(&dir);
+    // θ̂ plots need a hopfield row
+    for f in ["ball.toml", "fast_ball.toml"] {
+        let p = suite.join(f);
+        let t = std::fs::read_to_string(&p).unwrap();
+        std::fs::write(
+            &p,
+            t.replace(
+                "[[detectors]]\nid = \"soc\"",
+                "[[detectors]]\nid = \"hopfield\"\n[[detectors]]\nid = \"soc\"",
+            ),
+        )
+        .unwrap();
+    }
+    let full = dir.join("full");
+    let args = |out: &Path| -> Vec<String> {
+        ["run", s(&suite), "--out", s(out), "--jobs", "1", "--no-html", "--quiet"]
+            .map(String::from)
+            .to_vec()
+    };
+    let run = |a: Vec<String>| loomlab(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    let o = run(args(&full));
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    for p in PLOTS {
+        assert!(full.join(p).is_file(), "{p}");
+    }
+    // the same run, stopped after half of its episodes (their rows and samples kept)
+    let part = dir.join("part");
+    std::fs::create_dir_all(&part).unwrap();
+    for f in ["manifest.json", "written.txt", "episodes.csv", "plot_samples.jsonl"] {
+        std::fs::copy(full.join(f), part.join(f)).unwrap();
+    }
+    let csv = std::fs::read_to_string(part.join("episodes.csv")).unwrap();
+    let per_episode = (csv.lines().count() - 1) / EPISODES;
+    let half: Vec<&str> = csv.lines().take(1 + per_episode * EPISODES / 2).collect();
+    std::fs::write(part.join("episodes.csv"), half.join("\n") + "\n").unwrap();
+    let samples = std::fs::read_to_string(part.join("plot_samples.jsonl")).unwrap();
+    let half: Vec<&str> = samples.lines().take(EPISODES / 2).collect();
+    std::fs::write(part.join("plot_samples.jsonl"), half.join("\n") + "\n").unwrap();
+    edit_manifest(&part, |m| m["state"] = "interrupted".into());
+    let o = run([args(&part), vec!["--resume".into()]].concat());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    for p in PLOTS {
+        assert!(
+            std::fs::read(part.join(p)).unwrap() == std::fs::read(full.join(p)).unwrap(),
+            "{p} of the resumed run differs from the uninterrupted run's"
+        );
+    }
+    // nothing left to run: the plots are still drawn, the same
+    for p in PLOTS {
+        std::fs::remove_file(part.join(p)).unwrap();
+    }
+    let o = run([args(&part), vec!["--resume".into()]].concat());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    for p in PLOTS {
+        assert!(
+            std::fs::read(part.join(p)).unwrap() == std::fs::read(full.join(p)).unwrap(),
+            "{p} (nothing left to run)"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A 60-second episode (the ball arrives after about 36 s): long enough that an interrupt lands
+/// while it runs.
+fn long_suite(dir: &Path) -> PathBuf {
+    let suite = dir.join("long");
+    std::fs::create_dir_all(&suite).unwrap();
+    let text = BALL
+        .replace("duration_s = 1.5", "duration_s = 60.0")
+        .replace("launch_time_s = 0.1", "launch_time_s = 35.0")
+        .replace("[0.0, 0.1, 0.6, 1.0, 1.5, 2.0]", "[0.0]");
+    std::fs::write(suite.join("long.toml"), text).unwrap();
+    suite
+}
+
+/// Starts `loomlab run` and waits until its manifest says `running`.
+fn start_running(args: &[&str], out: &Path) -> std::process::Child {
+    let child = loomlab_command()
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    while !out.join("manifest.json").exists() || !out.join("episodes.csv").exists() {
+        assert!(started.elapsed() < Duration::from_secs(120), "the run did not start");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child
+}
+
+fn interrupt(child: &std::process::Child) {
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+}
+
+#[test]
+fn an_interrupt_stops_an_episode_in_flight_and_a_second_one_keeps_the_state_true() {
+    let dir = tmp("long");
+    let suite = long_suite(&dir);
+    // one interrupt: the episode in flight gives up, the run is interrupted (not finished)
+    let out = dir.join("one");
+    let args = [
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--jobs",
+        "1",
+        "--no-html",
+        "--no-plots",
+    ];
+    let child = start_running(&args, &out);
+    interrupt(&child);
+    let o = child.wait_with_output().unwrap();
+    let e = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{e}");
+    assert!(
+        e.contains("interrupted: 0 of 1 episodes done") && e.contains("--resume"),
+        "{e}"
+    );
+    assert!(!e.contains("finishing the episodes in flight"), "{e}");
+    assert_eq!(manifest_state(&out), "interrupted");
+    assert!(rows(&out).is_empty());
+    // two interrupts: the state is `interrupted`, not `running`, and no stale partial report
+    let out = dir.join("two");
+    let args = [
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--jobs",
+        "1",
+        "--no-html",
+        "--no-plots",
+    ];
+    let child = start_running(&args, &out);
+    interrupt(&child);
+    interrupt(&child);
+    let o = child.wait_with_output().unwrap();
+    let e = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{e}");
+    assert!(e.contains("--resume"), "{e}");
+    assert_eq!(manifest_state(&out), "interrupted");
+    assert!(!out.join("report.partial.json").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_write_failure_exits_3_with_the_state_and_a_resume_hint() {
+    let dir = tmp("iofail");
+    let suite = suite(&dir);
+    // traces/ cannot be created (a file of the user's is in the way): I/O, not bad input
+    let out = dir.join("traces_blocked");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("traces"), "mine").unwrap();
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--limit",
+        "2",
+        "--traces",
+        "--no-html",
+    ]);
+    let e = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{e}");
+    assert!(e.contains("traces") && e.contains("resume with"), "{e}");
+    assert_eq!(manifest_state(&out), "interrupted");
+    assert_eq!(std::fs::read_to_string(out.join("traces")).unwrap(), "mine");
+    // a plot cannot be written after every episode is done: not `complete`, and resumable
+    let out = dir.join("plot_blocked");
+    std::fs::create_dir_all(out.join("roc.png")).unwrap();
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--limit",
+        "2",
+        "--no-html",
+        "--jobs",
+        "1",
+    ]);
+    let e = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{e}");
+    assert!(e.contains("roc.png") && e.contains("--resume"), "{e}");
+    assert_eq!(manifest_state(&out), "interrupted");
+    std::fs::remove_dir(out.join("roc.png")).unwrap();
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--limit",
+        "2",
+        "--no-html",
+        "--jobs",
+        "1",
+        "--resume",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert_eq!(manifest_state(&out), "complete");
+    assert!(out.join("roc.png").is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_long_run_without_a_terminal_prints_progress_lines() {
+    // stderr is a pipe here (no progress bar): progress lines come while the long episode runs
+    let dir = tmp("progress");
+    let suite = long_suite(&dir);
+    let out = dir.join("out");
+    let o = loomlab_command()
+        .args([
+            "run",
+            s(&suite),
+            "--out",
+            s(&out),
+            "--jobs",
+            "1",
+            "--no-html",
+            "--no-plots",
+        ])
+        .env("LOOMLAB_PROGRESS_S", "1")
+        .output()
+        .unwrap();
+    let e = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{e}");
+    assert!(e.contains("progress: 0 of 1 episodes done in 0 min"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_interrupt_while_the_report_is_written_is_not_reported_as_a_finished_run() {
+    // every episode done (report.json written), the page and its GIFs being written: an
+    // interrupt stops there with 130 and `interrupted`, and --resume writes the rest
+    let dir = tmp("report_phase");
+    let suite = suite(&dir);
+    for i in 0..4 {
+        let t = std::fs::read_to_string(suite.join("ball.toml")).unwrap();
+        std::fs::write(
+            suite.join(format!("more_{i}.toml")),
+            t.replace("camera = { n = 32 }", "camera = { n = 64 }"),
+        )
+        .unwrap();
+    }
+    let out = dir.join("out");
+    let args = ["run", s(&suite), "--out", s(&out), "--no-plots"];
+    let child = loomlab_command()
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    while !out.join("report.json").exists() {
+        assert!(
+            started.elapsed() < Duration::from_secs(300),
+            "the episodes did not finish"
+        );
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    interrupt(&child);
+    let o = child.wait_with_output().unwrap();
+    let e = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{e}");
+    assert!(!e.contains("finishing the episodes in flight"), "{e}");
+    assert!(
+        e.contains("interrupted while writing the report") && e.contains("--resume"),
+        "{e}"
+    );
+    assert_eq!(manifest_state(&out), "interrupted");
+    let o = loomlab(&[&args[..], &["--resume"]].concat());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert_eq!(manifest_state(&out), "complete");
+    assert!(out.join("report.html").is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -53,39 +53,130 @@ impl ThetaHatPoints {
     }
 }
 
-impl PlotSamples {
-    /// Takes what the plots need from a finished episode (call in suite order).
-    pub fn add(&mut self, run: &EpisodeRun) {
+/// What one finished episode contributes to [`PlotSamples`], small enough to keep in the run
+/// folder (a resumed run rebuilds its plots from every episode's, see `loomlab run`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct EpisodeSamples {
+    /// Scenario name.
+    pub scenario: String,
+    /// Episode index within the scenario.
+    pub episode: usize,
+    /// How good a sample episode it is (0: the first detector hits, 1: a threat, 2: other).
+    pub rank: u8,
+    /// Per θ̂-triggered detector of a threat: its (true θ, θ̂) points with θ ≤ 90°.
+    pub theta_hat: Vec<(String, Vec<(f64, f64)>)>,
+}
+
+impl EpisodeSamples {
+    /// One line of JSON (no newline). Numbers are written as Rust prints them, the shortest text
+    /// that reads back to the same `f64`, so plots rebuilt from the line are byte-identical.
+    pub fn to_line(&self) -> String {
+        let theta: Vec<serde_json::Value> = self
+            .theta_hat
+            .iter()
+            .map(|(label, points)| {
+                let text: Vec<String> = points.iter().map(|(t, e)| format!("{t},{e}")).collect();
+                serde_json::json!([label, text.join(";")])
+            })
+            .collect();
+        serde_json::json!({
+            "scenario": self.scenario,
+            "episode": self.episode,
+            "rank": self.rank,
+            "theta_hat": theta,
+        })
+        .to_string()
+    }
+
+    /// Reads a line written by [`Self::to_line`] (`None`: not such a line, e.g. cut short).
+    pub fn from_line(line: &str) -> Option<Self> {
+        let v: serde_json::Value = serde_json::from_str(line).ok()?;
+        let mut theta_hat = Vec::new();
+        for entry in v.get("theta_hat")?.as_array()? {
+            let label = entry.get(0)?.as_str()?.to_string();
+            let text = entry.get(1)?.as_str()?;
+            let mut points = Vec::new();
+            for p in text.split(';').filter(|p| !p.is_empty()) {
+                let (t, e) = p.split_once(',')?;
+                points.push((t.parse().ok()?, e.parse().ok()?));
+            }
+            theta_hat.push((label, points));
+        }
+        Some(Self {
+            scenario: v.get("scenario")?.as_str()?.to_string(),
+            episode: usize::try_from(v.get("episode")?.as_u64()?).ok()?,
+            rank: u8::try_from(v.get("rank")?.as_u64()?).ok()?,
+            theta_hat,
+        })
+    }
+
+    /// The samples of a finished episode.
+    pub fn of(run: &EpisodeRun) -> Self {
         let first = run.outcome.detectors.first();
-        let threat = first.is_some_and(|d| d.threat);
-        if threat {
+        let mut theta_hat = Vec::new();
+        if first.is_some_and(|d| d.threat) {
             let tr = &run.trace;
             for d in tr
                 .detectors
                 .iter()
                 .filter(|d| d.trigger == TriggerSignal::AngularSizeDeg)
             {
-                let points = self.theta_hat.entry(d.label.clone()).or_default();
-                for (&t, &e) in tr.angular_size_deg.iter().zip(&d.signal) {
-                    if t.is_finite() && e.is_finite() && t <= 90.0 {
-                        points.offer((t, e));
-                    }
-                }
+                let points = tr
+                    .angular_size_deg
+                    .iter()
+                    .zip(&d.signal)
+                    .map(|(&t, &e)| (t, e))
+                    .filter(|&(t, e)| t.is_finite() && e.is_finite() && t <= 90.0)
+                    .collect();
+                theta_hat.push((d.label.clone(), points));
             }
         }
-        let rank = |r: &EpisodeRun| {
-            let d = r.outcome.detectors.first();
-            if d.is_some_and(|d| d.outcome == Outcome::Hit) {
-                0
-            } else if d.is_some_and(|d| d.threat) {
-                1
-            } else {
-                2
-            }
+        let rank = if first.is_some_and(|d| d.outcome == Outcome::Hit) {
+            0
+        } else if first.is_some_and(|d| d.threat) {
+            1
+        } else {
+            2
         };
-        if self.sample.as_ref().is_none_or(|s| rank(run) < rank(s)) {
+        Self {
+            scenario: run.outcome.scenario.clone(),
+            episode: run.outcome.episode,
+            rank,
+            theta_hat,
+        }
+    }
+}
+
+impl PlotSamples {
+    /// Takes what the plots need from a finished episode (call in suite order).
+    pub fn add(&mut self, run: &EpisodeRun) {
+        let s = EpisodeSamples::of(run);
+        self.add_points(&s);
+        let rank = |r: &EpisodeRun| EpisodeSamples::of(r).rank;
+        if self.sample.as_ref().is_none_or(|old| s.rank < rank(old)) {
             self.sample = Some(run.clone());
         }
+    }
+
+    /// Takes an episode's θ̂ points (call in suite order; the sample episode is set apart, with
+    /// [`Self::set_sample`]).
+    pub fn add_points(&mut self, s: &EpisodeSamples) {
+        for (label, points) in &s.theta_hat {
+            let kept = self.theta_hat.entry(label.clone()).or_default();
+            for &p in points {
+                kept.offer(p);
+            }
+        }
+    }
+
+    /// Sets the sample episode (the first of the best [`EpisodeSamples::rank`] in suite order).
+    pub fn set_sample(&mut self, run: EpisodeRun) {
+        self.sample = Some(run);
+    }
+
+    /// The sample episode, if set.
+    pub fn sample(&self) -> Option<&EpisodeRun> {
+        self.sample.as_ref()
     }
 }
 
@@ -112,8 +203,15 @@ pub fn write_trace(dir: &Path, run: &EpisodeRun) -> std::io::Result<()> {
         }
         text.push('\n');
     }
-    let name = format!("{}_{:04}.csv", run.outcome.scenario, run.outcome.episode);
-    std::fs::write(dir.join(name), text)
+    std::fs::write(
+        dir.join(trace_file_name(&run.outcome.scenario, run.outcome.episode)),
+        text,
+    )
+}
+
+/// The file name of an episode's trace CSV (in the `traces/` folder of a run).
+pub fn trace_file_name(scenario: &str, episode: usize) -> String {
+    format!("{scenario}_{episode:04}.csv")
 }
 
 /// Most points per scatter series in an SVG (the PNG draws them all).

@@ -18,13 +18,21 @@
 //! Evasion need not be monotone in the trigger time: the looming-side estimate changes from frame
 //! to frame (a frame whose change is too small or central leaves the side unknown, and the
 //! controller dodges to its default side, possibly into the object), dodging early can lead into a
-//! second object, and a manoeuvre that ends too early can be caught up with. So every frame from 0
-//! to the contact frame is replayed, and the result is the exact set of evading trigger frames as
-//! ranges. A replay is one physics-only pass without ground-truth predictions (about 0.5 ms for
-//! the default suite's 2.5 s episodes), so a threat costs a few hundred of them: under a tenth of
-//! its rendered open-loop pass.
+//! second object, and a manoeuvre that ends too early can be caught up with. So no bisection: the
+//! search replays the frames **backwards** from the last one before contact and stops at the first
+//! that evades, which is the deadline by definition, whatever evasion does at earlier frames
+//! ([`escape_deadline`]). Its cost is (contact frame − deadline frame + 1) replays of at most one
+//! episode each: the lead a dodge needs (tens of frames), not the episode's length, so a 60 s
+//! episode costs about what a 3 s one does (an unavoidable threat still replays every frame).
+//! [`escape_deadline_exhaustive`] replays every frame from 0 to the contact frame and gives the
+//! exact set of evading trigger frames as ranges (the two agree on the deadline: tested, including
+//! non-monotone cases). A replay is one physics-only pass without ground-truth predictions.
+//!
+//! A search can be cancelled (Ctrl-C): [`escape_deadline_cancellable`] checks its flag between
+//! replays and every [`CANCEL_CHECK_STEPS`] steps within one.
 
 use std::ops::Range;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use loomlab_agents::{EscapeAgent, EscapeController};
 use loomlab_sim::{Sim, SimError};
@@ -39,8 +47,12 @@ pub struct EscapeDeadline {
     pub frame: Option<usize>,
     /// Its time (s).
     pub t_s: Option<f64>,
-    /// Every evading trigger frame, as ascending disjoint ranges.
+    /// The evading trigger frames among [`Self::searched`], as ascending disjoint ranges (every
+    /// evading frame for [`escape_deadline_exhaustive`]; the deadline alone for
+    /// [`escape_deadline`], which stops there).
     pub evading: Vec<Range<usize>>,
+    /// The trigger frames replayed.
+    pub searched: Range<usize>,
     /// Physics-only replays run.
     pub replays: usize,
 }
@@ -52,7 +64,9 @@ impl EscapeDeadline {
     }
 
     /// Whether evasion is monotone in the trigger time: every trigger up to the deadline evades
-    /// (true for an unavoidable threat).
+    /// (true for an unavoidable threat). Only known from an exhaustive search
+    /// ([`Self::searched`] from frame 0); a search that stopped at the deadline says `false`
+    /// unless the deadline is frame 0.
     pub fn monotone(&self) -> bool {
         match self.evading.as_slice() {
             [] => true,
@@ -77,14 +91,33 @@ pub fn replay_trigger(
     trigger_frame: usize,
     side: Option<f32>,
 ) -> Result<Option<Impact>, SimError> {
+    let never = AtomicBool::new(false);
+    Ok(replay(ep, seed, controller, trigger_frame, side, &never)?.expect("never cancelled"))
+}
+
+/// Steps between two looks at the cancel flag within a replay.
+pub const CANCEL_CHECK_STEPS: usize = 256;
+
+/// [`replay_trigger`] that gives up (`Ok(None)`) once `cancel` is set.
+fn replay(
+    ep: &EpisodeSpec,
+    seed: u64,
+    controller: &EscapeController,
+    trigger_frame: usize,
+    side: Option<f32>,
+    cancel: &AtomicBool,
+) -> Result<Option<Option<Impact>>, SimError> {
     let mut sim = Sim::new_physics_only(&ep.world, seed)?;
     sim.set_ground_truth(false);
     let mut agent = EscapeAgent::from_parts(Vec::new(), controller.clone());
     let mut cmd = ep.cruise.command_at(0.0);
     for k in 0..ep.frames() {
+        if k % CANCEL_CHECK_STEPS == 0 && cancel.load(Ordering::Relaxed) {
+            return Ok(None);
+        }
         let out = sim.step(&cmd.to_sim())?;
         if let Some(c) = out.first_collision() {
-            return Ok(Some(Impact::from(c)));
+            return Ok(Some(Some(Impact::from(c))));
         }
         let cruise = ep.cruise.command_at(out.t_s);
         cmd = if k < trigger_frame {
@@ -95,13 +128,62 @@ pub fn replay_trigger(
             agent.decide(out.t_s, None, f64::NAN, cruise).command
         };
     }
-    Ok(None)
+    Ok(Some(None))
 }
 
 /// The escape deadline of a threat (episode `ep`, simulator seed `seed`) whose open-loop contact
 /// happened during frame `contact_frame`; `sides[k]` is the looming side at open-loop frame `k`
-/// and `t_s[k]` its time (see the module docs).
+/// and `t_s[k]` its time (see the module docs): the backward search, which stops at the deadline.
 pub fn escape_deadline(
+    ep: &EpisodeSpec,
+    seed: u64,
+    controller: &EscapeController,
+    sides: &[Option<f32>],
+    t_s: &[f64],
+    contact_frame: usize,
+) -> Result<EscapeDeadline, SimError> {
+    let never = AtomicBool::new(false);
+    Ok(escape_deadline_cancellable(ep, seed, controller, sides, t_s, contact_frame, &never)?.expect("never cancelled"))
+}
+
+/// [`escape_deadline`] that gives up (`Ok(None)`) within a replay's [`CANCEL_CHECK_STEPS`] steps
+/// once `cancel` is set.
+pub fn escape_deadline_cancellable(
+    ep: &EpisodeSpec,
+    seed: u64,
+    controller: &EscapeController,
+    sides: &[Option<f32>],
+    t_s: &[f64],
+    contact_frame: usize,
+    cancel: &AtomicBool,
+) -> Result<Option<EscapeDeadline>, SimError> {
+    let end = contact_frame.min(sides.len()).min(t_s.len());
+    let mut replays = 0;
+    let mut frame = None;
+    for k in (0..end).rev() {
+        replays += 1;
+        match replay(ep, seed, controller, k, sides[k], cancel)? {
+            None => return Ok(None),
+            Some(Some(_)) => {}
+            Some(None) => {
+                frame = Some(k);
+                break;
+            }
+        }
+    }
+    Ok(Some(EscapeDeadline {
+        frame,
+        t_s: frame.map(|k| t_s[k]),
+        evading: frame.map(|k| k..k + 1).into_iter().collect(),
+        searched: frame.unwrap_or(0)..end,
+        replays,
+    }))
+}
+
+/// The escape deadline from a replay of **every** frame before contact (see the module docs):
+/// the exact set of evading trigger frames. Costs (contact frame) replays: for tests and checks
+/// of [`escape_deadline`], which gives the same deadline.
+pub fn escape_deadline_exhaustive(
     ep: &EpisodeSpec,
     seed: u64,
     controller: &EscapeController,
@@ -126,6 +208,7 @@ pub fn escape_deadline(
         frame,
         t_s: frame.map(|k| t_s[k]),
         evading,
+        searched: 0..end,
         replays,
     })
 }

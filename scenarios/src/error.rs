@@ -77,6 +77,9 @@ impl ScenarioError {
 /// Something failed while running episodes (the input was valid).
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
+    /// The episode gave up because the run was interrupted ([`crate::Runner::with_cancel`]).
+    #[error("interrupted")]
+    Interrupted,
     /// The simulator failed (no GPU adapter, rendering error, …).
     #[error("scenario `{scenario}` episode {episode}: simulator: {source}")]
     Sim {

@@ -51,7 +51,7 @@ use loomlab_detector::{Detector, Frame};
 use loomlab_sim::{GpuContext, ObjectTruth, Renderer, Sim, SimError};
 use rayon::prelude::*;
 
-use crate::deadline::{EscapeDeadline, escape_deadline, replay_trigger};
+use crate::deadline::{EscapeDeadline, escape_deadline_cancellable, replay_trigger};
 use crate::error::RunError;
 use crate::metrics::{
     DetectorEpisode, EpisodeOutcome, GroundTruth, ThetaAccuracy, TraceSample, score_detector_episode,
@@ -158,6 +158,8 @@ pub struct Runner {
     pool: rayon::ThreadPool,
     jobs: usize,
     references: bool,
+    /// Set (Ctrl-C): episodes in flight give up within about a second ([`RunError::Interrupted`]).
+    cancel: Arc<AtomicBool>,
 }
 
 impl std::fmt::Debug for Runner {
@@ -215,7 +217,20 @@ impl Runner {
             pool,
             jobs,
             references: true,
+            cancel: Arc::new(AtomicBool::new(false)),
         })
+    }
+
+    /// Episodes give up (with [`RunError::Interrupted`]; [`Self::run_until`] reports them as not
+    /// run) within about a second of `cancel` being set: checked every frame and within the
+    /// escape-deadline replays.
+    pub fn with_cancel(mut self, cancel: Arc<AtomicBool>) -> Self {
+        self.cancel = cancel;
+        self
+    }
+
+    fn cancelled(&self) -> bool {
+        self.cancel.load(Ordering::Relaxed)
     }
 
     /// Whether episodes also score the reference rows `null`, `oracle` and `ideal_theta` (default
@@ -274,7 +289,10 @@ impl Runner {
                     if stop.load(Ordering::SeqCst) {
                         return Ok(());
                     }
-                    let run = self.run_episode(ep)?;
+                    let run = match self.run_episode(ep) {
+                        Err(RunError::Interrupted) => return Ok(()),
+                        other => other?,
+                    };
                     *lock(&slots[i]) = Some(run);
                     let mut next = reported.lock().unwrap_or_else(|e| e.into_inner());
                     while *next < slots.len() {
@@ -322,6 +340,9 @@ impl Runner {
         let mut recorder = TruthRecorder::new(&sim);
         let open = (|| -> Result<(), RunError> {
             for _ in 0..total {
+                if self.cancelled() {
+                    return Err(RunError::Interrupted);
+                }
                 let cmd = ep.cruise.command_at(sim.time());
                 let mut out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
                 let frame = Frame::from_f32(nn, std::mem::take(&mut out.frame)).map_err(|e| c.det(e))?;
@@ -365,9 +386,11 @@ impl Runner {
         })?;
         let deadline_started = std::time::Instant::now();
         let deadline = match &episode_truth.contact {
-            Some(contact) => {
-                Some(escape_deadline(ep, ep.seed, &escape, &sides, &t_s, contact.frame).map_err(|e| c.sim(e))?)
-            }
+            Some(contact) => Some(
+                escape_deadline_cancellable(ep, ep.seed, &escape, &sides, &t_s, contact.frame, &self.cancel)
+                    .map_err(|e| c.sim(e))?
+                    .ok_or(RunError::Interrupted)?,
+            ),
             None => None,
         };
         let deadline_s = deadline_started.elapsed().as_secs_f64();
@@ -541,6 +564,9 @@ impl Runner {
         let mut rendered = 0;
         let tail = (|| -> Result<(), RunError> {
             for _ in ka + 1..total {
+                if self.cancelled() {
+                    return Err(RunError::Interrupted);
+                }
                 let mut out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
                 rendered += 1;
                 if let Some(ct) = out.first_collision() {

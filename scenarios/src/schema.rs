@@ -424,6 +424,36 @@ pub(crate) fn typed<T: serde::de::DeserializeOwned>(value: Value, prefix: &str) 
     })
 }
 
+/// Longest name that becomes a file name (a scenario's, a sweep's, a sweep point's label).
+pub const MAX_FILE_NAME: usize = 100;
+
+/// Checks a name that becomes (part of) a file name: a scenario's name names its trace CSVs and
+/// exemplar GIFs (`traces/<name>_0003.csv`), a sweep's and a sweep point's name their folders. The
+/// safe set: 1 to [`MAX_FILE_NAME`] ASCII letters, digits, `_`, `-`, `.` and `+`, starting with a
+/// letter, digit or `_` (so never `..`, a hidden file, an option-like `-x`, a path separator or a
+/// character that HTML, a shell or a CSV file would treat specially). Returns the reason otherwise.
+pub fn check_file_name(name: &str) -> Result<(), String> {
+    let allowed = |c: char| c.is_ascii_alphanumeric() || "_-.+".contains(c);
+    if name.is_empty() {
+        return Err("a name must not be empty".into());
+    }
+    if name.len() > MAX_FILE_NAME {
+        return Err(format!(
+            "a name has at most {MAX_FILE_NAME} characters, this one {}",
+            name.chars().count()
+        ));
+    }
+    if let Some(bad) = name.chars().find(|&c| !allowed(c)) {
+        return Err(format!(
+            "{bad:?} is not allowed in a name (it names files): use ASCII letters, digits, `_`, `-`, `.` and `+`"
+        ));
+    }
+    if !name.starts_with(|c: char| c.is_ascii_alphanumeric() || c == '_') {
+        return Err("a name starts with an ASCII letter, a digit or `_` (it names files)".into());
+    }
+    Ok(())
+}
+
 /// Parses and expands scenario text; `path` names the file in errors and gives the default name.
 pub fn parse_scenario(
     text: &str,
@@ -455,11 +485,26 @@ pub fn parse_scenario(
         }
     }
     let name = match tree.get("name") {
-        None => path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "scenario".into()),
-        Some(Value::String(s)) if !s.trim().is_empty() => s.clone(),
+        None => {
+            let stem = path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "scenario".into());
+            check_file_name(&stem).map_err(|reason| {
+                ScenarioError::key(
+                    path,
+                    "name",
+                    format!(
+                        "the file name `{stem}` is the scenario's name by default, but {reason}; set `name = \"…\"` in the file"
+                    ),
+                )
+            })?;
+            stem
+        }
+        Some(Value::String(s)) => {
+            check_file_name(s).map_err(|reason| ScenarioError::key(path, "name", format!("{s:?}: {reason}")))?;
+            s.clone()
+        }
         Some(other) => {
             return Err(ScenarioError::key(
                 path,
@@ -836,11 +881,22 @@ pub fn resolve_detector(d: &DetectorDesc, camera: CameraFacts) -> Result<Detecto
             ),
         ));
     }
+    let trigger = d.trigger.unwrap_or_else(|| default_trigger(id));
+    // only the Hopfield detector estimates θ̂: any other detector would never alarm
+    if trigger == TriggerSignal::AngularSizeDeg && id != "hopfield" {
+        return Err((
+            "trigger".into(),
+            format!(
+                "\"angular_size_deg\" needs a detector that estimates the angular size θ̂ (only `hopfield` does); \
+                 `{id}` gives none, so it would never alarm: use trigger = \"output\""
+            ),
+        ));
+    }
     let params = detector_params(id, d.params.as_ref(), camera)?;
     Ok(DetectorSpec {
         label,
         id,
-        trigger: d.trigger.unwrap_or_else(|| default_trigger(id)),
+        trigger,
         threshold,
         params,
     })

@@ -99,8 +99,24 @@ fn toml_files(dir: &Path) -> Result<Vec<PathBuf>, ScenarioError> {
     let mut files = Vec::new();
     for entry in std::fs::read_dir(dir).map_err(io)? {
         let p = entry.map_err(io)?.path();
-        if p.is_file() && p.extension().is_some_and(|e| e == "toml") && p.file_name().is_some_and(|n| n != SUITE_FILE) {
-            files.push(p);
+        if p.extension().is_some_and(|e| e == "toml") && p.file_name().is_some_and(|n| n != SUITE_FILE) {
+            if p.is_file() {
+                files.push(p);
+            } else if !p.is_dir() {
+                // a dangling symlink (or an unreadable entry) would shrink the suite silently
+                let reason = match std::fs::read_link(&p) {
+                    Ok(target) => format!(
+                        "{} is a symbolic link to {}, which does not exist (a suite never skips a scenario file; fix or remove the link)",
+                        p.display(),
+                        target.display()
+                    ),
+                    Err(_) => format!("{} is not a readable file", p.display()),
+                };
+                return Err(ScenarioError::Suite {
+                    path: dir.into(),
+                    reason,
+                });
+            }
         }
     }
     files.sort();
@@ -144,6 +160,20 @@ pub fn load_suite(path: &Path, opts: &LoadOptions) -> Result<Suite, ScenarioErro
                 if p.is_dir() {
                     files.extend(toml_files(&p)?);
                 } else {
+                    if let Ok(text) = std::fs::read_to_string(&p)
+                        && let Ok(t) = toml::from_str::<Table>(&text)
+                        && t.contains_key("scenarios")
+                    {
+                        return Err(ScenarioError::key(
+                            path,
+                            "scenarios",
+                            format!(
+                                "{f:?} is itself a list file ({} has `scenarios = [...]`); list files do not nest: \
+                                 list its scenario files (or their folder) here instead",
+                                p.display()
+                            ),
+                        ));
+                    }
                     files.push(p);
                 }
             }

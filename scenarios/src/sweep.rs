@@ -323,7 +323,11 @@ impl SweepFile {
                 ));
             }
             let prefix = match entry.get("label") {
-                Some(Value::String(s)) => s.clone(),
+                Some(Value::String(s)) => {
+                    crate::schema::check_file_name(s)
+                        .map_err(|r| key_err(path, format!("detectors[{i}].label"), format!("{s:?}: {r}")))?;
+                    s.clone()
+                }
                 _ => entry
                     .get("id")
                     .and_then(Value::as_str)
@@ -371,13 +375,9 @@ impl SweepFile {
             ));
         }
         let name = match doc.name {
-            Some(n) if !n.trim().is_empty() && !n.contains(['/', '\\']) => n,
             Some(n) => {
-                return Err(key_err(
-                    path,
-                    "name",
-                    format!("`{n}` must be a non-empty name without slashes"),
-                ));
+                crate::schema::check_file_name(&n).map_err(|r| key_err(path, "name", format!("{n:?}: {r}")))?;
+                n
             }
             None => path
                 .file_stem()

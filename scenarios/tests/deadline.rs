@@ -38,7 +38,7 @@
 use std::path::Path;
 
 use loomlab_agents::EscapeController;
-use loomlab_scenarios::deadline::{EscapeDeadline, escape_deadline, replay_trigger};
+use loomlab_scenarios::deadline::{EscapeDeadline, escape_deadline, escape_deadline_exhaustive, replay_trigger};
 use loomlab_scenarios::truth::open_loop_truth;
 use loomlab_scenarios::{EpisodeSpec, LoadOptions, parse_scenario};
 use loomlab_sim::ShapeDesc;
@@ -132,7 +132,12 @@ fn case(ep: EpisodeSpec, side: f32) -> Case {
     let t_s: Vec<f64> = (0..=contact.frame).map(|k| (k + 1) as f64 / hz).collect();
     let sides = vec![Some(side); t_s.len()];
     let controller = EscapeController::new(ep.controller.clone()).unwrap();
-    let deadline = escape_deadline(&ep, ep.seed, &controller, &sides, &t_s, contact.frame).unwrap();
+    let deadline = escape_deadline_exhaustive(&ep, ep.seed, &controller, &sides, &t_s, contact.frame).unwrap();
+    // the backward search stops at the same deadline, after fewer replays
+    let fast = escape_deadline(&ep, ep.seed, &controller, &sides, &t_s, contact.frame).unwrap();
+    assert_eq!(fast.frame, deadline.frame);
+    assert_eq!(fast.t_s, deadline.t_s);
+    assert!(fast.replays <= deadline.replays);
     Case {
         t_c: contact.t_s,
         contact_frame: contact.frame,
@@ -220,7 +225,7 @@ fn check_geometry(r: f64, speed: f64) {
         let truth = open_loop_truth(&ep, ep.seed).unwrap();
         let k = truth.contact.unwrap().frame;
         let sides = vec![None; k + 1];
-        escape_deadline(&ep, ep.seed, &c.controller, &sides, &c.t_s, k).unwrap()
+        escape_deadline_exhaustive(&ep, ep.seed, &c.controller, &sides, &c.t_s, k).unwrap()
     };
     assert_eq!(unknown.frame, d.frame);
 }
@@ -328,4 +333,84 @@ fn a_ball_too_close_to_dodge_is_unavoidable() {
     assert!(!c.deadline.evadable() && c.deadline.evading.is_empty());
     assert!(c.deadline.monotone(), "an unavoidable threat counts as monotone");
     assert!(c.deadline.replays > 0);
+}
+
+/// The deadline of `ep` with the looming side `sides(k)` at frame k, from the backward search and
+/// from the exhaustive scan.
+fn both(ep: &EpisodeSpec, sides: impl Fn(usize) -> Option<f32>) -> (EscapeDeadline, EscapeDeadline) {
+    let truth = open_loop_truth(ep, ep.seed).unwrap();
+    let contact = truth.contact.expect("a threat");
+    let hz = f64::from(ep.world.camera_hz);
+    let t_s: Vec<f64> = (0..=contact.frame).map(|k| (k + 1) as f64 / hz).collect();
+    let sides: Vec<Option<f32>> = (0..t_s.len()).map(sides).collect();
+    let controller = EscapeController::new(ep.controller.clone()).unwrap();
+    let fast = escape_deadline(ep, ep.seed, &controller, &sides, &t_s, contact.frame).unwrap();
+    let all = escape_deadline_exhaustive(ep, ep.seed, &controller, &sides, &t_s, contact.frame).unwrap();
+    (fast, all)
+}
+
+#[test]
+fn the_backward_search_equals_the_exhaustive_scan_where_evasion_is_not_monotone() {
+    // A ball aimed 0.15 m left of the body centre: near the deadline, dodging left (towards it)
+    // needs more time than dodging right. Looming sides that alternate between left and right
+    // (and unknown: the controller's default side) make evasion non-monotone in the trigger
+    // frame; the backward search must still stop at the exhaustive scan's latest evading frame.
+    let mut nonmonotone = 0;
+    for (r, offset, angle, period) in [
+        (0.15, 0.15, 0.0, 2),
+        (0.3, 0.1, 0.0, 3),
+        (0.15, 0.12, 180.0, 5),
+        (0.2, 0.0, 0.0, 4),
+    ] {
+        let mut ep = episode(r, 4.0, LAUNCH_M, 1);
+        ep.world.projectiles[0].miss_distance_m = offset as f32;
+        ep.world.projectiles[0].miss_angle_deg = angle as f32;
+        for pattern in 0..3 {
+            let side = |k: usize| match (pattern, (k / period) % 3) {
+                (0, 0) | (1, 1) => Some(0.5),
+                (0, 1) | (2, 0) => Some(-0.5),
+                _ => None,
+            };
+            let (fast, all) = both(&ep, side);
+            assert_eq!(
+                fast.frame, all.frame,
+                "r {r}, offset {offset}, period {period}, pattern {pattern}: {:?}",
+                all.evading
+            );
+            assert_eq!(fast.t_s, all.t_s);
+            assert!(fast.replays <= all.replays);
+            if !all.monotone() {
+                nonmonotone += 1;
+            }
+        }
+    }
+    assert!(
+        nonmonotone > 0,
+        "the cases include evasion that is not monotone in the trigger frame"
+    );
+}
+
+#[test]
+fn the_backward_search_finds_an_unavoidable_threat_as_the_scan_does() {
+    let ep = episode(0.3, 10.0, 1.0, 1);
+    let (fast, all) = both(&ep, |_| Some(0.5));
+    assert_eq!(fast.frame, None);
+    assert_eq!(all.frame, None);
+    assert_eq!(fast.replays, all.replays, "an unavoidable threat replays every frame");
+}
+
+#[test]
+fn a_long_episode_with_a_late_contact_gets_the_exhaustive_deadline() {
+    // 60 s, the ball launched 33 s in from 40 m at 1.1 m/s: contact at about 36 s. The backward
+    // search replays only the frames between the deadline and the contact; the exhaustive scan
+    // (every frame before contact, about 4300) gives the same deadline.
+    let mut ep = episode(0.15, 1.1, 4.0, 1);
+    ep.world.projectiles[0].launch_time_s = Some(33.0);
+    ep.duration_s = 60.0;
+    let (fast, all) = both(&ep, |_| Some(0.5));
+    let t_c = open_loop_truth(&ep, ep.seed).unwrap().contact.unwrap().t_s;
+    assert!((35.0..37.0).contains(&t_c), "t_c = {t_c}");
+    assert_eq!(fast.frame, all.frame);
+    assert!(fast.frame.is_some());
+    assert!(fast.replays * 20 < all.replays, "{} vs {}", fast.replays, all.replays);
 }

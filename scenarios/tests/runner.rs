@@ -98,7 +98,14 @@ fn an_early_alarm_evades_and_no_alarm_collides() {
     assert_eq!(d.t_s, Some(t_dl));
     assert_eq!(run.trace.t_deadline_s, Some(t_dl));
     assert_eq!(run.trace.t_s[d.frame.unwrap()], t_dl);
-    assert!(d.monotone(), "{:?}", d.evading);
+    // the backward search stops at the deadline: it evades, and every later frame was replayed
+    let dl = d.frame.unwrap();
+    assert!(
+        d.evades_at(dl) && d.searched.start == dl,
+        "{:?} of {:?}",
+        d.evading,
+        d.searched
+    );
     for r in &run.outcome.detectors {
         assert_eq!(
             (r.threat, r.t_contact_s, r.t_deadline_s),

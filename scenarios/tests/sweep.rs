@@ -119,6 +119,12 @@ fn bad_sweep_files_name_the_file_key_and_point() {
             "objective.metric",
         ),
         ("", "no [[detectors]] entries"),
+        // names that become folder names (points/<label>/, out/sweep/<name>) stay inside
+        (
+            "[[detectors]]\nid = \"soc\"\nlabel = \"../../x\"\n",
+            "detectors[0].label",
+        ),
+        ("name = \"a/b\"\n[[detectors]]\nid = \"soc\"\n", "`name`"),
     ];
     for (body, needle) in cases {
         let text = err_text(SweepFile::load(&sweep_file(dir.path(), body)));

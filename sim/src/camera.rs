@@ -77,6 +77,11 @@ impl Default for ShakeDesc {
 /// Largest supported image size.
 pub const MAX_N: u32 = 2048;
 
+/// Largest camera shake rotation amplitude (degrees).
+pub const MAX_SHAKE_ROTATION_DEG: f32 = 45.0;
+/// Largest camera shake translation amplitude (m).
+pub const MAX_SHAKE_TRANSLATION_M: f32 = 1.0;
+
 /// Smallest camera image side (pixels) that every detector of loomlab accepts: 20.
 ///
 /// The requirement is the detectors' (`loomlab_detector::MIN_FRAME_SIZE`, where it is derived from
@@ -138,17 +143,18 @@ impl CameraDesc {
         if !(self.near_m.is_finite() && self.near_m > 0.0) {
             return Err(SimError::invalid("world.camera.near_m", self.near_m, "must be > 0"));
         }
-        if self
-            .position
-            .iter()
-            .chain([&self.yaw_deg, &self.pitch_deg])
-            .any(|v| !v.is_finite())
-        {
+        if self.position.iter().any(|v| !v.is_finite()) {
+            let [x, y, z] = self.position;
             return Err(SimError::invalid(
                 "world.camera.position",
-                format!("{:?}", self.position),
+                format!("[{x}, {y}, {z}]"),
                 "must be finite",
             ));
+        }
+        for (k, v) in [("yaw_deg", self.yaw_deg), ("pitch_deg", self.pitch_deg)] {
+            if !v.is_finite() {
+                return Err(SimError::invalid(format!("world.camera.{k}"), v, "must be finite"));
+            }
         }
         let mount = Pose64 {
             position: DVec3::new(
@@ -169,6 +175,20 @@ impl CameraDesc {
                 ] {
                     if !(v.is_finite() && v >= 0.0) {
                         return Err(SimError::invalid(format!("world.camera.shake.{k}"), v, "must be >= 0"));
+                    }
+                }
+                // a shake is a jitter of the mount, not a move of the camera somewhere else (a
+                // larger one would move the aim point of `target = "camera"` and blame that)
+                for (k, v, max) in [
+                    ("rotation_deg", s.rotation_deg, MAX_SHAKE_ROTATION_DEG),
+                    ("translation_m", s.translation_m, MAX_SHAKE_TRANSLATION_M),
+                ] {
+                    if v > max {
+                        return Err(SimError::invalid(
+                            format!("world.camera.shake.{k}"),
+                            v,
+                            format!("must be <= {max} (a shake of the camera on its mount)"),
+                        ));
                     }
                 }
                 let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5348_414b_4521);

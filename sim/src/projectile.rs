@@ -24,13 +24,50 @@ use crate::trajectory::{Motion, Pose64, Trajectory};
 ///
 /// TOML: `target = "robot"`, `target = "camera"` or `target = [x, y, z]` (metres, in the robot's start
 /// frame: origin at the body centre, x forward, y left, z up).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(untagged)]
 pub enum Target {
     /// A named point: the robot's body centre or its camera, at the start.
     Named(NamedTarget),
     /// A point in the robot's start frame.
     Point([f32; 3]),
+}
+
+impl<'de> Deserialize<'de> for Target {
+    /// `"robot"`, `"camera"` or `[x, y, z]`, with a message that says so (not serde's "did not
+    /// match any variant of untagged enum").
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        const WANT: &str = "\"robot\", \"camera\" or a point [x, y, z] in metres";
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = Target;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(WANT)
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Target, E> {
+                match v {
+                    "robot" => Ok(Target::Named(NamedTarget::Robot)),
+                    "camera" => Ok(Target::Named(NamedTarget::Camera)),
+                    other => Err(E::custom(format!("unknown target `{other}`: expected {WANT}"))),
+                }
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Target, A::Error> {
+                let mut p = [0.0f32; 3];
+                for (i, c) in p.iter_mut().enumerate() {
+                    *c = seq.next_element()?.ok_or_else(|| {
+                        serde::de::Error::custom(format!("a target point has 3 numbers [x, y, z], got {i}"))
+                    })?;
+                }
+                if seq.next_element::<serde::de::IgnoredAny>()?.is_some() {
+                    return Err(serde::de::Error::custom(
+                        "a target point has 3 numbers [x, y, z], got more",
+                    ));
+                }
+                Ok(Target::Point(p))
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 
 /// Named aim points.
@@ -213,7 +250,7 @@ impl ProjectileDesc {
         if line.length() < 1e-6 {
             return Err(SimError::invalid(
                 k("launch_position"),
-                format!("{launch:?}"),
+                format!("[{:.3}, {:.3}, {:.3}]", launch.x, launch.y, launch.z),
                 "launch point equals the target",
             ));
         }
@@ -230,11 +267,16 @@ impl ProjectileDesc {
         let a = finite(&k("miss_angle_deg"), self.miss_angle_deg)?.to_radians();
         let aim = target + miss * (a.cos() * left + a.sin() * up);
         if frame.ground && launch.z < radius - 1e-9 {
-            return Err(SimError::invalid(
-                k("launch_position"),
-                format!("z = {:.3}", launch.z),
-                "the launch point is below the ground (z must be >= radius_m)",
-            ));
+            let why = format!(
+                "the ball (radius_m = {radius}) would start partly below the ground: its launch point is at \
+                 z = {:.3} m, and z must be >= radius_m",
+                launch.z
+            );
+            // blame what the user wrote: an explicit launch point, else the radius
+            return Err(match self.launch_position {
+                Some(p) => SimError::invalid(k("launch_position"), format!("[{}, {}, {}]", p[0], p[1], p[2]), why),
+                None => SimError::invalid(k("radius_m"), radius, why),
+            });
         }
 
         let delta = aim - launch;

@@ -19,6 +19,17 @@ use crate::texture::{GratingDesc, ResolvedTexture, Texture};
 use crate::trajectory::Pose64;
 use crate::vehicle::VehicleDesc;
 
+/// The smallest full extent of a shape (m): a box's shortest edge, a sphere's diameter, the
+/// smaller of a cylinder's diameter and height.
+fn min_extent(shape: &crate::shape::ShapeDesc) -> f64 {
+    use crate::shape::ShapeDesc;
+    f64::from(match *shape {
+        ShapeDesc::Box { size } => size[0].min(size[1]).min(size[2]),
+        ShapeDesc::Sphere { radius_m } => 2.0 * radius_m,
+        ShapeDesc::Cylinder { radius_m, height_m } => (2.0 * radius_m).min(height_m),
+    })
+}
+
 fn d_camera_hz() -> f32 {
     120.0
 }
@@ -210,6 +221,66 @@ impl WorldDesc {
         self.build(0).map(|_| ())
     }
 
+    /// The speed bound of the simulator: an object's speed plus the robot's `max_speed_mps` must
+    /// not exceed (the object's smallest extent + the robot body's smallest extent) × `camera_hz`
+    /// × `physics_substeps`. At the defaults (120 Hz, 1 substep, the 0.5 × 0.4 × 0.3 m body,
+    /// 2 m/s) a ball of radius 0.15 m may fly at up to 70 m/s; 20 substeps allow 1438 m/s. Why:
+    /// contacts are detected at the
+    /// physics substeps (`camera_hz × physics_substeps` per second), so an object that moves
+    /// farther than its own smallest size plus the robot's in one substep (relative to the robot,
+    /// which moves at up to `robot.max_speed_mps`) can pass through it unseen and be scored as a
+    /// correct rejection. Such speeds are refused, naming the substeps that would resolve them.
+    fn check_resolvable_speeds(&self) -> Result<(), SimError> {
+        let rate = f64::from(self.camera_hz) * f64::from(self.physics_substeps);
+        let robot_size = min_extent(&self.robot.body);
+        let robot_speed = f64::from(self.robot.max_speed_mps).max(0.0);
+        let check = |key: String, speed: f32, size: f64| -> Result<(), SimError> {
+            let relative = f64::from(speed).abs() + robot_speed;
+            let max = (size + robot_size) * rate;
+            if relative <= max {
+                return Ok(());
+            }
+            let need = (relative / ((size + robot_size) * f64::from(self.camera_hz))).ceil();
+            let fix = if need <= 1000.0 {
+                format!("raise world.physics_substeps to at least {need} or lower the speed")
+            } else {
+                "lower the speed (more than 1000 substeps per frame would be needed)".to_string()
+            };
+            Err(SimError::invalid(
+                key,
+                speed,
+                format!(
+                    "is faster than the simulator resolves: contacts are detected every physics substep \
+                     (camera_hz {} × physics_substeps {} = {rate} per second), and an object moving more than \
+                     its smallest size plus the robot's ({size:.3} m + {robot_size:.3} m) per substep, relative to \
+                     the robot (up to robot.max_speed_mps {robot_speed} m/s), can pass through it unseen; the \
+                     bound here is {:.1} m/s: {fix}",
+                    self.camera_hz,
+                    self.physics_substeps,
+                    max - robot_speed
+                ),
+            ))
+        };
+        for (i, p) in self.projectiles.iter().enumerate() {
+            check(
+                format!("world.projectiles[{i}].speed_mps"),
+                p.speed_mps,
+                2.0 * f64::from(p.radius_m),
+            )?;
+        }
+        for (i, v) in self.vehicles.iter().enumerate() {
+            let size = v
+                .parts
+                .iter()
+                .map(|p| min_extent(&p.shape))
+                .fold(f64::INFINITY, f64::min);
+            if size.is_finite() {
+                check(format!("world.vehicles[{i}].speed_mps"), v.speed_mps, size)?;
+            }
+        }
+        Ok(())
+    }
+
     /// Camera period (s).
     pub fn dt(&self) -> f64 {
         1.0 / f64::from(self.camera_hz)
@@ -293,12 +364,22 @@ impl WorldDesc {
         for (i, p) in self.projectiles.iter().enumerate() {
             objects.push(p.build(i, &frame, sub_seed(seed, 200_000 + i as u64))?);
         }
-        let mut names = std::collections::HashSet::new();
-        for o in &objects {
-            if !names.insert(o.name.as_str()) {
-                return Err(SimError::invalid("name", &o.name, "object names must be unique"));
+        // objects are built in this order: scenery, vehicles, projectiles
+        let keys = (0..self.scenery.len())
+            .map(|i| format!("world.scenery[{i}].name"))
+            .chain((0..self.vehicles.len()).map(|i| format!("world.vehicles[{i}].name")))
+            .chain((0..self.projectiles.len()).map(|i| format!("world.projectiles[{i}].name")));
+        let mut names = std::collections::HashMap::new();
+        for (o, key) in objects.iter().zip(keys) {
+            if let Some(first) = names.insert(o.name.as_str(), key.clone()) {
+                return Err(SimError::invalid(
+                    key,
+                    &o.name,
+                    format!("object names must be unique; {first} is `{}` too", o.name),
+                ));
             }
         }
+        self.check_resolvable_speeds()?;
         Ok(BuiltWorld {
             physics: self.physics,
             harmless_impact_speed_mps: self.harmless_impact_speed_mps.into(),

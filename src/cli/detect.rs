@@ -133,7 +133,7 @@ fn load_input(args: &DetectArgs) -> anyhow::Result<Input> {
     }
     let invalid: usize = video.frames.iter().map(Frame::invalid_pixels).sum();
     if invalid > 0 {
-        eprintln!(
+        errln!(
             "warning: {invalid} non-finite pixel values in {} were read as black",
             path.display()
         );
@@ -257,13 +257,13 @@ pub fn run(args: DetectArgs) -> anyhow::Result<i32> {
         };
         line_chart(&args.out.join("angular_size.png"), &chart, (800, 450))?;
     }
-    println!(
+    outln!(
         "{} frames of {} ({n}×{n}) through {}",
         input.frames.len(),
         input.label,
         ids.join(", ")
     );
-    println!("wrote {} and {}", csv_path.display(), plot_path.display());
+    outln!("wrote {} and {}", csv_path.display(), plot_path.display());
     Ok(0)
 }
 

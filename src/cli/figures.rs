@@ -89,7 +89,7 @@ pub fn run(args: FiguresArgs) -> anyhow::Result<i32> {
     }
     bar.finish_and_clear();
     summary.flush()?;
-    println!(
+    outln!(
         "wrote {} figures (PNG + CSV) and {} to {}",
         figs.len(),
         summary_path.display(),

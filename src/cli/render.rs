@@ -199,7 +199,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<i32> {
     };
     let mut csv = TruthCsv::create(&args.out.join("truth.csv"))?;
     if let Some(adapter) = sim.adapter() {
-        eprintln!("rendering {n}x{n} on {adapter}");
+        errln!("rendering {n}x{n} on {adapter}");
     }
     let bar = super::progress(steps + 1, "render");
     let command = scene.robot_command;
@@ -232,11 +232,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<i32> {
             .map(|j| format!(", impulse {j:.3} N s"))
             .unwrap_or_default();
         let harmless = if c.harmless { " [harmless]" } else { "" };
-        println!(
+        outln!(
             "contact: {} ({}) at t = {:.4} s{exact}, impact speed {:.2} m/s{impulse}{harmless}",
-            c.name, c.kind, c.t_s, c.impact_speed_mps
+            c.name,
+            c.kind,
+            c.t_s,
+            c.impact_speed_mps
         );
     }
-    println!("wrote {}", args.out.display());
+    outln!("wrote {}", args.out.display());
     Ok(0)
 }

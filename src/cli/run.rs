@@ -14,7 +14,8 @@
 //!   see `loomlab_report`.
 //!
 //! Exit codes: 0 done (no regression), 1 regressions against `--baseline` (each one listed),
-//! 2 bad input (unreadable or invalid scenario, unknown key, missing file, bad option).
+//! 2 bad input (unreadable or invalid scenario, unknown key, missing file, bad option), 3 an
+//! output could not be written (disk full, permissions: the run stays resumable), 130 interrupted.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -35,11 +36,11 @@ use loomlab_scenarios::schema::{Scenario, load_detector_entries};
 use loomlab_scenarios::{DEFAULT_SUITE, EpisodeRun, EpisodeSpec, LoadOptions, Runner, load_suite};
 
 use super::run_dir::{
-    EPISODES_CSV, Existing, Manifest, PARTIAL_REPORT, Prepared, REPORT, RunDir, RunState, write_atomic,
+    CannotWrite, EPISODES_CSV, Existing, Manifest, PARTIAL_REPORT, Prepared, REPORT, RunDir, RunState, write_atomic,
 };
 use loomlab_report::exemplar::{self, ExemplarRuns};
 use loomlab_report::page::RunPage;
-use loomlab_report::run_plots::{PlotSamples, run_figures, write_plots, write_trace};
+use loomlab_report::run_plots::{EpisodeSamples, PlotSamples, run_figures, trace_file_name, write_trace};
 use loomlab_report::{EXEMPLARS_DIR, REPORT_HTML};
 use loomlab_sim::GpuContext;
 use rayon::prelude::*;
@@ -124,6 +125,13 @@ fn default_suite() -> PathBuf {
     if built.exists() { built } else { here }
 }
 
+/// Every finished episode's plot samples (θ̂ points, sample rank), one JSON line each: a resumed
+/// run draws its plots from all of them, the same as an uninterrupted run's.
+const PLOT_SAMPLES: &str = "plot_samples.jsonl";
+
+/// The folder of `--traces`.
+const TRACES_DIR: &str = "traces";
+
 /// Episodes expanded and run at a time (bounds memory; large enough that the workers rarely wait
 /// at a chunk's end).
 const CHUNK: usize = 1024;
@@ -136,6 +144,15 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
     };
     if args.jobs == Some(0) {
         bail!("--jobs must be at least 1");
+    }
+    if let Some(n) = args.size
+        && !(loomlab_sim::MIN_FRAME_SIZE..=loomlab_sim::MAX_N).contains(&n)
+    {
+        bail!(
+            "--size {n}: must be in {}..={} pixels (the detectors need frames of at least {0}×{0})",
+            loomlab_sim::MIN_FRAME_SIZE,
+            loomlab_sim::MAX_N
+        );
     }
     if let Some(fa) = args.calibrate
         && !(0.0..=1.0).contains(&fa)
@@ -189,6 +206,47 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
     let Some(lead_margin_s) = lead_margin_s else {
         bail!("{}: no episodes to run", suite_path.display());
     };
+    // A baseline is of the same suite and selection, or comparing (or replacing) it means nothing.
+    let suite_total: usize = suite.scenarios.iter().map(|s| s.len()).fold(0, usize::saturating_add);
+    let mut counts: BTreeMap<&str, u64> = BTreeMap::new();
+    let mut left = total;
+    for s in &suite.scenarios {
+        let n = s.len().min(left);
+        if n > 0 {
+            counts.insert(s.name.as_str(), n as u64);
+        }
+        left -= n;
+    }
+    if let Some(path) = &args.baseline {
+        if args.bless && total < suite_total {
+            bail!(
+                "--bless with --limit {total}: the baseline would hold only {total} of the suite's {suite_total} episodes; \
+                 bless the whole suite (drop --limit)"
+            );
+        }
+        let existing = match &baseline {
+            Some(b) => Some(b.clone()),
+            // --bless replaces a baseline only with a run of the same suite
+            None if path.exists() => Report::read_json(path).ok(),
+            None => None,
+        };
+        if let Some(base) = existing
+            && let Err(why) = same_suite(&base, &counts, args.seed)
+        {
+            let what = if args.bless {
+                format!(
+                    "refusing to replace it (delete {} first to start a new baseline)",
+                    path.display()
+                )
+            } else {
+                "compare with a baseline of the same suite, --seed and --limit".to_string()
+            };
+            bail!(
+                "--baseline {}: a baseline of another suite or selection ({why}); {what}",
+                path.display()
+            );
+        }
+    }
 
     // The output folder: refuse to touch an earlier run unless told to resume or overwrite it.
     let offsets: BTreeMap<&str, (usize, &Scenario)> = suite
@@ -220,7 +278,10 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
         (false, true) => Existing::Overwrite,
         (false, false) => Existing::Refuse,
     };
-    let manifest = Manifest::new(fingerprint.hex(), &suite_path, total);
+    let mut manifest = Manifest::new(fingerprint.hex(), &suite_path, total);
+    manifest.traces = args.traces;
+    // the handler first: an interrupt from the moment the manifest says `running` is handled
+    let stop = interrupt_flag();
     let Prepared {
         dir: mut run_dir,
         done,
@@ -233,7 +294,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
         .collect();
     let resumed: BTreeSet<usize> = outcomes.iter().map(|(p, _)| *p).collect();
     if !resumed.is_empty() && !args.quiet {
-        println!(
+        outln!(
             "resuming {}: {} of {total} episodes were done, running the other {}",
             out.display(),
             resumed.len(),
@@ -242,14 +303,13 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
     }
 
     let gpu = GpuContext::new()?;
-    let runner = Runner::with_context(Arc::clone(&gpu), args.jobs)?;
+    let runner = Runner::with_context(Arc::clone(&gpu), args.jobs)?.with_cancel(Arc::clone(&stop));
     if let Some(jobs) = args.jobs
         && jobs > runner.jobs()
         && !args.quiet
     {
-        eprintln!("note: --jobs {jobs} clamped to {} (the number of CPUs)", runner.jobs());
+        errln!("note: --jobs {jobs} clamped to {} (the number of CPUs)", runner.jobs());
     }
-    let stop = interrupt_flag();
     let csv = Mutex::new(csv);
     let bar = if args.quiet {
         indicatif::ProgressBar::hidden()
@@ -257,10 +317,30 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
         super::progress((total - resumed.len()) as u64, "episodes")
     };
     let started = Instant::now();
-    let traces_dir = out.join("traces");
-    if args.traces {
-        std::fs::create_dir_all(&traces_dir).with_context(|| format!("cannot create {}", traces_dir.display()))?;
-    }
+    let finished = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let heartbeat = (!args.quiet && !std::io::IsTerminal::is_terminal(&std::io::stderr()))
+        .then(|| Heartbeat::start(Arc::clone(&finished), total - resumed.len()));
+    let traces_dir = if args.traces {
+        run_dir.create_dir(TRACES_DIR)?
+    } else {
+        out.join(TRACES_DIR)
+    };
+    // every finished episode's plot samples, kept so that a resumed run draws the same plots
+    run_dir.record(PLOT_SAMPLES)?;
+    let samples_path = out.join(PLOT_SAMPLES);
+    let samples_file = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .truncate(false)
+        .open(&samples_path)
+        .and_then(|f| {
+            if !args.resume {
+                f.set_len(0)?;
+            }
+            Ok(f)
+        })
+        .with_context(|| CannotWrite(format!("cannot write {}", samples_path.display())))?;
+    let samples_file = Mutex::new(samples_file);
     let mut samples = PlotSamples::default();
     let mut exemplar_runs = ExemplarRuns::default();
     let mut work = RunWork::default();
@@ -279,17 +359,43 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
             break;
         }
         let specs: Vec<&EpisodeSpec> = chunk.iter().map(|(_, ep)| ep).collect();
-        let runs = runner.run_until(&specs, &stop, |_, run| {
-            csv.lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .write_episode(&run.outcome)
-                .map_err(|e| e.to_string())?;
-            if args.traces {
-                write_trace(&traces_dir, run).map_err(|e| e.to_string())?;
-            }
-            bar.inc(1);
-            Ok(())
-        })?;
+        let runs = runner
+            .run_until(&specs, &stop, |_, run| {
+                // the samples first: an episode in episodes.csv always has its samples
+                {
+                    use std::io::Write as _;
+                    let line = EpisodeSamples::of(run).to_line() + "\n";
+                    samples_file
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .write_all(line.as_bytes())
+                        .map_err(|e| format!("cannot write {}: {e}", samples_path.display()))?;
+                }
+                // the trace before the row: an episode in episodes.csv has its whole trace (one cut
+                // short by a failure is written again when the episode runs again on --resume)
+                if args.traces {
+                    let name = trace_file_name(&run.outcome.scenario, run.outcome.episode);
+                    run_dir
+                        .record(&format!("{TRACES_DIR}/{name}"))
+                        .map_err(|e| format!("{e:#}"))?;
+                    write_trace(&traces_dir, run)
+                        .map_err(|e| format!("cannot write {}: {e}", traces_dir.join(&name).display()))?;
+                }
+                csv.lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .write_episode(&run.outcome)
+                    .map_err(|e| e.to_string())?;
+                bar.inc(1);
+                finished.fetch_add(1, Ordering::Relaxed);
+                Ok(())
+            })
+            .map_err(|e| match e {
+                loomlab_scenarios::RunError::Callback(m) => anyhow::Error::msg(m).context(CannotWrite(format!(
+                    "cannot save a finished episode in {}",
+                    out.display()
+                ))),
+                other => other.into(),
+            })?;
         for ((pos, _), run) in chunk.iter().zip(runs) {
             if let Some(run) = run {
                 samples.add(&run);
@@ -302,6 +408,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
         }
     }
     bar.finish_and_clear();
+    drop(heartbeat);
     let wall_time_s = run_dir.manifest.wall_time_s + started.elapsed().as_secs_f64();
     outcomes.sort_by_key(|(pos, _)| *pos);
     let outcomes: Vec<EpisodeOutcome> = outcomes.into_iter().map(|(_, o)| o).collect();
@@ -317,10 +424,11 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
         // interrupted: keep what is done, say how to go on
         if !outcomes.is_empty() {
             let partial = Report::from_episodes(&meta, &outcomes);
+            run_dir.record(PARTIAL_REPORT)?;
             write_atomic(&out.join(PARTIAL_REPORT), (partial.to_json() + "\n").as_bytes())?;
         }
         run_dir.set_state(RunState::Interrupted)?;
-        eprintln!(
+        errln!(
             "interrupted: {} of {total} episodes done ({} this time), saved in {}; {} holds their scores. Resume with:\n  {}",
             outcomes.len(),
             work.episodes,
@@ -337,17 +445,88 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
 
     let report = Report::from_episodes(&meta, &outcomes);
     let report_path = out.join(REPORT);
+    run_dir.record(REPORT)?;
     write_atomic(&report_path, (report.to_json() + "\n").as_bytes())?;
     let _ = std::fs::remove_file(out.join(PARTIAL_REPORT));
-    run_dir.set_state(RunState::Complete)?;
+    // every episode is done: an interrupt now stops the report writing (the run stays resumable)
+    WRITING_REPORT.store(true, Ordering::SeqCst);
+    let stopped = |run_dir: &mut RunDir| -> anyhow::Result<Option<i32>> {
+        if !stop.load(Ordering::SeqCst) {
+            return Ok(None);
+        }
+        run_dir.set_state(RunState::Interrupted)?;
+        errln!(
+            "interrupted while writing the report: all {total} episodes are saved in {}. Write the rest with:\n  {}",
+            out.join(EPISODES_CSV).display(),
+            run_dir.manifest.resume_command()
+        );
+        Ok(Some(130))
+    };
+    if let Some(code) = stopped(&mut run_dir)? {
+        return Ok(code);
+    }
+    // the plots' samples from every episode, this invocation's and earlier ones' (in suite order)
+    let samples = {
+        let text = std::fs::read_to_string(&samples_path)
+            .with_context(|| CannotWrite(format!("cannot read {}", samples_path.display())))?;
+        let mut by_pos: BTreeMap<usize, EpisodeSamples> = BTreeMap::new();
+        for line in text.lines() {
+            if let Some(es) = EpisodeSamples::from_line(line)
+                && let Some(p) = position(&es.scenario, es.episode)
+            {
+                by_pos.insert(p, es); // a later line (an episode run again) replaces an earlier one
+            }
+        }
+        let mut all = PlotSamples::default();
+        for es in by_pos.values() {
+            all.add_points(es);
+        }
+        // the sample episode (trace.png, the page's trace plot), unless nothing is drawn
+        if let Some(best) = by_pos.values().min_by_key(|es| es.rank)
+            && !(args.no_plots && args.no_html)
+        {
+            let live = samples
+                .sample()
+                .filter(|r| r.outcome.scenario == best.scenario && r.outcome.episode == best.episode);
+            let run = match live {
+                Some(r) => r.clone(),
+                // the sample episode ran in an earlier invocation: simulate it again (deterministic)
+                None => match runner.run_episode(&offsets[best.scenario.as_str()].1.episode(best.episode)?) {
+                    Ok(r) => r,
+                    Err(e) => {
+                        if let Some(code) = stopped(&mut run_dir)? {
+                            return Ok(code);
+                        }
+                        return Err(e.into());
+                    }
+                },
+            };
+            all.set_sample(run);
+        }
+        all
+    };
     if !args.no_plots {
-        write_plots(&out, &report, &outcomes, &samples)?;
+        for f in run_figures(&report, &outcomes, Some(&samples)) {
+            // through a temporary file (same extension: the encoder goes by it), listed first
+            let name = format!("{}.png", f.name);
+            let tmp = format!(".{}.tmp.png", f.name);
+            run_dir.record(&name)?;
+            run_dir.record(&tmp)?;
+            f.write_png(&out.join(&tmp))
+                .with_context(|| CannotWrite(format!("cannot write {}", out.join(&name).display())))?;
+            std::fs::rename(out.join(&tmp), out.join(&name))
+                .with_context(|| CannotWrite(format!("cannot write {}", out.join(&name).display())))?;
+            if let Some(code) = stopped(&mut run_dir)? {
+                return Ok(code);
+            }
+        }
     }
     let html = if args.no_html {
         None
     } else {
         let started_html = Instant::now();
         let page = Html {
+            run_dir: &run_dir,
             out: &out,
             report: &report,
             outcomes: &outcomes,
@@ -370,22 +549,34 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
                 .with_context(|| format!("exemplar: scenario `{scenario}` is not in the suite"))?;
             Ok(s.episode(episode)?)
         };
-        let (path, rerun_count, exemplars) = page.write(&gpu, &rerun, &spec)?;
+        let written = page.write(&gpu, &rerun, &spec);
+        if written.is_err()
+            && let Some(code) = stopped(&mut run_dir)?
+        {
+            return Ok(code);
+        }
+        let (path, rerun_count, exemplars) = written?;
         Some((path, started_html.elapsed().as_secs_f64(), rerun_count, exemplars))
     };
+    if let Some(code) = stopped(&mut run_dir)? {
+        return Ok(code);
+    }
+    run_dir.set_state(RunState::Complete)?;
 
     if !args.quiet {
-        println!("{}", report.format_table(!args.brief).trim_end());
-        println!(
+        outln!("{}", report.format_table(!args.brief).trim_end());
+        outln!(
             "\nescape deadlines: {} physics-only replays for {} threats, {:.1} s of worker time",
-            work.replays, work.deadlines, work.deadline_s
+            work.replays,
+            work.deadlines,
+            work.deadline_s
         );
         let earlier = if resumed.is_empty() {
             String::new()
         } else {
             format!(" (plus {} episodes from the earlier run)", resumed.len())
         };
-        println!(
+        outln!(
             "\n{} episodes{earlier}, {} frames rendered in {:.1} s on {} ({} workers)",
             work.episodes,
             work.frames,
@@ -393,18 +584,25 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
             runner.adapter(),
             runner.jobs()
         );
-        println!(
-            "wrote {} and episodes.csv, plots in {}",
-            report_path.display(),
-            out.display()
-        );
+        if args.no_plots {
+            outln!(
+                "wrote {} and episodes.csv (no plots: --no-plots)",
+                report_path.display()
+            );
+        } else {
+            outln!(
+                "wrote {} and episodes.csv, plots in {}",
+                report_path.display(),
+                out.display()
+            );
+        }
         if let Some((path, secs, rerun, exemplars)) = &html {
             let again = if *rerun > 0 {
                 format!(", {rerun} of them from the earlier run simulated again")
             } else {
                 String::new()
             };
-            println!(
+            outln!(
                 "wrote {} in {secs:.1} s ({:.1} % of this run's {:.1} s; {exemplars} exemplary episodes{again})",
                 path.display(),
                 100.0 * secs / started.elapsed().as_secs_f64(),
@@ -413,7 +611,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
         }
     }
     if let Some(target) = args.calibrate {
-        println!("\nthresholds for a false-alarm rate <= {target} over this run's non-threat episodes:");
+        outln!("\nthresholds for a false-alarm rate <= {target} over this run's non-threat episodes:");
         for c in calibrate(&outcomes, target) {
             // three significant digits in the shortest form (0.000095, 2.47, 270)
             let sig3 = |t: f64| {
@@ -423,9 +621,11 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
             };
             let t = c.threshold.map_or("any (no finite score)".to_string(), sig3);
             let hit = c.hit_rate.map_or("n/a".to_string(), |h| format!("{h:.2}"));
-            println!(
+            outln!(
                 "  {:<10} threshold {t:<12} FA rate {:.2} over {} non-threats, hit rate {hit}",
-                c.label, c.false_alarm_rate, c.non_threats
+                c.label,
+                c.false_alarm_rate,
+                c.non_threats
             );
         }
     }
@@ -437,27 +637,46 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
             }
             report.write_json(path)?;
             if !args.quiet {
-                println!("baseline written to {}", path.display());
+                outln!("baseline written to {}", path.display());
             }
         } else if let Some(base) = &baseline {
             let regressions = compare(&report, base, &Tolerances::default());
             if !regressions.is_empty() {
-                eprintln!("{} regression(s) against {}:", regressions.len(), path.display());
+                errln!("{} regression(s) against {}:", regressions.len(), path.display());
                 for r in &regressions {
-                    eprintln!("  {r}");
+                    errln!("  {r}");
                 }
                 return Ok(1);
             }
             if !args.quiet {
-                println!("no regression against {}", path.display());
+                outln!("no regression against {}", path.display());
             }
         }
     }
     Ok(0)
 }
 
+/// Whether `base` is a report of the episodes `counts` (per scenario) with suite seed `seed`.
+fn same_suite(base: &Report, counts: &BTreeMap<&str, u64>, seed: u64) -> Result<(), String> {
+    let theirs: BTreeMap<&str, u64> = base.scenarios.iter().map(|(k, v)| (k.as_str(), v.episodes)).collect();
+    if base.seed != seed {
+        return Err(format!("baseline --seed {}, this run --seed {seed}", base.seed));
+    }
+    if &theirs != counts {
+        let show = |m: &BTreeMap<&str, u64>| {
+            let n: u64 = m.values().sum();
+            let names: Vec<&str> = m.keys().copied().take(6).collect();
+            let more = if m.len() > 6 { ", …" } else { "" };
+            format!("{n} episodes of {} scenarios: {}{more}", m.len(), names.join(", "))
+        };
+        return Err(format!("baseline {}; this run {}", show(&theirs), show(counts)));
+    }
+    Ok(())
+}
+
 /// What `report.html` needs.
 struct Html<'a> {
+    run_dir: &'a RunDir,
     out: &'a Path,
     report: &'a Report,
     outcomes: &'a [EpisodeOutcome],
@@ -478,10 +697,24 @@ impl Html<'_> {
         spec: &(dyn Fn(&str, usize) -> anyhow::Result<EpisodeSpec> + Sync),
     ) -> anyhow::Result<(PathBuf, usize, usize)> {
         let choices = exemplar::choose(self.outcomes);
-        let gif_dir = self.out.join(EXEMPLARS_DIR);
-        if gif_dir.exists() {
-            std::fs::remove_dir_all(&gif_dir).with_context(|| format!("cannot remove {}", gif_dir.display()))?;
+        // the GIFs an earlier invocation of this run wrote go (never another file in the folder)
+        for rel in self.run_dir.written() {
+            if rel.starts_with(&format!("{EXEMPLARS_DIR}/")) && !rel.ends_with('/') {
+                let p = self.out.join(&rel);
+                if std::fs::symlink_metadata(&p).is_ok_and(|m| m.is_file()) {
+                    std::fs::remove_file(&p).with_context(|| format!("cannot remove {}", p.display()))?;
+                }
+            }
         }
+        let gif_dir = if choices.is_empty() {
+            self.out.join(EXEMPLARS_DIR)
+        } else {
+            self.run_dir.create_dir(EXEMPLARS_DIR)?
+        };
+        for c in &choices {
+            self.run_dir.record(&format!("{EXEMPLARS_DIR}/{}", c.gif_name()))?;
+        }
+        self.run_dir.record(REPORT_HTML)?;
         let rerun_count = choices
             .iter()
             .filter(|c| self.exemplar_runs.get(&c.scenario, c.episode).is_none())
@@ -517,6 +750,61 @@ impl Html<'_> {
     }
 }
 
+/// Seconds between two progress lines when stderr is not a terminal (no progress bar there);
+/// the environment variable `LOOMLAB_PROGRESS_S` sets another interval (e.g. for a log).
+const HEARTBEAT_S: u64 = 10;
+
+/// Progress lines on a non-terminal stderr (a log file, CI): `progress: 12 of 349 episodes done
+/// in 1 min 20 s`, every [`HEARTBEAT_S`] seconds (or `LOOMLAB_PROGRESS_S`) while episodes run,
+/// even inside one long episode.
+struct Heartbeat {
+    done: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Heartbeat {
+    fn start(finished: Arc<std::sync::atomic::AtomicUsize>, todo: usize) -> Self {
+        let done = Arc::new(AtomicBool::new(false));
+        let flag = Arc::clone(&done);
+        let every = std::env::var("LOOMLAB_PROGRESS_S")
+            .ok()
+            .and_then(|v| v.parse::<u64>().ok())
+            .filter(|&s| s > 0)
+            .unwrap_or(HEARTBEAT_S);
+        let thread = std::thread::spawn(move || {
+            let started = Instant::now();
+            let mut next = every;
+            while !flag.load(Ordering::SeqCst) {
+                std::thread::park_timeout(std::time::Duration::from_millis(200));
+                let secs = started.elapsed().as_secs();
+                if secs >= next && !flag.load(Ordering::SeqCst) {
+                    next = secs + every;
+                    errln!(
+                        "progress: {} of {todo} episodes done in {} min {} s",
+                        finished.load(Ordering::Relaxed),
+                        secs / 60,
+                        secs % 60
+                    );
+                }
+            }
+        });
+        Self {
+            done,
+            thread: Some(thread),
+        }
+    }
+}
+
+impl Drop for Heartbeat {
+    fn drop(&mut self) {
+        self.done.store(true, Ordering::SeqCst);
+        if let Some(t) = self.thread.take() {
+            t.thread().unpark();
+            let _ = t.join();
+        }
+    }
+}
+
 /// Work done by this invocation (for the summary lines).
 #[derive(Debug, Default)]
 struct RunWork {
@@ -539,26 +827,34 @@ impl RunWork {
     }
 }
 
-/// A flag set by the first Ctrl-C / SIGTERM: no new episode starts, those in flight finish and
-/// are saved. A second one exits at once (finished episodes are already in episodes.csv).
+/// Set once every episode is done and the report is being written (the interrupt message).
+static WRITING_REPORT: AtomicBool = AtomicBool::new(false);
+
+/// A flag set by the first Ctrl-C / SIGTERM: no new episode starts and those in flight give up
+/// within about a second (they run again on `--resume`); the finished ones are saved and the
+/// manifest says `interrupted`. A second one exits at once, recording the state `interrupted`
+/// first (finished episodes are already in episodes.csv).
 fn interrupt_flag() -> Arc<AtomicBool> {
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
     let installed = ctrlc::set_handler(move || {
         if flag.swap(true, Ordering::SeqCst) {
-            eprintln!(
-                "
-second interrupt: stopping now; finished episodes are saved in episodes.csv"
-            );
+            match super::run_dir::abandon_active_run() {
+                Some(cmd) => errln!(
+                    "\nsecond interrupt: stopped; the finished episodes are saved in episodes.csv. Resume with:\n  {cmd}"
+                ),
+                None => errln!("\nsecond interrupt: stopped"),
+            }
             std::process::exit(130);
         }
-        eprintln!(
-            "
-interrupt: finishing the episodes in flight (interrupt again to stop at once) ..."
-        );
+        if WRITING_REPORT.load(Ordering::SeqCst) {
+            errln!("\ninterrupt: every episode is saved; stopping after the file being written ...");
+        } else {
+            errln!("\ninterrupt: stopping (finished episodes are saved; those in flight run again on --resume) ...");
+        }
     });
     if let Err(e) = installed {
-        eprintln!("note: Ctrl-C will not stop the run cleanly: {e}");
+        errln!("note: Ctrl-C will not stop the run cleanly: {e}");
     }
     stop
 }
