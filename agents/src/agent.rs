@@ -159,6 +159,20 @@ impl EscapeAgent {
         trigger_value: f64,
         cruise: VelocityCommand,
     ) -> AgentStep {
+        self.decide_about(t_s, looming_side, trigger_value, None, cruise)
+    }
+
+    /// [`Self::decide`] naming the object the value comes from (the ideal reference rows, which
+    /// know it): a re-trigger keeps the dodge side only for the same object.
+    pub fn decide_about(
+        &mut self,
+        t_s: f64,
+        looming_side: Option<f32>,
+        trigger_value: f64,
+        object: Option<usize>,
+        cruise: VelocityCommand,
+    ) -> AgentStep {
+        self.controller.set_object(object);
         let (command, event) = self.controller.step(t_s, trigger_value, looming_side, cruise);
         AgentStep {
             signals: Vec::new(),

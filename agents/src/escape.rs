@@ -36,7 +36,7 @@
 //! or too central (|x| ≤ `side_deadband`) the controller dodges to `default_side`. The side is
 //! latched at the trigger and kept for the whole manoeuvre. A re-trigger within `side_memory_s` of
 //! the last frame that was an alarm (the same object still looms; the alarm never cleared for
-//! longer) keeps the previous side: after a dodge the object's image can sit on the other side of
+//! longer; and, when the caller names the object, it is the same object) keeps the previous side: after a dodge the object's image can sit on the other side of
 //! centre or be swamped by background motion, and a fresh estimate would dodge back into it.
 
 use serde::{Deserialize, Serialize};
@@ -150,6 +150,8 @@ pub struct EscapeConfig {
     pub course: Course,
     /// Closing speed the course gate assumes to turn τ̂ into a distance (m/s, > 0).
     pub course_closing_speed_mps: f64,
+    /// Window over which the course gate estimates the bearing and expansion rates (s, > 0).
+    pub course_window_s: f64,
     /// A re-trigger less than this long (s, ≥ 0) after the last frame that was an alarm keeps the
     /// previous dodge side: the same object is still looming, and dodging back would run into it.
     pub side_memory_s: f64,
@@ -197,6 +199,7 @@ impl Default for EscapeConfig {
             tau_window_s: 0.1,
             course: Course::Off,
             course_closing_speed_mps: 5.0,
+            course_window_s: 0.25,
             side_memory_s: 0.5,
             manoeuvre: Manoeuvre::DodgeLateral,
             dodge_speed_mps: 1.5,
@@ -254,6 +257,7 @@ impl EscapeConfig {
             ("escape.tau_threshold_s", self.tau_threshold_s),
             ("escape.tau_window_s", self.tau_window_s),
             ("escape.course_closing_speed_mps", self.course_closing_speed_mps),
+            ("escape.course_window_s", self.course_window_s),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return Err(invalid(key, v, "must be a finite number > 0"));
@@ -263,7 +267,11 @@ impl EscapeConfig {
         non_negative("escape.side_memory_s", self.side_memory_s)?;
         non_negative("escape.body_half_width_m", self.body_half_width_m)?;
         if !(self.camera_fov_deg.is_finite() && self.camera_fov_deg > 0.0 && self.camera_fov_deg < 180.0) {
-            return Err(invalid("escape.camera_fov_deg", self.camera_fov_deg, "must lie in (0, 180)"));
+            return Err(invalid(
+                "escape.camera_fov_deg",
+                self.camera_fov_deg,
+                "must lie in (0, 180)",
+            ));
         }
         if self.course != Course::Off && self.trigger == TriggerSignal::Output {
             return Err(invalid(
@@ -305,6 +313,7 @@ impl EscapeConfig {
             window_s: self.tau_window_s,
             course: self.course,
             closing_speed_mps: self.course_closing_speed_mps,
+            course_window_s: self.course_window_s,
             body_half_width_m: self.body_half_width_m,
             angle_valued: self.trigger.reads_angular_size(),
         }
@@ -391,6 +400,9 @@ pub struct EscapeController {
     last_command: Option<VelocityCommand>,
     last_side: Option<DodgeSide>,
     last_alarm_s: Option<f64>,
+    /// The object the current and the last trigger's values come from, when the caller knows it.
+    object: Option<usize>,
+    last_object: Option<usize>,
 }
 
 impl EscapeController {
@@ -406,6 +418,8 @@ impl EscapeController {
             last_command: None,
             last_side: None,
             last_alarm_s: None,
+            object: None,
+            last_object: None,
         })
     }
 
@@ -423,6 +437,15 @@ impl EscapeController {
         self.last_command = None;
         self.last_side = None;
         self.last_alarm_s = None;
+        self.object = None;
+        self.last_object = None;
+    }
+
+    /// Which object the next [`Self::step`]'s value comes from (`None`: unknown, e.g. a detector's
+    /// whole-image θ̂). A re-trigger keeps the previous side only for the same object (or when
+    /// either is unknown) — a different object is dodged afresh.
+    pub fn set_object(&mut self, object: Option<usize>) {
+        self.object = object;
     }
 
     /// Feed this frame's percept to the decision strategy ([`crate::strategy`]) and return its
@@ -512,10 +535,15 @@ impl EscapeController {
             if self.phase == Phase::Armed && alarm {
                 // The same object still looms (an alarm within side_memory_s of the last one):
                 // keep the side, never dodge back into it.
+                let same_object = match (self.object, self.last_object) {
+                    (Some(a), Some(b)) => a == b,
+                    _ => true,
+                };
                 let side = match (self.last_side, previous_alarm_s) {
-                    (Some(side), Some(prev)) if t_s - prev <= cfg.side_memory_s => side,
+                    (Some(side), Some(prev)) if same_object && t_s - prev <= cfg.side_memory_s => side,
                     _ => DodgeSide::away_from(looming_side, cfg.side_deadband, cfg.default_side),
                 };
+                self.last_object = self.object;
                 self.phase = Phase::Manoeuvre { start_s: t_s, side };
                 self.triggers += 1;
                 self.first_trigger_s.get_or_insert(t_s);

@@ -29,7 +29,8 @@
 //! the controller alarms when the urgency is ≥ `1 / tau_threshold_s`, i.e. τ̂ ≤ `tau_threshold_s`.
 //!
 //! # `course = "image"`: the collision-course gate
-//! Over the same window, the least-squares slopes of θ, the azimuth (minus the robot's own yaw
+//! Over the last `course_window_s` seconds (longer than the τ window: a bearing rate is a small
+//! difference and the camera's own jitter adds to it), the least-squares slopes of θ, the azimuth (minus the robot's own yaw
 //! rate, which turns the whole image) and the elevation give θ̇ and the bearing rate β̇ (radians).
 //! For an object of radius R at distance d approaching on a straight line, the lateral offset of
 //! its centre from the camera when it arrives is `R · μ` with `μ = 2|β̇|/θ̇` (the miss distance in
@@ -98,6 +99,8 @@ pub struct StrategyParams {
     pub course: Course,
     /// Closing speed assumed by the gate (m/s).
     pub closing_speed_mps: f64,
+    /// Length of the window over which the gate estimates the bearing and expansion rates (s).
+    pub course_window_s: f64,
     /// Half-width of the robot's body (m).
     pub body_half_width_m: f64,
     /// Whether the value is an angle (θ̂ or urgency: 0 when gated) or an output (NaN when gated).
@@ -199,7 +202,8 @@ impl Strategy {
                 gate_open: false,
             };
         }
-        while self.window.front().is_some_and(|s| s.t < t_s - p.window_s - 1e-9) {
+        let keep_s = p.window_s.max(p.course_window_s);
+        while self.window.front().is_some_and(|s| s.t < t_s - keep_s - 1e-9) {
             self.window.pop_front();
         }
         let theta_rad = if p.tau || p.angle_valued {
@@ -215,24 +219,23 @@ impl Strategy {
             elevation_rad: finite(percept.elevation_deg),
         });
         let valid_theta = |s: &&Sample| s.theta_rad.is_finite() && s.theta_rad > 0.0;
+        let tau_from = t_s - p.window_s - 1e-9;
+        let course_from = t_s - p.course_window_s - 1e-9;
         // τ̂ from the slope of ln θ, compensated for the window's lag.
-        let tau_s = slope(self.window.iter().filter(valid_theta).map(|s| (s.t, s.theta_rad.ln())))
-            .filter(|&(b, _, _)| b > 0.0)
-            .map(|(b, t_mean, ln_theta_mean)| surface_factor(ln_theta_mean.exp()) / b - (t_s - t_mean));
+        let tau_s = slope(
+            self.window
+                .iter()
+                .filter(|s| s.t >= tau_from)
+                .filter(valid_theta)
+                .map(|s| (s.t, s.theta_rad.ln())),
+        )
+        .filter(|&(b, _, _)| b > 0.0)
+        .map(|(b, t_mean, ln_theta_mean)| surface_factor(ln_theta_mean.exp()) / b - (t_s - t_mean));
         // μ from the bearing rate against the expansion rate.
-        let theta_dot = slope(self.window.iter().filter(valid_theta).map(|s| (s.t, s.theta_rad))).map(|v| v.0);
-        let az_dot = slope(
-            self.window
-                .iter()
-                .filter_map(|s| s.azimuth_rad.map(|a| (s.t, a))),
-        )
-        .map(|v| v.0 - ego.yaw_rate_rps);
-        let el_dot = slope(
-            self.window
-                .iter()
-                .filter_map(|s| s.elevation_rad.map(|e| (s.t, e))),
-        )
-        .map(|v| v.0);
+        let course = || self.window.iter().filter(|s| s.t >= course_from);
+        let theta_dot = slope(course().filter(valid_theta).map(|s| (s.t, s.theta_rad))).map(|v| v.0);
+        let az_dot = slope(course().filter_map(|s| s.azimuth_rad.map(|a| (s.t, a)))).map(|v| v.0 - ego.yaw_rate_rps);
+        let el_dot = slope(course().filter_map(|s| s.elevation_rad.map(|e| (s.t, e)))).map(|v| v.0);
         let miss_radii = match (theta_dot, az_dot) {
             (Some(td), Some(az)) if td > 0.0 => {
                 let bearing_rate = az.hypot(el_dot.unwrap_or(0.0));

@@ -1431,7 +1431,10 @@ fn episodes_with_references() -> Vec<EpisodeOutcome> {
 
 #[test]
 fn reference_labels_are_reserved_and_listed_in_table_order() {
-    assert_eq!(REFERENCE_LABELS, ["null", "oracle", "ideal_theta"]);
+    assert_eq!(
+        REFERENCE_LABELS,
+        ["null", "oracle", "ideal_theta", "ideal_tau", "ideal_course"]
+    );
     for l in REFERENCE_LABELS {
         assert!(reference::is_reference(l));
     }

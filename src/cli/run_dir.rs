@@ -25,7 +25,7 @@ pub const REPORT: &str = "report.json";
 /// The report of the episodes an interrupted run finished.
 pub const PARTIAL_REPORT: &str = "report.partial.json";
 /// Every file and folder a run writes (what `--overwrite` removes; nothing else is touched).
-pub const RUN_FILES: [&str; 13] = [
+pub const RUN_FILES: [&str; 14] = [
     MANIFEST,
     EPISODES_CSV,
     REPORT,
@@ -34,6 +34,7 @@ pub const RUN_FILES: [&str; 13] = [
     "rates.png",
     "collisions.png",
     "lv.png",
+    "theta_required.png",
     "theta_hat.png",
     "trace.png",
     "traces",
