@@ -78,11 +78,12 @@ fn tiny_suite_writes_report_csv_plots_and_checks_regressions() {
     // episodes.csv: a header and one row per episode and detector
     let csv = std::fs::read_to_string(out.join("episodes.csv")).unwrap();
     assert!(csv.starts_with("scenario,episode,seed,params,detector,threat,"));
-    // two detectors and the three reference rows (null, oracle, ideal_theta)
-    assert_eq!(csv.lines().count(), 1 + 4 * (2 + 3));
+    // two detectors and the five reference rows (null, oracle, ideal_theta, ideal_tau, ideal_course)
+    assert_eq!(csv.lines().count(), 1 + 4 * (2 + 5));
+    assert!(csv.lines().next().unwrap().ends_with(",impulse_ns,theta_required_deg"));
     assert_eq!(
         report["references"],
-        serde_json::json!(["null", "oracle", "ideal_theta"])
+        serde_json::json!(["null", "oracle", "ideal_theta", "ideal_tau", "ideal_course"])
     );
     // the oracle alarms at every threat's deadline, the null row never
     assert_eq!(report["detectors"]["oracle"]["false_alarms"], 0);

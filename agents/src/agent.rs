@@ -7,8 +7,10 @@
 //! 2. the looming side is estimated from this frame and the previous one
 //!    ([`LoomingSideEstimator`], the x centroid of the temporal contrast);
 //! 3. the escape controller reads the **driving** detector's trigger signal (the first detector;
-//!    θ̂ or the output, per [`EscapeConfig::trigger`]) and returns the velocity command to apply
-//!    during the next camera period.
+//!    θ̂ or the output, per [`EscapeConfig::trigger`]), runs its decision strategy on it
+//!    ([`crate::strategy`]: θ̂ itself, or the urgency 1/τ̂, optionally gated by the collision-course
+//!    gate fed with the looming side as the object's azimuth) and returns the velocity command to
+//!    apply during the next camera period.
 //!
 //! The runner and the environment are orchestration around this type: they own the simulator,
 //! the ground truth and the scoring, and never restate this step.
@@ -20,6 +22,7 @@
 
 use loomlab_detector::{Detector, DetectorError, Frame, Signals};
 
+use crate::strategy::Percept;
 use crate::{AgentError, ControllerEvent, EscapeConfig, EscapeController, LoomingSideEstimator, VelocityCommand};
 
 /// What one [`EscapeAgent::step`] produced.
@@ -27,7 +30,8 @@ use crate::{AgentError, ControllerEvent, EscapeConfig, EscapeController, Looming
 pub struct AgentStep {
     /// Every detector's signals on this frame, in the agent's detector order.
     pub signals: Vec<Signals>,
-    /// The driving detector's trigger-signal value (NaN when it gives none).
+    /// The driving detector's decision value: its trigger signal after the decision strategy
+    /// (θ̂, the output, or the urgency 1/τ̂; NaN when it gives none).
     pub trigger_value: f64,
     /// The looming object's image x in [-1, 1] from this frame and the previous one (`None`:
     /// first frame, no usable change or no frame).
@@ -116,17 +120,23 @@ impl EscapeAgent {
         for d in &mut self.detectors {
             signals.push(d.step(frame)?);
         }
-        let trigger_value = signals
-            .first()
-            .and_then(|s| self.controller.config().trigger.value(s))
-            .unwrap_or(f64::NAN);
-        let mut step = self.step_with_trigger(t_s, frame, trigger_value, cruise);
+        let looming_side = self.side.update(frame);
+        let percept = match signals.first() {
+            Some(s) => self.controller.percept(s, looming_side),
+            None => Percept {
+                value: f64::NAN,
+                ..Percept::default()
+            },
+        };
+        let trigger_value = self.controller.perceive(t_s, percept, cruise).value;
+        let mut step = self.decide(t_s, looming_side, trigger_value, cruise);
         step.signals = signals;
         Ok(step)
     }
 
-    /// The decision on `frame` from a trigger value that does not come from the agent's detectors
-    /// (they are not stepped; `signals` is empty): the looming side still comes from the frames.
+    /// The decision on `frame` from a decision value that does not come from the agent's detectors
+    /// (they are not stepped; `signals` is empty; the decision strategy is bypassed): the looming
+    /// side still comes from the frames.
     pub fn step_with_trigger(
         &mut self,
         t_s: f64,
@@ -138,9 +148,10 @@ impl EscapeAgent {
         self.decide(t_s, looming_side, trigger_value, cruise)
     }
 
-    /// The controller's decision from a given looming side and trigger value, with no frame (the
-    /// physics-only escape-deadline replays, which take the side from the open-loop frames). The
-    /// looming-side estimator is not updated.
+    /// The controller's decision from a given looming side and decision value (compared with
+    /// [`EscapeConfig::alarm_threshold`]), with no frame (the physics-only escape-deadline replays,
+    /// which take the side from the open-loop frames; the reference rows, whose strategies run on
+    /// ground truth). The looming-side estimator and the decision strategy are not updated.
     pub fn decide(
         &mut self,
         t_s: f64,
@@ -148,6 +159,20 @@ impl EscapeAgent {
         trigger_value: f64,
         cruise: VelocityCommand,
     ) -> AgentStep {
+        self.decide_about(t_s, looming_side, trigger_value, None, cruise)
+    }
+
+    /// [`Self::decide`] naming the object the value comes from (the ideal reference rows, which
+    /// know it): a re-trigger keeps the dodge side only for the same object.
+    pub fn decide_about(
+        &mut self,
+        t_s: f64,
+        looming_side: Option<f32>,
+        trigger_value: f64,
+        object: Option<usize>,
+        cruise: VelocityCommand,
+    ) -> AgentStep {
+        self.controller.set_object(object);
         let (command, event) = self.controller.step(t_s, trigger_value, looming_side, cruise);
         AgentStep {
             signals: Vec::new(),

@@ -2,15 +2,21 @@
 //! escape manoeuvre for a fixed time, then a cooldown during which it cannot trigger again.
 //!
 //! # Trigger semantics
-//! The controller compares one scalar per frame against [`EscapeConfig::threshold`]:
-//! - [`TriggerSignal::AngularSizeDeg`]: the Hopfield detector's angular-size estimate θ̂ in degrees
-//!   ([`Signals::angular_size_deg`]); the threshold is an angle (locusts escape at about 10°, the
-//!   paper's discussion; the default, to be tuned by the scenario suite).
+//! Each frame the controller's decision strategy ([`crate::strategy`]) turns the percept into one
+//! decision value, compared against [`EscapeConfig::alarm_threshold`]:
+//! - [`TriggerSignal::AngularSizeDeg`] (`"angular_size_deg"` or `"angular_size"`): the Hopfield
+//!   detector's angular-size estimate θ̂ in degrees ([`Signals::angular_size_deg`]) against
+//!   `threshold` (locusts escape at about 10°, the paper's discussion; the default);
 //! - [`TriggerSignal::Output`]: the detector's primary output ([`Signals::output`]) in that
-//!   detector's own units (the baselines' LGMD potentials); the threshold must be chosen per detector.
+//!   detector's own units (the baselines' LGMD potentials); the threshold must be chosen per detector;
+//! - [`TriggerSignal::Tau`]: the urgency 1/τ̂ (s⁻¹), τ̂ the time to contact estimated causally from
+//!   θ̂, against `1 / tau_threshold_s` (and θ̂ ≥ `min_angular_size_deg`).
 //!
-//! The trigger is **level-based**: an armed controller triggers on the first step whose signal is
-//! `>= threshold`. So if the signal is still above the threshold when the cooldown ends, the
+//! With `course = "image"` the collision-course gate holds the value at 0 while the object's image
+//! says it will pass beside the robot's body.
+//!
+//! The trigger is **level-based**: an armed controller triggers on the first step whose value is
+//! `>= alarm_threshold()`. So if the value is still above the threshold when the cooldown ends, the
 //! controller triggers again at once (the object is still looming). NaN or missing signals never
 //! trigger. This is the same rule the scoring uses for the alarm time, so "first alarm" and "first
 //! trigger" coincide.
@@ -28,12 +34,16 @@
 //! contrast |frame(t) − frame(t−1)|. An object on the right (x > `side_deadband`) makes the robot
 //! dodge left, one on the left (x < −`side_deadband`) right. When the side is unknown (`None`, NaN)
 //! or too central (|x| ≤ `side_deadband`) the controller dodges to `default_side`. The side is
-//! latched at the trigger and kept for the whole manoeuvre.
+//! latched at the trigger and kept for the whole manoeuvre. A re-trigger within `side_memory_s` of
+//! the last frame that was an alarm (the same object still looms; the alarm never cleared for
+//! longer; and, when the caller names the object, it is the same object) keeps the previous side: after a dodge the object's image can sit on the other side of
+//! centre or be swamped by background motion, and a fresh estimate would dodge back into it.
 
 use serde::{Deserialize, Serialize};
 
 use loomlab_sim::RobotBase;
 
+use crate::strategy::{Course, Decision, Ego, Percept, Strategy, StrategyParams};
 use crate::{AgentError, VelocityCommand};
 
 #[allow(unused_imports)] // for doc links
@@ -44,19 +54,32 @@ use loomlab_detector::Signals;
 #[serde(rename_all = "snake_case")]
 pub enum TriggerSignal {
     /// The angular-size estimate θ̂ in degrees ([`Signals::angular_size_deg`], Hopfield detector).
+    /// Also spelled `angular_size`.
     #[default]
+    #[serde(alias = "angular_size")]
     AngularSizeDeg,
     /// The detector's primary output ([`Signals::output`]) in its own units (baselines).
     Output,
+    /// Time to contact estimated from θ̂ ([`crate::strategy`]): the value is the urgency 1/τ̂
+    /// (s⁻¹), alarm when τ̂ ≤ [`EscapeConfig::tau_threshold_s`] and θ̂ ≥
+    /// [`EscapeConfig::min_angular_size_deg`]. Needs a detector that gives θ̂.
+    Tau,
 }
 
 impl TriggerSignal {
-    /// The scalar this trigger reads from a detector's signals (`None` when the detector gives none).
+    /// The scalar this trigger reads from a detector's signals (`None` when the detector gives none):
+    /// θ̂ for the angular-size and τ triggers (τ is estimated from θ̂ by the strategy), the output
+    /// otherwise.
     pub fn value(self, signals: &Signals) -> Option<f64> {
         match self {
-            Self::AngularSizeDeg => signals.angular_size_deg,
+            Self::AngularSizeDeg | Self::Tau => signals.angular_size_deg,
             Self::Output => Some(signals.output),
         }
+    }
+
+    /// Whether this trigger reads θ̂ (degrees) rather than a detector output.
+    pub fn reads_angular_size(self) -> bool {
+        matches!(self, Self::AngularSizeDeg | Self::Tau)
     }
 }
 
@@ -115,7 +138,23 @@ pub struct EscapeConfig {
     pub trigger: TriggerSignal,
     /// Trigger threshold: degrees for [`TriggerSignal::AngularSizeDeg`] (default 10°, the locust's
     /// escape angle; tuned by the scenario suite), detector output units for [`TriggerSignal::Output`].
+    /// Not used by [`TriggerSignal::Tau`] (see `tau_threshold_s`).
     pub threshold: f64,
+    /// [`TriggerSignal::Tau`]: alarm when the estimated time to contact τ̂ ≤ this (s, > 0).
+    pub tau_threshold_s: f64,
+    /// [`TriggerSignal::Tau`]: the smallest θ̂ (degrees, ≥ 0) for an alarm.
+    pub min_angular_size_deg: f64,
+    /// Length of the window over which τ̂ and the bearing rate are estimated (s, > 0).
+    pub tau_window_s: f64,
+    /// The collision-course gate ([`crate::strategy`]); needs θ̂.
+    pub course: Course,
+    /// Closing speed the course gate assumes to turn τ̂ into a distance (m/s, > 0).
+    pub course_closing_speed_mps: f64,
+    /// Window over which the course gate estimates the bearing and expansion rates (s, > 0).
+    pub course_window_s: f64,
+    /// A re-trigger less than this long (s, ≥ 0) after the last frame that was an alarm keeps the
+    /// previous dodge side: the same object is still looming, and dodging back would run into it.
+    pub side_memory_s: f64,
     /// The manoeuvre run after a trigger.
     pub manoeuvre: Manoeuvre,
     /// Lateral speed of a dodge in m/s (≥ 0).
@@ -140,6 +179,14 @@ pub struct EscapeConfig {
     /// scenario loader sets it from `world.robot.base`.
     #[serde(skip)]
     pub base: RobotBase,
+    /// Half-width of the robot's body (m), for the course gate. Set by the scenario loader from
+    /// `world.robot.body`.
+    #[serde(skip)]
+    pub body_half_width_m: f64,
+    /// Horizontal field of view of the camera (degrees), to turn the looming side's image x into
+    /// an azimuth. Set by the scenario loader from `world.camera.fov_deg`.
+    #[serde(skip)]
+    pub camera_fov_deg: f64,
 }
 
 impl Default for EscapeConfig {
@@ -147,6 +194,13 @@ impl Default for EscapeConfig {
         Self {
             trigger: TriggerSignal::AngularSizeDeg,
             threshold: 10.0,
+            tau_threshold_s: 1.0,
+            min_angular_size_deg: 1.0,
+            tau_window_s: 0.1,
+            course: Course::Off,
+            course_closing_speed_mps: 5.0,
+            course_window_s: 0.25,
+            side_memory_s: 0.5,
             manoeuvre: Manoeuvre::DodgeLateral,
             dodge_speed_mps: 1.5,
             dodge_forward_scale: 1.0,
@@ -158,6 +212,8 @@ impl Default for EscapeConfig {
             default_side: DodgeSide::Left,
             side_deadband: 0.05,
             base: RobotBase::Holonomic,
+            body_half_width_m: 0.2,
+            camera_fov_deg: 60.0,
         }
     }
 }
@@ -197,6 +253,33 @@ impl EscapeConfig {
             ));
         }
         non_negative("escape.cooldown_s", self.cooldown_s)?;
+        for (key, v) in [
+            ("escape.tau_threshold_s", self.tau_threshold_s),
+            ("escape.tau_window_s", self.tau_window_s),
+            ("escape.course_closing_speed_mps", self.course_closing_speed_mps),
+            ("escape.course_window_s", self.course_window_s),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(invalid(key, v, "must be a finite number > 0"));
+            }
+        }
+        non_negative("escape.min_angular_size_deg", self.min_angular_size_deg)?;
+        non_negative("escape.side_memory_s", self.side_memory_s)?;
+        non_negative("escape.body_half_width_m", self.body_half_width_m)?;
+        if !(self.camera_fov_deg.is_finite() && self.camera_fov_deg > 0.0 && self.camera_fov_deg < 180.0) {
+            return Err(invalid(
+                "escape.camera_fov_deg",
+                self.camera_fov_deg,
+                "must lie in (0, 180)",
+            ));
+        }
+        if self.course != Course::Off && self.trigger == TriggerSignal::Output {
+            return Err(invalid(
+                "escape.course",
+                "image",
+                "the collision-course gate needs θ̂: use trigger = \"tau\" or \"angular_size\" on a detector that gives θ̂",
+            ));
+        }
         if !(self.side_deadband.is_finite() && (0.0..1.0).contains(&self.side_deadband)) {
             return Err(invalid(
                 "escape.side_deadband",
@@ -207,9 +290,45 @@ impl EscapeConfig {
         Ok(())
     }
 
-    /// Whether `signal` is an alarm: `signal >= threshold` (NaN and `None` never are).
+    /// The threshold the decision value is compared with: `threshold`, or the urgency
+    /// `1 / tau_threshold_s` (s⁻¹) for [`TriggerSignal::Tau`].
+    pub fn alarm_threshold(&self) -> f64 {
+        match self.trigger {
+            TriggerSignal::Tau => 1.0 / self.tau_threshold_s,
+            _ => self.threshold,
+        }
+    }
+
+    /// Whether `signal` (a decision value) is an alarm: `signal >= alarm_threshold()` (NaN and
+    /// `None` never are).
     pub fn is_alarm(&self, signal: Option<f64>) -> bool {
-        signal.is_some_and(|s| s >= self.threshold)
+        signal.is_some_and(|s| s >= self.alarm_threshold())
+    }
+
+    /// The parameters of this configuration's decision strategy.
+    pub fn strategy_params(&self) -> StrategyParams {
+        StrategyParams {
+            tau: self.trigger == TriggerSignal::Tau,
+            min_angular_size_deg: self.min_angular_size_deg,
+            window_s: self.tau_window_s,
+            course: self.course,
+            closing_speed_mps: self.course_closing_speed_mps,
+            course_window_s: self.course_window_s,
+            body_half_width_m: self.body_half_width_m,
+            angle_valued: self.trigger.reads_angular_size(),
+        }
+    }
+
+    /// A fresh decision strategy of this configuration ([`crate::strategy`]).
+    pub fn strategy(&self) -> Strategy {
+        Strategy::new(self.strategy_params())
+    }
+
+    /// The azimuth (degrees, positive right) of image x in [−1, 1] for this camera.
+    pub fn azimuth_deg(&self, image_x: f32) -> f64 {
+        (f64::from(image_x) * (self.camera_fov_deg / 2.0).to_radians().tan())
+            .atan()
+            .to_degrees()
     }
 
     /// The command of the manoeuvre towards `side` given the cruise command.
@@ -277,6 +396,13 @@ pub struct EscapeController {
     phase: Phase,
     triggers: usize,
     first_trigger_s: Option<f64>,
+    strategy: Strategy,
+    last_command: Option<VelocityCommand>,
+    last_side: Option<DodgeSide>,
+    last_alarm_s: Option<f64>,
+    /// The object the current and the last trigger's values come from, when the caller knows it.
+    object: Option<usize>,
+    last_object: Option<usize>,
 }
 
 impl EscapeController {
@@ -284,10 +410,16 @@ impl EscapeController {
     pub fn new(config: EscapeConfig) -> Result<Self, AgentError> {
         config.validate()?;
         Ok(Self {
+            strategy: config.strategy(),
             config,
             phase: Phase::Armed,
             triggers: 0,
             first_trigger_s: None,
+            last_command: None,
+            last_side: None,
+            last_alarm_s: None,
+            object: None,
+            last_object: None,
         })
     }
 
@@ -301,6 +433,32 @@ impl EscapeController {
         self.phase = Phase::Armed;
         self.triggers = 0;
         self.first_trigger_s = None;
+        self.strategy.reset();
+        self.last_command = None;
+        self.last_side = None;
+        self.last_alarm_s = None;
+        self.object = None;
+        self.last_object = None;
+    }
+
+    /// Which object the next [`Self::step`]'s value comes from (`None`: unknown, e.g. a detector's
+    /// whole-image θ̂). A re-trigger keeps the previous side only for the same object (or when
+    /// either is unknown) — a different object is dodged afresh.
+    pub fn set_object(&mut self, object: Option<usize>) {
+        self.object = object;
+    }
+
+    /// Feed this frame's percept to the decision strategy ([`crate::strategy`]) and return its
+    /// decision; `decision.value` is what [`Self::step`] then compares with the alarm threshold.
+    /// The robot's own motion is the command this controller returned in its last step (`cruise`
+    /// before the first).
+    pub fn perceive(&mut self, t_s: f64, percept: Percept, cruise: VelocityCommand) -> Decision {
+        let last = self.last_command.unwrap_or(cruise);
+        let ego = Ego {
+            yaw_rate_rps: last.yaw_rate_rps,
+            forward_mps: last.forward_mps,
+        };
+        self.strategy.update(t_s, percept, ego)
     }
 
     /// Number of triggers since the last reset.
@@ -308,12 +466,18 @@ impl EscapeController {
         self.triggers
     }
 
+    /// The command this controller returned in its last step (`None` before the first step).
+    pub fn last_command(&self) -> Option<VelocityCommand> {
+        self.last_command
+    }
+
     /// Time of the first trigger since the last reset.
     pub fn first_trigger_s(&self) -> Option<f64> {
         self.first_trigger_s
     }
 
-    /// Read this controller's trigger signal from a detector's signals and step.
+    /// Read this controller's trigger signal from a detector's signals, run the decision strategy
+    /// on it (with the looming side as the object's image position) and step.
     pub fn step_signals(
         &mut self,
         t_s: f64,
@@ -321,8 +485,20 @@ impl EscapeController {
         looming_side: Option<f32>,
         cruise: VelocityCommand,
     ) -> (VelocityCommand, ControllerEvent) {
-        let value = self.config.trigger.value(signals).unwrap_or(f64::NAN);
+        let percept = self.percept(signals, looming_side);
+        let value = self.perceive(t_s, percept, cruise).value;
         self.step(t_s, value, looming_side, cruise)
+    }
+
+    /// The percept of a real detector: its trigger signal and the looming side as an azimuth.
+    pub fn percept(&self, signals: &Signals, looming_side: Option<f32>) -> Percept {
+        Percept {
+            value: self.config.trigger.value(signals).unwrap_or(f64::NAN),
+            azimuth_deg: looming_side
+                .filter(|x| x.is_finite())
+                .map(|x| self.config.azimuth_deg(x)),
+            elevation_deg: None,
+        }
     }
 
     /// Advance to time `t_s` with this frame's trigger-signal value (see [`TriggerSignal`]), the
@@ -351,12 +527,29 @@ impl EscapeController {
             {
                 self.phase = Phase::Armed;
             }
-            if self.phase == Phase::Armed && cfg.is_alarm(Some(signal_value)) {
-                let side = DodgeSide::away_from(looming_side, cfg.side_deadband, cfg.default_side);
+            let alarm = cfg.is_alarm(Some(signal_value));
+            let previous_alarm_s = self.last_alarm_s;
+            if alarm {
+                self.last_alarm_s = Some(t_s);
+            }
+            if self.phase == Phase::Armed && alarm {
+                // The same object still looms (an alarm within side_memory_s of the last one):
+                // keep the side, never dodge back into it.
+                let same_object = match (self.object, self.last_object) {
+                    (Some(a), Some(b)) => a == b,
+                    _ => true,
+                };
+                let side = match (self.last_side, previous_alarm_s) {
+                    (Some(side), Some(prev)) if same_object && t_s - prev <= cfg.side_memory_s => side,
+                    _ => DodgeSide::away_from(looming_side, cfg.side_deadband, cfg.default_side),
+                };
+                self.last_object = self.object;
                 self.phase = Phase::Manoeuvre { start_s: t_s, side };
                 self.triggers += 1;
                 self.first_trigger_s.get_or_insert(t_s);
+                self.last_side = Some(side);
                 let command = cfg.manoeuvre_command(side, cruise);
+                self.last_command = Some(command);
                 return (
                     command,
                     ControllerEvent::Triggered {
@@ -365,7 +558,7 @@ impl EscapeController {
                 );
             }
         }
-        match self.phase {
+        let (command, event) = match self.phase {
             Phase::Armed => (cruise, ControllerEvent::Cruise),
             Phase::Cooldown { .. } => (cruise, ControllerEvent::Cooldown),
             Phase::Manoeuvre { side, .. } => (
@@ -374,7 +567,9 @@ impl EscapeController {
                     side: self.reported_side(side),
                 },
             ),
-        }
+        };
+        self.last_command = Some(command);
+        (command, event)
     }
 
     fn reported_side(&self, side: DodgeSide) -> Option<DodgeSide> {

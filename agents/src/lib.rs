@@ -19,6 +19,7 @@ pub mod command;
 pub mod error;
 pub mod escape;
 pub mod looming_side;
+pub mod strategy;
 
 pub use action::{ActionConfig, ContinuousAction, DiscreteAction};
 pub use agent::{AgentStep, EscapeAgent};
@@ -26,3 +27,4 @@ pub use command::VelocityCommand;
 pub use error::AgentError;
 pub use escape::{ControllerEvent, DodgeSide, EscapeConfig, EscapeController, Manoeuvre, TriggerSignal};
 pub use looming_side::LoomingSideEstimator;
+pub use strategy::{Course, Decision, Ego, Percept, Strategy, StrategyParams};

@@ -360,3 +360,329 @@ fn a_dodge_on_a_differential_drive_turns_away_and_drives_instead_of_sidestepping
         assert_eq!(d.forward_mps, diff.dodge_speed_mps.max(1.0));
     }
 }
+
+/// Decision strategies on analytic inputs: a sphere of radius `r` moving at constant velocity
+/// relative to a camera that may itself drive forward.
+mod strategies {
+    use loomlab_agents::{
+        Course, DodgeSide, Ego, EscapeConfig, EscapeController, Percept, Strategy, TriggerSignal, VelocityCommand,
+    };
+
+    const DT: f64 = 1.0 / 120.0;
+
+    /// Camera at (vx·t, 0) looking along +x; the sphere's centre at `p0 + u·t` (x forward, y left).
+    struct Approach {
+        r: f64,
+        p0: [f64; 2],
+        u: [f64; 2],
+        camera_vx: f64,
+    }
+
+    impl Approach {
+        fn rel(&self, t: f64) -> [f64; 2] {
+            [
+                self.p0[0] + self.u[0] * t - self.camera_vx * t,
+                self.p0[1] + self.u[1] * t,
+            ]
+        }
+        /// True angular size (degrees) and azimuth (degrees, positive right).
+        fn percept(&self, t: f64) -> Percept {
+            let [x, y] = self.rel(t);
+            let d = x.hypot(y);
+            Percept {
+                value: 2.0 * (self.r / d).asin().to_degrees(),
+                azimuth_deg: Some((-y).atan2(x).to_degrees()),
+                elevation_deg: None,
+            }
+        }
+        /// Time until the surface reaches the camera (head-on approaches only).
+        fn surface_ttc(&self, t: f64) -> f64 {
+            let [x, y] = self.rel(t);
+            let closing = -(self.u[0] - self.camera_vx);
+            (x.hypot(y) - self.r) / closing
+        }
+        fn ego(&self) -> Ego {
+            Ego {
+                yaw_rate_rps: 0.0,
+                forward_mps: self.camera_vx,
+            }
+        }
+    }
+
+    fn config(course: Course) -> EscapeConfig {
+        EscapeConfig {
+            trigger: TriggerSignal::Tau,
+            tau_threshold_s: 1.0,
+            min_angular_size_deg: 1.0,
+            course,
+            ..EscapeConfig::default()
+        }
+    }
+
+    /// Runs the strategy over the approach until the sphere is within `stop_m` of the camera;
+    /// returns (t, θ, decision) per frame.
+    fn run(cfg: &EscapeConfig, a: &Approach, stop_m: f64) -> Vec<(f64, f64, loomlab_agents::Decision)> {
+        let mut s: Strategy = cfg.strategy();
+        let mut out = Vec::new();
+        for k in 0..2000 {
+            let t = k as f64 * DT;
+            let [x, y] = a.rel(t);
+            if x.hypot(y) - a.r < stop_m || x < 0.0 {
+                break;
+            }
+            let p = a.percept(t);
+            out.push((t, p.value, s.update(t, p, a.ego())));
+        }
+        out
+    }
+
+    #[test]
+    fn tau_estimate_is_within_ten_percent_of_the_true_time_to_contact_from_three_degrees_on() {
+        for (r, speed, camera_vx) in [(0.2, 8.0, 1.0), (0.1, 15.0, 0.0), (0.4, 4.0, 1.5), (0.05, 12.0, 0.5)] {
+            let a = Approach {
+                r,
+                p0: [20.0, 0.0],
+                u: [-speed, 0.0],
+                camera_vx,
+            };
+            let frames = run(&config(Course::Off), &a, 0.05);
+            let mut checked = 0;
+            let window = config(Course::Off).tau_window_s;
+            for (t, theta, d) in &frames {
+                let truth = a.surface_ttc(*t);
+                // from 3° on, until the last window before contact (where the frames no longer fill
+                // the estimation window; no decision is made that late)
+                if *theta < 3.0 || *t < window || truth < window {
+                    continue;
+                }
+                let est = d.tau_s.expect("τ̂ on a looming sphere");
+                assert!(
+                    (est - truth).abs() <= 0.1 * truth,
+                    "r {r} speed {speed}: θ {theta:.1}°, τ̂ {est:.4} s vs true {truth:.4} s"
+                );
+                checked += 1;
+            }
+            assert!(checked > 5, "{checked} frames checked");
+        }
+    }
+
+    #[test]
+    fn tau_alarm_comes_at_the_threshold_and_not_before() {
+        let a = Approach {
+            r: 0.2,
+            p0: [20.0, 0.0],
+            u: [-8.0, 0.0],
+            camera_vx: 1.0,
+        };
+        let cfg = config(Course::Off);
+        let frames = run(&cfg, &a, 0.05);
+        let first = frames
+            .iter()
+            .find(|(_, _, d)| d.value >= cfg.alarm_threshold())
+            .expect("an alarm");
+        let ttc = a.surface_ttc(first.0);
+        assert!((ttc - 1.0).abs() < 0.05, "alarm at true TTC {ttc:.3} s");
+        // θ̂ below min_angular_size_deg never alarms, whatever τ̂
+        let cfg = EscapeConfig {
+            min_angular_size_deg: 30.0,
+            ..cfg
+        };
+        for (_, theta, d) in run(&cfg, &a, 0.05) {
+            assert!(theta >= 30.0 || d.value == 0.0);
+        }
+    }
+
+    #[test]
+    fn course_gate_closed_for_a_pass_at_two_body_widths() {
+        let cfg = config(Course::Image);
+        let w = cfg.body_half_width_m;
+        for (r, speed, camera_vx, side) in [(0.2, 8.0, 1.0, 1.0), (0.1, 10.0, 1.0, -1.0), (0.25, 6.0, 0.0, 1.0)] {
+            // passes 2 body widths (4 half-widths) from the camera, beside it
+            let a = Approach {
+                r,
+                p0: [20.0, side * 4.0 * w],
+                u: [-speed, 0.0],
+                camera_vx,
+            };
+            let frames = run(&cfg, &a, 0.0);
+            assert!(frames.len() > 100);
+            for (t, theta, d) in &frames {
+                assert!(
+                    d.value < cfg.alarm_threshold(),
+                    "r {r}: alarm at t {t:.3} (θ {theta:.1}°, μ {:?}, τ̂ {:?})",
+                    d.miss_radii,
+                    d.tau_s
+                );
+            }
+            // without the gate the same pass alarms (τ falls below 1 s)
+            assert!(
+                run(&config(Course::Off), &a, 0.0)
+                    .iter()
+                    .any(|(_, _, d)| d.value >= cfg.alarm_threshold())
+            );
+        }
+    }
+
+    #[test]
+    fn course_gate_open_for_head_on_and_oblique_constant_bearing_collisions() {
+        let cfg = config(Course::Image);
+        // head-on, robot driving
+        let head_on = Approach {
+            r: 0.15,
+            p0: [20.0, 0.0],
+            u: [-9.0, 0.0],
+            camera_vx: 1.0,
+        };
+        // oblique: arrives at the camera at t = 2 s from 35° to the right while the robot drives at
+        // 1.5 m/s: relative position (2 − t)·w, a constant bearing
+        let (t_hit, bearing) = (2.0f64, 35f64.to_radians());
+        let (vx, rel_speed) = (1.5, 7.0);
+        let w = [-rel_speed * bearing.cos(), rel_speed * bearing.sin()];
+        let oblique = Approach {
+            r: 0.2,
+            p0: [-w[0] * t_hit, -w[1] * t_hit],
+            u: [w[0] + vx, w[1]],
+            camera_vx: vx,
+        };
+        for a in [head_on, oblique] {
+            let frames = run(&cfg, &a, 0.05);
+            let alarm = frames
+                .iter()
+                .find(|(_, _, d)| d.value >= cfg.alarm_threshold())
+                .expect("the gate lets the collision course through");
+            let [x, y] = a.rel(alarm.0);
+            let ttc = (x.hypot(y) - a.r) / (a.u[0] - a.camera_vx).hypot(a.u[1]);
+            assert!((ttc - 1.0).abs() < 0.05, "alarm at true TTC {ttc:.3}");
+            assert!(alarm.2.miss_radii.unwrap() < 0.2, "μ = {:?}", alarm.2.miss_radii);
+        }
+    }
+
+    #[test]
+    fn the_controller_runs_the_strategy_and_compares_the_urgency() {
+        let cfg = config(Course::Off);
+        assert_eq!(cfg.alarm_threshold(), 1.0);
+        let mut c = EscapeController::new(cfg).unwrap();
+        let a = Approach {
+            r: 0.2,
+            p0: [12.0, 0.0],
+            u: [-8.0, 0.0],
+            camera_vx: 1.0,
+        };
+        let cruise = VelocityCommand::forward(1.0);
+        let mut trigger = None;
+        for k in 0..200 {
+            let t = k as f64 * DT;
+            let v = c.perceive(t, a.percept(t), cruise).value;
+            if c.step(t, v, Some(0.5), cruise).1.is_trigger() {
+                trigger = Some(t);
+                break;
+            }
+        }
+        let t = trigger.expect("a trigger");
+        assert!((a.surface_ttc(t) - 1.0).abs() < 0.05);
+        // reset forgets the window
+        c.reset();
+        assert_eq!(c.perceive(0.0, a.percept(0.0), cruise).value, 0.0);
+    }
+
+    #[test]
+    fn invalid_strategy_combinations_are_rejected() {
+        let e = EscapeController::new(EscapeConfig {
+            trigger: TriggerSignal::Output,
+            course: Course::Image,
+            ..EscapeConfig::default()
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("escape.course") && e.contains("θ̂"), "{e}");
+        for cfg in [
+            EscapeConfig {
+                tau_threshold_s: 0.0,
+                ..config(Course::Off)
+            },
+            EscapeConfig {
+                tau_window_s: f64::NAN,
+                ..config(Course::Off)
+            },
+            EscapeConfig {
+                min_angular_size_deg: -1.0,
+                ..config(Course::Off)
+            },
+        ] {
+            assert!(EscapeController::new(cfg).is_err());
+        }
+        let cfg: EscapeConfig =
+            serde_json::from_str(r#"{"trigger":"angular_size","course":"image","tau_threshold_s":0.8}"#).unwrap();
+        assert_eq!(cfg.trigger, TriggerSignal::AngularSizeDeg);
+        assert_eq!(cfg.course, Course::Image);
+        let cfg: EscapeConfig = serde_json::from_str(r#"{"trigger":"tau"}"#).unwrap();
+        assert_eq!(cfg.trigger, TriggerSignal::Tau);
+    }
+
+    #[test]
+    fn a_retrigger_while_the_object_still_looms_keeps_the_side() {
+        let mut c = EscapeController::new(EscapeConfig {
+            duration_s: 0.5,
+            cooldown_s: 0.25,
+            side_memory_s: 0.5,
+            ..EscapeConfig::default()
+        })
+        .unwrap();
+        let cruise = VelocityCommand::forward(1.0);
+        // object on the right: dodge left
+        assert_eq!(
+            c.step(0.0, 20.0, Some(0.6), cruise).1,
+            loomlab_agents::ControllerEvent::Triggered {
+                side: Some(DodgeSide::Left)
+            }
+        );
+        // still looming when the cooldown ends, now seen left of centre: keep dodging left
+        c.step(0.5, 20.0, Some(-0.6), cruise);
+        let (cmd, ev) = c.step(0.75, 20.0, Some(-0.6), cruise);
+        assert_eq!(
+            ev,
+            loomlab_agents::ControllerEvent::Triggered {
+                side: Some(DodgeSide::Left)
+            }
+        );
+        assert!(cmd.lateral_mps > 0.0);
+        // a new looming event (no alarm for longer than side_memory_s) takes the side afresh
+        c.step(1.3, 0.0, Some(-0.6), cruise);
+        let (_, ev) = c.step(2.5, 20.0, Some(-0.6), cruise);
+        assert_eq!(
+            ev,
+            loomlab_agents::ControllerEvent::Triggered {
+                side: Some(DodgeSide::Right)
+            }
+        );
+    }
+}
+
+/// The decision step's cost: run with `cargo test -p loomlab-agents --test escape -- --ignored
+/// --nocapture decision_step_cost` (prints the time per frame of the τ + course strategy).
+#[test]
+#[ignore]
+fn decision_step_cost() {
+    use loomlab_agents::{Course, Ego, Percept};
+    let cfg = EscapeConfig {
+        trigger: TriggerSignal::Tau,
+        course: Course::Image,
+        ..EscapeConfig::default()
+    };
+    let mut s = cfg.strategy();
+    let n = 1_000_000;
+    let start = std::time::Instant::now();
+    let mut acc = 0.0;
+    for k in 0..n {
+        let t = k as f64 / 120.0;
+        let d = 20.0 - (t % 2.0) * 8.0;
+        let p = Percept {
+            value: 2.0 * (0.2f64 / d).asin().to_degrees(),
+            azimuth_deg: Some(0.1 * t),
+            elevation_deg: None,
+        };
+        acc += s.update(t, p, Ego::default()).value;
+    }
+    let per = start.elapsed().as_secs_f64() / n as f64;
+    println!("strategy update: {:.0} ns per frame ({acc:.1})", per * 1e9);
+}

@@ -2,7 +2,10 @@
 
 use std::sync::Arc;
 
-use loomlab_agents::{ContinuousAction, DiscreteAction, EscapeAgent, EscapeController, TriggerSignal, VelocityCommand};
+use loomlab_agents::{
+    ContinuousAction, DiscreteAction, Ego, EscapeAgent, EscapeConfig, EscapeController, Percept, Strategy,
+    TriggerSignal, VelocityCommand,
+};
 use loomlab_detector::{DetectorSet, Frame};
 use loomlab_sim::{GpuContext, RobotState, Sim, StepOutput};
 use serde::{Deserialize, Serialize};
@@ -14,7 +17,7 @@ use super::{
 };
 use loomlab_scenarios::metrics::{DetectorEpisode, GroundTruth, TraceSample, score_detector_episode};
 use loomlab_scenarios::reference::INDICATOR_THRESHOLD;
-use loomlab_scenarios::schema::EpisodeSpec;
+use loomlab_scenarios::schema::{DetectorSpec, EpisodeSpec};
 use loomlab_scenarios::truth::{open_loop_truth, threat_deadline};
 
 /// Number of entries of [`Observation::robot`].
@@ -197,7 +200,20 @@ struct DetectorSlot {
     params: DetectorSet,
     trigger: TriggerSignal,
     threshold: f64,
+    /// The row's escape-controller configuration (its decision strategy), threshold included.
+    controller: EscapeConfig,
+    /// The row's decision strategy, stepped on its θ̂ and the looming side (stateful rows only).
+    strategy: Option<Strategy>,
     trace: Vec<TraceSample>,
+}
+
+/// The controller configuration of detector `d` at alarm threshold `threshold` (for a τ row, the
+/// urgency 1/τ in s⁻¹), and its stateful strategy if it has one.
+fn slot_controller(d: &DetectorSpec, base: &EscapeConfig, threshold: f64) -> (EscapeConfig, Option<Strategy>) {
+    let d = DetectorSpec { threshold, ..d.clone() };
+    let config = d.controller(base);
+    let strategy = d.is_strategy().then(|| config.strategy());
+    (config, strategy)
 }
 
 struct Running {
@@ -355,16 +371,20 @@ impl EscapeEnv {
             names.extend(probe.aux.iter().map(|(k, _)| (*k).to_string()));
             signal_names.push(names);
             built.push(detector);
+            let threshold = options.thresholds.get(&spec.label).copied().unwrap_or(spec.threshold);
+            let (controller, strategy) = slot_controller(spec, &first.controller, threshold);
             detectors.push(DetectorSlot {
                 label: spec.label.clone(),
                 id: spec.id,
                 params: spec.params,
                 trigger: spec.trigger,
-                threshold: options.thresholds.get(&spec.label).copied().unwrap_or(spec.threshold),
+                threshold,
+                controller,
+                strategy,
                 trace: Vec::new(),
             });
         }
-        let agent = EscapeAgent::new(built, first.detectors[0].controller(&first.controller))?;
+        let agent = EscapeAgent::new(built, detectors[0].controller.clone())?;
         Ok(Self {
             resample: scenario.has_random_ranges(),
             n,
@@ -533,11 +553,9 @@ impl EscapeEnv {
             slot.trace.clear();
             slot.trigger = d.trigger;
             slot.threshold = self.options.thresholds.get(&d.label).copied().unwrap_or(d.threshold);
+            (slot.controller, slot.strategy) = slot_controller(d, &spec.controller, slot.threshold);
         }
-        let mut ctrl = spec.detectors[0].controller(&spec.controller);
-        ctrl.trigger = self.detectors[0].trigger;
-        ctrl.threshold = self.detectors[0].threshold;
-        self.agent.set_controller(ctrl)?;
+        self.agent.set_controller(self.detectors[0].controller.clone())?;
         self.agent.reset();
         let first = sim.observe()?;
         let start = first.robot;
@@ -696,9 +714,30 @@ impl EscapeEnv {
             controller_discrete = DiscreteAction::None;
         } else {
             let frame = Frame::from_f32(n, out.frame.clone())?;
+            // the robot's own motion during the last period, as the agent's controller sees it
+            let last = self.agent.controller().last_command().unwrap_or(cruise_now);
+            let ego = Ego {
+                yaw_rate_rps: last.yaw_rate_rps,
+                forward_mps: last.forward_mps,
+            };
             let step = self.agent.step(out.t_s, &frame, cruise_now)?;
             for (d, s) in self.detectors.iter_mut().zip(&step.signals) {
-                let value = d.trigger.value(s).unwrap_or(f64::NAN);
+                let raw = d.trigger.value(s).unwrap_or(f64::NAN);
+                // a stateful row's value is its strategy's decision value, as the agent computes it
+                let value = match &mut d.strategy {
+                    Some(strategy) => {
+                        let percept = Percept {
+                            value: raw,
+                            azimuth_deg: step
+                                .looming_side
+                                .filter(|x| x.is_finite())
+                                .map(|x| d.controller.azimuth_deg(x)),
+                            elevation_deg: None,
+                        };
+                        strategy.update(out.t_s, percept, ego).value
+                    }
+                    None => raw,
+                };
                 alarm.push(value >= d.threshold);
                 d.trace.push(TraceSample {
                     t_s: out.t_s,

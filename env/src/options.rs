@@ -41,7 +41,9 @@ pub struct EnvOptions {
     /// Detector ids to run and observe (`None`: the scenario's detectors). Order is kept.
     pub detectors: Option<Vec<String>>,
     /// Alarm thresholds by detector id, overriding the scenario's (θ̂ in degrees for `hopfield`, the
-    /// output for the baselines).
+    /// output for the baselines; for a row with `trigger = "tau"` the urgency 1/τ in s⁻¹, i.e.
+    /// `1 / tau_threshold_s`). A row's strategy (`trigger`, `tau_threshold_s`,
+    /// `min_angular_size_deg`, `course`) comes from the scenario's `[[detectors]]` entry.
     pub thresholds: BTreeMap<String, f64>,
     /// Frame size n (`None`: the scenario's camera size).
     pub frame_size: Option<u32>,

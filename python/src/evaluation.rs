@@ -74,7 +74,7 @@ pub fn suite_episodes(
 
 /// The report of a policy evaluated on `suite` (see `loomlab.evaluate`): the suite's episodes
 /// (expanded as [`suite_episodes`] does for each seed) run by the scenario runner, as `loomlab
-/// run` runs them (detector rows and the reference rows `null`, `oracle`, `ideal_theta`), plus the
+/// run` runs them (detector rows and the reference rows `null`, `oracle`, `ideal_theta`, `ideal_tau`, `ideal_course`), plus the
 /// policy's row `label` from `agent_rows_json`: a JSON list with, per seed and episode in order, the
 /// `outcome["agent"]` dict that the environment scored when the policy ran that episode. Returns
 /// the report's JSON (the keys of `report.json`) over the episodes of every seed; its `seed` is the

@@ -143,7 +143,7 @@ def test_evaluate_report_is_loomlab_runs_plus_the_policy_row(threshold_evaluatio
     report, shipped, run = threshold_evaluation
     assert set(report) >= set(run) and report["seeds"] == [3]
     assert report["episodes"] == run["episodes"] == 6
-    assert report["references"] == run["references"] == ["null", "oracle", "ideal_theta"]
+    assert report["references"] == run["references"] == ["null", "oracle", "ideal_theta", "ideal_tau", "ideal_course"]
     assert set(report["detectors"]) == set(run["detectors"]) | {"threshold_policy"}
     for label, summary in run["detectors"].items():
         assert report["detectors"][label] == summary, label

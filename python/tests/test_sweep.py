@@ -19,7 +19,7 @@ SWEEP = DATA / "small_sweep.toml"
 REPO = Path(__file__).resolve().parents[2]  # python/tests/test_sweep.py -> the repository root
 LABELS = ["hopfield-000", "hopfield-001", "soc-000", "soc-001"]
 # the runner's reference rows, reported with every detector (scenarios/src/reference.rs)
-REFERENCE_ROWS = {"null", "oracle", "ideal_theta"}
+REFERENCE_ROWS = {"null", "oracle", "ideal_theta", "ideal_tau", "ideal_course"}
 
 
 def _strip(report: dict) -> dict:

@@ -68,7 +68,9 @@ impl RunPage<'_> {
             "<p class=\"meta\">Hit: alarm no later than the threat's escape deadline; miss: later or never; \
              false alarm: an alarm without a threat. Reference rows: <code>null</code> never alarms, \
              <code>oracle</code> alarms at each evadable threat's deadline, <code>ideal_theta</code> \
-             thresholds the true angular size.</p>\n",
+             thresholds the true angular size of the moving objects, <code>ideal_tau</code> alarms on the \
+             time to contact estimated from each object's true angular size, <code>ideal_course</code> \
+             on the same behind the collision-course gate fed the true bearings.</p>\n",
         );
 
         if let Some((path, base)) = &self.baseline {

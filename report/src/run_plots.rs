@@ -1,5 +1,5 @@
 //! The plots of `loomlab run` (`roc.png`, `rates.png`, `collisions.png`, `lv.png`,
-//! `theta_hat.png`, `trace.png`) and the per-episode trace CSVs of `--traces`.
+//! `theta_required.png`, `theta_hat.png`, `trace.png`) and the per-episode trace CSVs of `--traces`.
 //!
 //! [`run_figures`] describes every plot once; [`write_plots`] draws them as PNG files and
 //! `report.html` draws the same [`Figure`]s as inline SVG.
@@ -425,6 +425,48 @@ pub fn run_figures(report: &Report, outcomes: &[EpisodeOutcome], samples: Option
         },
         (760, 600),
     ));
+    // The angular size a threat required: θ at the escape deadline against l/|v|, and each row's
+    // true θ at its alarm (evadable constant-speed head-on threats).
+    let required: Vec<(f64, f64)> = outcomes
+        .iter()
+        .filter_map(|e| {
+            let d = e.detectors.first()?;
+            Some((d.l_over_v_s?, d.theta_required_deg?))
+        })
+        .collect();
+    if !required.is_empty() {
+        let mut series = vec![
+            Series::new(
+                "θ required: true θ at the escape deadline",
+                required.iter().map(|p| p.0).collect(),
+                required.iter().map(|p| p.1).collect(),
+            )
+            .scatter(None),
+        ];
+        for id in report.detectors.keys() {
+            let (x, y): (Vec<f64>, Vec<f64>) = loomlab_scenarios::report::detector_episodes(outcomes, id)
+                .filter(|d| d.theta_required_deg.is_some())
+                .filter_map(|d| Some((d.l_over_v_s?, d.angular_size_at_alarm_deg?)))
+                .unzip();
+            if !x.is_empty() {
+                series.push(Series::new(format!("{id}: true θ at its alarm"), x, y).scatter(None));
+            }
+        }
+        figures.push(lines(
+            "theta_required",
+            "The angular size each evadable head-on threat required (its true θ at the escape deadline: an \
+             alarm at a smaller θ is in time) against l/|v|, with each row's true θ at its alarm.",
+            LineChart {
+                title: "θ required at the escape deadline vs θ at each row's alarm".into(),
+                x_label: "l/|v|: half-size / closing speed (s)".into(),
+                y_label: "true angular size (deg)".into(),
+                series,
+                x_range: None,
+                y_range: None,
+            },
+            (760, 600),
+        ));
+    }
     let Some(samples) = samples else {
         return figures;
     };

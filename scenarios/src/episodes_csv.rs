@@ -4,7 +4,9 @@
 //! Columns (see [`HEADER`]): `scenario,episode,seed,params,detector,threat,t_contact_s,t_alarm_s,
 //! outcome,collision,ttc_at_alarm_s,angular_size_at_alarm_deg,max_signal,lead_s,t_deadline_s,
 //! deadline_lead_s,evadable,l_over_v_s,eye_ttc_at_alarm_s,theta_rel_err_median,theta_rel_err_p90,
-//! theta_at_first_estimate_deg,triggers,impact_speed_mps,impulse_ns`. `params` is a
+//! theta_at_first_estimate_deg,triggers,impact_speed_mps,impulse_ns,theta_required_deg`
+//! (`theta_required_deg`: the true angular size of an evadable threat at its escape deadline, the
+//! same on every row of the episode). `params` is a
 //! compact JSON object of the episode's swept/sampled values (`{"speed_kmh":"50"}`), quoted as CSV
 //! requires; booleans are `true`/`false`; absent values are empty cells; numbers are written in
 //! Rust's shortest round-trip form, so a read gives back exactly what was written. `lead_s`
@@ -25,7 +27,7 @@ use std::path::{Path, PathBuf};
 use crate::metrics::{DetectorEpisode, EpisodeOutcome, Outcome, ScoringError};
 
 /// The column names, in order.
-pub const HEADER: [&str; 25] = [
+pub const HEADER: [&str; 26] = [
     "scenario",
     "episode",
     "seed",
@@ -51,6 +53,7 @@ pub const HEADER: [&str; 25] = [
     "triggers",
     "impact_speed_mps",
     "impulse_ns",
+    "theta_required_deg",
 ];
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> ScoringError + '_ {
@@ -109,6 +112,7 @@ pub fn format_rows(episode: &EpisodeOutcome) -> String {
             d.triggers.to_string(),
             opt(d.impact_speed_mps),
             opt(d.impulse_ns),
+            opt(d.theta_required_deg),
         ];
         out += &cells.join(",");
         out.push('\n');
@@ -329,6 +333,7 @@ pub fn parse_episodes_csv(text: &str, origin: &Path) -> Result<Vec<EpisodeOutcom
             collision: parse_b("collision")?,
             impact_speed_mps: parse_f("impact_speed_mps")?,
             impulse_ns: parse_f("impulse_ns")?,
+            theta_required_deg: parse_f("theta_required_deg")?,
             ttc_at_alarm_s: parse_f("ttc_at_alarm_s")?,
             angular_size_at_alarm_deg: parse_f("angular_size_at_alarm_deg")?,
             max_signal: parse_f("max_signal")?,

@@ -247,6 +247,10 @@ pub struct DetectorEpisode {
     /// Contact impulse of the closed loop's collision (N·s; dynamic physics).
     #[serde(default)]
     pub impulse_ns: Option<f64>,
+    /// True angular size of an evadable threat at its escape deadline (degrees): the θ a
+    /// threshold on the true angular size needs to reach to be in time (`None`: no evadable threat).
+    #[serde(default)]
+    pub theta_required_deg: Option<f64>,
     /// Escape manoeuvres started in the closed loop (the level-triggered controller re-triggers
     /// after its cooldown while the signal stays above the threshold).
     #[serde(default)]
@@ -434,6 +438,7 @@ pub fn score_detector_episode(
         collision: truth.collision,
         impact_speed_mps: None,
         impulse_ns: None,
+        theta_required_deg: None,
         triggers: u64::from(t_alarm_s.is_some()),
         ttc_at_alarm_s: alarm.and_then(|s| s.ttc_s).filter(|v| v.is_finite()),
         angular_size_at_alarm_deg: alarm.and_then(|s| s.angular_size_deg).filter(|v| v.is_finite()),

@@ -7,17 +7,40 @@
 //! - `oracle` alarms exactly at each evadable threat's escape deadline frame and never otherwise:
 //!   the ceiling (it evades every evadable threat with no false alarm);
 //! - `ideal_theta` alarms when the true angular size of any approaching object (angular size
-//!   growing) reaches the Hopfield trigger threshold: what a perfect θ̂ would do with the same
-//!   threshold. It separates "the estimate is wrong" from "thresholding θ is too late". Its
-//!   perception is perfect throughout: it dodges away from the true image side (bearing) of the
+//!   growing) **that moves relative to the world** (a projectile or a vehicle; static scenery —
+//!   walls, poles, the overpass — looms as the robot drives and would alarm at once in a corridor)
+//!   reaches the Hopfield trigger threshold: what a perfect θ̂ of the moving objects would do with
+//!   the same threshold. It separates "the estimate is wrong" from "thresholding θ is too late".
+//!   Its perception is perfect throughout: it dodges away from the true image side (bearing) of the
 //!   object it triggers on, and its closed loop after the first alarm is simulated physics-only
 //!   with ground truth as its input (re-triggers included).
+//! - `ideal_tau` runs the escape controller's τ strategy ([`loomlab_agents::strategy`], the same
+//!   code a detector row runs on θ̂) on **each** object's true angular size, every object its own
+//!   estimator; the row's value is the largest urgency 1/τ̂ over the objects and it dodges away from
+//!   that object's true bearing. Alarm when τ̂ ≤ the controller's `tau_threshold_s` and θ ≥ its
+//!   `min_angular_size_deg`.
+//! - `ideal_course` is `ideal_tau` with the collision-course gate, fed each object's true azimuth.
+//!   The gate judges the miss in the ground plane only (the plane the robot dodges in): the
+//!   vertical course of a thrown object is curved by gravity, so extrapolating its elevation at
+//!   constant velocity would call every lobbed hit a pass overhead. Objects passing overhead are
+//!   therefore not told from hits.
+//!
+//! `ideal_tau` and `ideal_course` perceive an object only while its reference point is in view and
+//! its angular size fits in the field of view (`θ ≤ fov`): the image cannot show a larger angular
+//! size (a wall alongside the robot subtends almost 180°, most of it outside the view), and the
+//! τ estimate assumes a compact object.
+//!
+//! The ideal rows see only what perfect perception of the image gives: per-object angular sizes,
+//! bearings (and, for `ideal_theta`, whether θ grows and whether the object moves in the world);
+//! never distances, velocities or contact predictions. Their closed loops run physics-only.
 //!
 //! The oracle and null signals are indicators (1 at an alarm frame, 0 elsewhere, threshold
-//! [`INDICATOR_THRESHOLD`]); ideal_theta's signal is in degrees. Reference rows are excluded from
+//! [`INDICATOR_THRESHOLD`]); ideal_theta's signal is in degrees, ideal_tau's and ideal_course's the
+//! urgency 1/τ̂ (s⁻¹, threshold `1 / tau_threshold_s`). Reference rows are excluded from
 //! regressions and from threshold calibration.
 
-use loomlab_sim::ObjectTruth;
+use loomlab_agents::{Course, Ego, EscapeConfig, Percept, Strategy, TriggerSignal};
+use loomlab_sim::{ObjectKind, ObjectTruth};
 
 /// Label of the never-alarming reference row.
 pub const NULL: &str = "null";
@@ -25,8 +48,12 @@ pub const NULL: &str = "null";
 pub const ORACLE: &str = "oracle";
 /// Label of the reference row that thresholds the true angular size.
 pub const IDEAL_THETA: &str = "ideal_theta";
+/// Label of the reference row that runs the τ strategy on each object's true angular size.
+pub const IDEAL_TAU: &str = "ideal_tau";
+/// Label of the reference row that runs the τ strategy and the course gate on true θ and bearings.
+pub const IDEAL_COURSE: &str = "ideal_course";
 /// Every reference label, in table order.
-pub const REFERENCE_LABELS: [&str; 3] = [NULL, ORACLE, IDEAL_THETA];
+pub const REFERENCE_LABELS: [&str; 5] = [NULL, ORACLE, IDEAL_THETA, IDEAL_TAU, IDEAL_COURSE];
 /// Alarm threshold of the indicator signals of `null` and `oracle`.
 pub const INDICATOR_THRESHOLD: f64 = 1.0;
 
@@ -35,18 +62,101 @@ pub fn is_reference(label: &str) -> bool {
     REFERENCE_LABELS.contains(&label)
 }
 
-/// The ideal θ̂: the largest true angular size (degrees) of the objects whose angular size is
-/// growing; 0 when none is.
+/// The ideal θ̂: the largest true angular size (degrees) of the moving objects whose angular size
+/// is growing; 0 when none is.
 pub fn ideal_theta_deg(truth: &[ObjectTruth]) -> f64 {
     ideal_percept(truth).0
 }
 
 /// The ideal θ̂ and the image side (bearing, −1 left … +1 right) of the object it comes from
-/// (`None` when no object is looming).
+/// (`None` when no moving object is looming).
 pub fn ideal_percept(truth: &[ObjectTruth]) -> (f64, Option<f32>) {
     truth
         .iter()
-        .filter(|o| o.angular_rate_deg_s > 0.0)
+        .filter(|o| o.angular_rate_deg_s > 0.0 && o.kind != ObjectKind::Scenery)
         .max_by(|a, b| a.angular_size_deg.total_cmp(&b.angular_size_deg))
         .map_or((0.0, None), |o| (f64::from(o.angular_size_deg), Some(o.bearing)))
+}
+
+/// Which ideal observer a reference row runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum IdealKind {
+    /// `ideal_theta`.
+    Theta,
+    /// `ideal_tau`.
+    Tau,
+    /// `ideal_course`.
+    Course,
+}
+
+/// An ideal observer: perfect perception of every object's angular size and bearing, one decision
+/// strategy per object (see the module docs).
+#[derive(Debug, Clone)]
+pub struct IdealObserver {
+    kind: IdealKind,
+    config: EscapeConfig,
+    per_object: Vec<Strategy>,
+}
+
+impl IdealObserver {
+    /// An observer of `kind` with the controller `base` (its τ threshold, minimum angle, window,
+    /// body and camera; `threshold` is the angle of `ideal_theta`).
+    pub fn new(kind: IdealKind, base: &EscapeConfig, theta_threshold_deg: f64) -> Self {
+        let config = EscapeConfig {
+            trigger: match kind {
+                IdealKind::Theta => TriggerSignal::AngularSizeDeg,
+                IdealKind::Tau | IdealKind::Course => TriggerSignal::Tau,
+            },
+            threshold: theta_threshold_deg,
+            course: if kind == IdealKind::Course {
+                Course::Image
+            } else {
+                Course::Off
+            },
+            ..base.clone()
+        };
+        Self {
+            kind,
+            config,
+            per_object: Vec::new(),
+        }
+    }
+
+    /// The controller configuration of this row (its `alarm_threshold()` is the row's threshold).
+    pub fn config(&self) -> &EscapeConfig {
+        &self.config
+    }
+
+    /// This frame's decision value, the image side (−1 … 1) of the object it comes from and that
+    /// object's id, with `ego` the robot's own motion during the last camera period.
+    pub fn update(&mut self, t_s: f64, truth: &[ObjectTruth], ego: Ego) -> (f64, Option<f32>, Option<usize>) {
+        if self.kind == IdealKind::Theta {
+            let (v, side) = ideal_percept(truth);
+            return (v, side, None);
+        }
+        let mut best: (f64, Option<f32>, Option<usize>) = (0.0, None, None);
+        let fov = self.config.camera_fov_deg;
+        for o in truth {
+            // the image shows an object's angular size only while it fits in the view
+            let visible = o.in_view && f64::from(o.angular_size_deg) <= fov;
+            if self.per_object.len() <= o.id {
+                self.per_object.resize_with(o.id + 1, || self.config.strategy());
+            }
+            let percept = Percept {
+                value: if visible {
+                    f64::from(o.angular_size_deg)
+                } else {
+                    f64::NAN
+                },
+                azimuth_deg: Some(f64::from(o.bearing_deg)).filter(|_| visible),
+                // the gate judges the miss in the ground plane (see the module docs)
+                elevation_deg: None,
+            };
+            let v = self.per_object[o.id].update(t_s, percept, ego).value;
+            if v > best.0 {
+                best = (v, Some(o.bearing), Some(o.id));
+            }
+        }
+        best
+    }
 }

@@ -3,16 +3,18 @@
 //! `report.json` layout (keys always present; unknown/absent values are `null`, never NaN):
 //! ```json
 //! { "loomlab_version": "0.1.0", "suite": "suites/smoke", "seed": 1, "episodes": 40,
-//!   "wall_time_s": 12.5, "lead_margin_s": 0.0, "references": ["null", "oracle", "ideal_theta"],
+//!   "wall_time_s": 12.5, "lead_margin_s": 0.0, "references": ["null", "oracle", "ideal_theta", "ideal_tau", "ideal_course"],
 //!   "detectors": { "<id>": { "episodes": 40, "hits": 18, "misses": 2, "false_alarms": 1,
 //!                            "correct_rejections": 19, "hit_rate": 0.9, "false_alarm_rate": 0.05,
 //!                            "collisions": 2, "collision_rate": 0.05,
 //!                            "hit_rate_ci": {"lower": …, "upper": …}, …, "mean_lead_s": 0.4,
 //!                            "mean_angular_size_at_alarm_deg": 11.2, "auc": 0.97, "roc": [ … ] } },
-//!   "scenarios": { "<name>": { "episodes": 20, "detectors": { "<id>": { …same… } } } } }
+//!   "scenarios": { "<name>": { "episodes": 20, "detectors": { "<id>": { …same… } },
+//!                              "theta_required_deg": { "count": 9, "min": …, "p10": …, "p25": …,
+//!                                                      "median": …, "p75": …, "p90": …, "max": … } } } }
 //! ```
 //! `detectors.<id>` pools every episode of the suite; `scenarios.<name>.detectors.<id>` only that
-//! scenario's. The reference rows (`null`, `oracle`, `ideal_theta`, see [`crate::reference`]) sit
+//! scenario's. The reference rows (`null`, `oracle`, `ideal_theta`, `ideal_tau`, `ideal_course`, see [`crate::reference`]) sit
 //! beside the detectors and are listed in `references`. Every summary also carries the escape
 //! fields (`evadable_threats`, `unavoidable_threats`, `evaded`, `evasion_rate`, `late_misses`,
 //! `silent_misses`, `hit_collisions`, `retriggered_hit_collisions`, `false_alarm_collisions`,
@@ -51,6 +53,64 @@ pub struct ScenarioSummary {
     pub episodes: u64,
     /// Per-detector summaries over this scenario's episodes.
     pub detectors: BTreeMap<String, DetectorSummary>,
+    /// Distribution of `theta_required_deg` (the true angular size of each evadable threat at its
+    /// escape deadline) over this scenario's episodes (`None`: no evadable threat).
+    #[serde(default)]
+    pub theta_required_deg: Option<Distribution>,
+}
+
+/// Quantiles of a sample (linear interpolation between order statistics).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Distribution {
+    /// Sample size.
+    pub count: u64,
+    /// Smallest value.
+    pub min: f64,
+    /// 10th percentile.
+    pub p10: f64,
+    /// 25th percentile.
+    pub p25: f64,
+    /// Median.
+    pub median: f64,
+    /// 75th percentile.
+    pub p75: f64,
+    /// 90th percentile.
+    pub p90: f64,
+    /// Largest value.
+    pub max: f64,
+}
+
+impl Distribution {
+    /// The quantiles of the finite values of `values` (`None` when there are none).
+    pub fn of(values: impl IntoIterator<Item = f64>) -> Option<Self> {
+        let mut v: Vec<f64> = values.into_iter().filter(|x| x.is_finite()).collect();
+        if v.is_empty() {
+            return None;
+        }
+        v.sort_by(f64::total_cmp);
+        let q = |p: f64| {
+            let x = p * (v.len() - 1) as f64;
+            let (lo, hi) = (x.floor() as usize, x.ceil() as usize);
+            v[lo] + (v[hi] - v[lo]) * (x - lo as f64)
+        };
+        Some(Self {
+            count: v.len() as u64,
+            min: v[0],
+            p10: q(0.1),
+            p25: q(0.25),
+            median: q(0.5),
+            p75: q(0.75),
+            p90: q(0.9),
+            max: v[v.len() - 1],
+        })
+    }
+}
+
+/// The `theta_required_deg` of each episode that has one (read from its first row).
+pub fn theta_required(episodes: &[EpisodeOutcome]) -> impl Iterator<Item = f64> + '_ {
+    episodes
+        .iter()
+        .filter_map(|e| e.detectors.iter().find_map(|d| d.theta_required_deg))
 }
 
 /// The whole suite's report, serialised as `report.json`.
@@ -103,6 +163,7 @@ impl Report {
                 let summary = ScenarioSummary {
                     episodes: eps.len() as u64,
                     detectors: summarize_by_detector(&eps),
+                    theta_required_deg: Distribution::of(theta_required(&eps)),
                 };
                 (name.to_string(), summary)
             })
@@ -263,7 +324,9 @@ pub fn format_summary_table(detectors: &BTreeMap<String, DetectorSummary>) -> St
     }
     if detectors.keys().any(|id| is_ref(id)) {
         out += "* reference row from ground truth (null: never alarms; oracle: alarms at each escape deadline; \
-                ideal_theta: true angular size >= the hopfield threshold)\n";
+                ideal_theta: true angular size of a moving object >= the hopfield threshold; ideal_tau: \
+                time to contact from each object's true angular size; ideal_course: ideal_tau behind the \
+                collision-course gate on true bearings)\n";
     }
     out
 }

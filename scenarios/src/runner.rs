@@ -46,7 +46,9 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
-use loomlab_agents::{EscapeAgent, EscapeConfig, EscapeController, LoomingSideEstimator, TriggerSignal};
+use loomlab_agents::{
+    Ego, EscapeAgent, EscapeConfig, EscapeController, LoomingSideEstimator, Percept, TriggerSignal, VelocityCommand,
+};
 use loomlab_detector::{Detector, Frame};
 use loomlab_sim::{GpuContext, ObjectTruth, Renderer, Sim, SimError};
 use rayon::prelude::*;
@@ -56,7 +58,9 @@ use crate::error::RunError;
 use crate::metrics::{
     DetectorEpisode, EpisodeOutcome, GroundTruth, ThetaAccuracy, TraceSample, score_detector_episode,
 };
-use crate::reference::{IDEAL_THETA, INDICATOR_THRESHOLD, NULL, ORACLE, ideal_percept, ideal_theta_deg};
+use crate::reference::{
+    IDEAL_COURSE, IDEAL_TAU, IDEAL_THETA, INDICATOR_THRESHOLD, IdealKind, IdealObserver, NULL, ORACLE,
+};
 use crate::schema::{DetectorSpec, EpisodeSpec};
 use crate::truth::{Impact, TruthRecorder};
 
@@ -379,6 +383,15 @@ impl Runner {
             .collect();
         let mut side = LoomingSideEstimator::default();
         let sides: Vec<Option<f32>> = frames.iter().map(|f| side.update(f)).collect();
+        // Rows with a stateful strategy (τ, course gate): their decision value, exactly as the
+        // escape agent computes it on these frames (the raw trigger signal is kept as `raw`).
+        let mut raw_theta: Vec<Option<Vec<f64>>> = vec![None; nd];
+        for (i, spec) in ep.detectors.iter().enumerate() {
+            if spec.is_strategy() {
+                let decided = strategy_signal(&spec.controller(&ep.controller), ep, &t_s, &signal[i], &sides);
+                raw_theta[i] = Some(std::mem::replace(&mut signal[i], decided));
+            }
+        }
         let escape = EscapeController::new(ep.controller.clone()).map_err(|source| RunError::Controller {
             scenario: ep.scenario.clone(),
             episode: ep.index,
@@ -416,12 +429,13 @@ impl Runner {
                 trigger: spec.trigger,
                 threshold: spec.threshold,
                 signal: std::mem::take(&mut signal[i]),
+                raw: raw_theta[i].take(),
                 output: std::mem::take(&mut output[i]),
                 tail: Tail::Detector(spec),
             })
             .collect();
         if self.references {
-            rows.extend(reference_rows(ep, &truth, deadline.as_ref(), t_s.len()));
+            rows.extend(reference_rows(ep, &truth, &t_s, deadline.as_ref()));
         }
         let mut scored: Vec<DetectorEpisode> = Vec::with_capacity(rows.len());
         let mut closed = Vec::with_capacity(rows.len());
@@ -464,7 +478,7 @@ impl Runner {
                         collision: replay_trigger(ep, ep.seed, &escape, ka, sides[ka]).map_err(|e| c.sim(e))?,
                         frames_rendered: 0,
                     },
-                    Tail::TrueAngularSize => ideal_theta_tail(&c, &row.label, row.threshold, &truth, ka)?,
+                    Tail::Ideal(kind) => ideal_tail(&c, &row.label, *kind, &truth, ka)?,
                     Tail::Detector(spec) => self.closed_loop_tail(&c, spec, &frames, ka)?,
                 },
             };
@@ -473,12 +487,25 @@ impl Runner {
             d.impact_speed_mps = cl.collision.map(|i| i.impact_speed_mps);
             d.impulse_ns = cl.collision.and_then(|i| i.impulse_ns);
             d.triggers = cl.triggers as u64;
+            d.theta_required_deg = deadline
+                .as_ref()
+                .and_then(|dl| dl.frame)
+                .and_then(|k| ref_theta.get(k).copied())
+                .filter(|v| v.is_finite());
             if let Some(a) = &approach {
                 d.l_over_v_s = Some(a.l_over_v_s);
                 d.eye_ttc_at_alarm_s = first_alarm.and_then(|k| a.eye_ttc_s(k));
             }
-            if ground_truth.threat && row.trigger == TriggerSignal::AngularSizeDeg {
-                let pairs: Vec<(f64, f64)> = row.signal.iter().copied().zip(ref_theta.iter().copied()).collect();
+            let theta_hat = match (&row.tail, row.trigger) {
+                (Tail::Detector(_), TriggerSignal::AngularSizeDeg | TriggerSignal::Tau) => {
+                    Some(row.raw.as_ref().unwrap_or(&row.signal))
+                }
+                _ => None,
+            };
+            if ground_truth.threat
+                && let Some(theta_hat) = theta_hat
+            {
+                let pairs: Vec<(f64, f64)> = theta_hat.iter().copied().zip(ref_theta.iter().copied()).collect();
                 (
                     d.theta_rel_err_median,
                     d.theta_rel_err_p90,
@@ -595,47 +622,88 @@ impl Runner {
     }
 }
 
-/// The closed loop of `ideal_theta` (see [`crate::reference`]) whose first alarm is open-loop
-/// frame `ka`: physics only, the escape agent driven by the true angular size and bearing (the
-/// open-loop pass's ground truth up to the alarm, the simulator's after it).
-fn ideal_theta_tail(
+/// The robot's own motion during the camera period that ends at open-loop frame `k`: the cruise
+/// command at the previous frame's time (the escape agent's last command; at the first frame, the
+/// cruise command it is given).
+fn open_loop_ego(ep: &EpisodeSpec, t_s: &[f64], k: usize) -> Ego {
+    let cmd = ep.cruise.command_at(if k == 0 { t_s[0] } else { t_s[k - 1] });
+    Ego {
+        yaw_rate_rps: cmd.yaw_rate_rps,
+        forward_mps: cmd.forward_mps,
+    }
+}
+
+/// The decision value of a detector row with a stateful strategy over the open-loop frames: the
+/// raw trigger signal `raw` (θ̂) and the looming sides through the controller's strategy, as
+/// [`EscapeAgent::step`] computes it.
+fn strategy_signal(
+    config: &EscapeConfig,
+    ep: &EpisodeSpec,
+    t_s: &[f64],
+    raw: &[f64],
+    sides: &[Option<f32>],
+) -> Vec<f64> {
+    let mut strategy = config.strategy();
+    (0..raw.len())
+        .map(|k| {
+            let percept = Percept {
+                value: raw[k],
+                azimuth_deg: sides[k].filter(|x| x.is_finite()).map(|x| config.azimuth_deg(x)),
+                elevation_deg: None,
+            };
+            strategy.update(t_s[k], percept, open_loop_ego(ep, t_s, k)).value
+        })
+        .collect()
+}
+
+/// The closed loop of an ideal reference row (see [`crate::reference`]) whose first alarm is
+/// open-loop frame `ka`: physics only, the escape agent driven by the ideal observer on ground
+/// truth (the open-loop pass's up to the alarm, the simulator's after it).
+fn ideal_tail(
     c: &Ctx<'_>,
     label: &str,
-    threshold: f64,
+    kind: IdealKind,
     truth: &[Vec<ObjectTruth>],
     ka: usize,
 ) -> Result<ClosedLoop, RunError> {
     let ep = c.ep;
     let mut sim = Sim::new_physics_only(&ep.world, ep.seed).map_err(|e| c.sim(e))?;
     sim.set_ground_truth(false);
-    let config = EscapeConfig {
-        trigger: TriggerSignal::AngularSizeDeg,
-        threshold,
-        ..ep.controller.clone()
-    };
-    let mut agent = EscapeAgent::new(Vec::new(), config).map_err(|source| RunError::Controller {
+    let mut observer = IdealObserver::new(kind, &ep.controller, ideal_theta_threshold_deg(ep));
+    let mut agent = EscapeAgent::new(Vec::new(), observer.config().clone()).map_err(|source| RunError::Controller {
         scenario: ep.scenario.clone(),
         episode: ep.index,
         source,
     })?;
-    let decide = |agent: &mut EscapeAgent, t: f64, truth: &[ObjectTruth]| {
-        let (theta, side) = ideal_percept(truth);
-        agent.decide(t, side, theta, ep.cruise.command_at(t)).command
+    let mut decide = |agent: &mut EscapeAgent, t: f64, truth: &[ObjectTruth], applied: VelocityCommand| {
+        let ego = Ego {
+            yaw_rate_rps: applied.yaw_rate_rps,
+            forward_mps: applied.forward_mps,
+        };
+        let (value, side, object) = observer.update(t, truth, ego);
+        agent
+            .decide_about(t, side, value, object, ep.cruise.command_at(t))
+            .command
     };
     let mut cmd = ep.cruise.command_at(0.0);
+    let mut previous_t = None;
     for row in &truth[..=ka] {
         let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
-        cmd = decide(&mut agent, out.t_s, row);
+        // before the alarm the agent cruises: the open loop's ego motion
+        let applied = ep.cruise.command_at(previous_t.unwrap_or(out.t_s));
+        previous_t = Some(out.t_s);
+        cmd = decide(&mut agent, out.t_s, row, applied);
     }
     sim.set_ground_truth(true);
     let mut collision = None;
     for _ in ka + 1..ep.frames() {
+        let applied = cmd;
         let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
         if let Some(ct) = out.first_collision() {
             collision = Some(Impact::from(ct));
             break;
         }
-        cmd = decide(&mut agent, out.t_s, &out.truth);
+        cmd = decide(&mut agent, out.t_s, &out.truth, applied);
     }
     Ok(ClosedLoop {
         label: label.to_string(),
@@ -650,8 +718,8 @@ fn ideal_theta_tail(
 enum Tail<'a> {
     /// The detector drives the escape agent on rendered frames.
     Detector(&'a DetectorSpec),
-    /// The true angular size and bearing drive the escape agent, physics only (`ideal_theta`).
-    TrueAngularSize,
+    /// An ideal observer on ground truth drives the escape agent, physics only (`ideal_*`).
+    Ideal(IdealKind),
     /// One trigger, then physics only: the escape-deadline replay (`oracle`).
     Replay,
 }
@@ -662,32 +730,35 @@ struct Row<'a> {
     trigger: TriggerSignal,
     threshold: f64,
     signal: Vec<f64>,
+    /// θ̂ before the decision strategy, for rows whose signal is a strategy's decision value.
+    raw: Option<Vec<f64>>,
     output: Vec<f64>,
     tail: Tail<'a>,
 }
 
-/// The reference rows of an episode (see [`crate::reference`]) over its `frames` open-loop frames.
+/// The reference rows of an episode (see [`crate::reference`]) over its open-loop frames.
 fn reference_rows<'a>(
     ep: &EpisodeSpec,
     truth: &[Vec<ObjectTruth>],
+    t_s: &[f64],
     deadline: Option<&EscapeDeadline>,
-    frames: usize,
 ) -> Vec<Row<'a>> {
+    let frames = t_s.len();
     let indicator = |k: Option<usize>| -> Vec<f64> {
         (0..frames)
             .map(|i| if Some(i) == k { INDICATOR_THRESHOLD } else { 0.0 })
             .collect()
     };
-    let ideal: Vec<f64> = truth.iter().map(|row| ideal_theta_deg(row)).collect();
     let row = |label: &str, trigger, threshold, signal: Vec<f64>, tail| Row {
         label: label.to_string(),
         trigger,
         threshold,
         output: signal.clone(),
         signal,
+        raw: None,
         tail,
     };
-    vec![
+    let mut rows = vec![
         row(
             NULL,
             TriggerSignal::Output,
@@ -702,14 +773,26 @@ fn reference_rows<'a>(
             indicator(deadline.and_then(|d| d.frame)),
             Tail::Replay,
         ),
-        row(
-            IDEAL_THETA,
-            TriggerSignal::AngularSizeDeg,
-            ideal_theta_threshold_deg(ep),
-            ideal,
-            Tail::TrueAngularSize,
-        ),
-    ]
+    ];
+    for (label, kind) in [
+        (IDEAL_THETA, IdealKind::Theta),
+        (IDEAL_TAU, IdealKind::Tau),
+        (IDEAL_COURSE, IdealKind::Course),
+    ] {
+        let mut observer = IdealObserver::new(kind, &ep.controller, ideal_theta_threshold_deg(ep));
+        let config = observer.config().clone();
+        let signal = (0..frames)
+            .map(|k| observer.update(t_s[k], &truth[k], open_loop_ego(ep, t_s, k)).0)
+            .collect();
+        rows.push(row(
+            label,
+            config.trigger,
+            config.alarm_threshold(),
+            signal,
+            Tail::Ideal(kind),
+        ));
+    }
+    rows
 }
 
 /// The Hopfield trigger threshold of an episode: that of its detector labelled `hopfield`

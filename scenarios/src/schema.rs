@@ -39,7 +39,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use loomlab_agents::{EscapeConfig, TriggerSignal, VelocityCommand};
+use loomlab_agents::{Course, EscapeConfig, TriggerSignal, VelocityCommand};
 use loomlab_detector::baselines::BaselineConfigs;
 use loomlab_detector::{DETECTOR_IDS, Detector, DetectorError, DetectorSet, HopfieldConfig};
 use loomlab_sim::WorldDesc;
@@ -70,6 +70,24 @@ pub const DEFAULT_THRESHOLDS: [(&str, f64); 5] = [
 /// The default threshold of detector `id` ([`DEFAULT_THRESHOLDS`]).
 pub fn default_threshold(id: &str) -> Option<f64> {
     DEFAULT_THRESHOLDS.iter().find(|(k, _)| *k == id).map(|(_, t)| *t)
+}
+
+/// The detectors that give an angular-size estimate θ̂ (the only ones that can drive the τ
+/// strategy or the course gate).
+pub const ANGULAR_SIZE_IDS: [&str; 1] = ["hopfield"];
+
+/// Whether detector `id` gives θ̂ ([`ANGULAR_SIZE_IDS`]).
+pub fn gives_angular_size(id: &str) -> bool {
+    ANGULAR_SIZE_IDS.contains(&id)
+}
+
+/// Half the lateral extent of the robot's body (m): half a box's y size, a cylinder's radius.
+pub fn body_half_width_m(world: &WorldDesc) -> f64 {
+    match &world.robot.body {
+        loomlab_sim::ShapeDesc::Box { size } => f64::from(size[1]) / 2.0,
+        loomlab_sim::ShapeDesc::Cylinder { radius_m, .. } => f64::from(*radius_m),
+        loomlab_sim::ShapeDesc::Sphere { radius_m } => f64::from(*radius_m),
+    }
 }
 
 /// The default trigger signal of detector `id`: θ̂ (degrees) for `hopfield`, the output otherwise.
@@ -219,9 +237,20 @@ pub struct DetectorDesc {
     #[serde(default)]
     pub threshold: Option<f64>,
     /// Which signal is compared with the threshold (default: `angular_size_deg` for hopfield,
-    /// `output` for the baselines).
+    /// `output` for the baselines; `tau` for the time-to-contact strategy, which needs θ̂).
     #[serde(default)]
     pub trigger: Option<TriggerSignal>,
+    /// `trigger = "tau"`: alarm when the estimated time to contact is at most this (s; default
+    /// `EscapeConfig::default().tau_threshold_s`). Replaces `threshold` for τ rows.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tau_threshold_s: Option<f64>,
+    /// `trigger = "tau"`: the smallest θ̂ (degrees) for an alarm (default
+    /// `EscapeConfig::default().min_angular_size_deg`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_angular_size_deg: Option<f64>,
+    /// The collision-course gate: `"off"` (default) or `"image"` (needs θ̂).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub course: Option<Course>,
     /// Detector parameters: keys of `HopfieldConfig` (except `n` and `fov_deg`, which come from
     /// `world.camera`) or of the baseline's config (e.g. `SocConfig`).
     #[serde(default)]
@@ -285,8 +314,14 @@ pub struct DetectorSpec {
     pub id: &'static str,
     /// Which signal is compared with the threshold.
     pub trigger: TriggerSignal,
-    /// Alarm threshold: an alarm is `signal >= threshold`.
+    /// Alarm threshold: an alarm is `signal >= threshold`, the signal being the decision value of
+    /// the row's strategy (for `trigger = "tau"` the urgency 1/τ̂, so this is `1 / tau_threshold_s`
+    /// in s⁻¹).
     pub threshold: f64,
+    /// `trigger = "tau"`: the smallest θ̂ for an alarm (degrees; `None`: the controller's).
+    pub min_angular_size_deg: Option<f64>,
+    /// The collision-course gate.
+    pub course: Course,
     /// Parameters (the Hopfield `n` and `fov_deg` already match the camera).
     pub params: DetectorSet,
 }
@@ -302,8 +337,21 @@ impl DetectorSpec {
         EscapeConfig {
             trigger: self.trigger,
             threshold: self.threshold,
+            tau_threshold_s: if self.trigger == TriggerSignal::Tau {
+                1.0 / self.threshold
+            } else {
+                base.tau_threshold_s
+            },
+            min_angular_size_deg: self.min_angular_size_deg.unwrap_or(base.min_angular_size_deg),
+            course: self.course,
             ..base.clone()
         }
+    }
+
+    /// Whether this row runs a stateful decision strategy (τ or the course gate): its decision
+    /// value is not the raw trigger signal.
+    pub fn is_strategy(&self) -> bool {
+        self.trigger == TriggerSignal::Tau || self.course != Course::Off
     }
 }
 
@@ -474,7 +522,13 @@ pub fn parse_scenario(
     }
     let kerr = |(k, r): (String, String)| origin.key_error(k, r);
     if let Some(Value::Table(c)) = tree.get("controller") {
-        for k in ["threshold", "trigger"] {
+        for k in [
+            "threshold",
+            "trigger",
+            "tau_threshold_s",
+            "min_angular_size_deg",
+            "course",
+        ] {
             if c.contains_key(k) {
                 return Err(ScenarioError::key(
                     path,
@@ -668,6 +722,8 @@ impl Expansion {
                     detectors: detectors.clone(),
                     controller: EscapeConfig {
                         base: world.robot.base,
+                        body_half_width_m: body_half_width_m(&world),
+                        camera_fov_deg: f64::from(world.camera.fov_deg),
                         ..doc.controller.clone()
                     },
                     scoring: scoring.clone(),
@@ -882,14 +938,76 @@ pub fn resolve_detector(d: &DetectorDesc, camera: CameraFacts) -> Result<Detecto
         ));
     }
     let trigger = d.trigger.unwrap_or_else(|| default_trigger(id));
-    // only the Hopfield detector estimates θ̂: any other detector would never alarm
-    if trigger == TriggerSignal::AngularSizeDeg && id != "hopfield" {
+    // a trigger on θ̂ needs a detector that estimates it: any other detector would never alarm
+    if trigger == TriggerSignal::AngularSizeDeg && !gives_angular_size(id) {
         return Err((
             "trigger".into(),
             format!(
-                "\"angular_size_deg\" needs a detector that estimates the angular size θ̂ (only `hopfield` does); \
-                 `{id}` gives none, so it would never alarm: use trigger = \"output\""
+                "\"angular_size_deg\" needs a detector that estimates the angular size θ̂ ({}); \
+                 `{id}` gives none, so it would never alarm: use trigger = \"output\"",
+                ANGULAR_SIZE_IDS.join(", ")
             ),
+        ));
+    }
+    let course = d.course.unwrap_or_default();
+    let needs_theta = trigger == TriggerSignal::Tau || course != Course::Off;
+    if needs_theta && !gives_angular_size(id) {
+        let key = if trigger == TriggerSignal::Tau {
+            "trigger"
+        } else {
+            "course"
+        };
+        return Err((
+            key.into(),
+            format!(
+                "`{}` needs an angular-size estimate θ̂, which `{id}` does not give (detectors with θ̂: {})",
+                if trigger == TriggerSignal::Tau {
+                    "trigger = \"tau\""
+                } else {
+                    "course = \"image\""
+                },
+                ANGULAR_SIZE_IDS.join(", ")
+            ),
+        ));
+    }
+    if course != Course::Off && trigger == TriggerSignal::Output {
+        return Err((
+            "course".into(),
+            "the collision-course gate needs θ̂: use trigger = \"tau\" or \"angular_size\"".into(),
+        ));
+    }
+    let threshold = if trigger == TriggerSignal::Tau {
+        if d.threshold.is_some() {
+            return Err((
+                "threshold".into(),
+                "with trigger = \"tau\" the alarm threshold is tau_threshold_s (seconds)".into(),
+            ));
+        }
+        let tau = d.tau_threshold_s.unwrap_or(EscapeConfig::default().tau_threshold_s);
+        if !(tau.is_finite() && tau > 0.0) {
+            return Err((
+                "tau_threshold_s".into(),
+                format!("{tau} must be a finite number of seconds > 0"),
+            ));
+        }
+        1.0 / tau
+    } else {
+        for (key, given) in [
+            ("tau_threshold_s", d.tau_threshold_s.is_some()),
+            ("min_angular_size_deg", d.min_angular_size_deg.is_some()),
+        ] {
+            if given {
+                return Err((key.into(), "only used with trigger = \"tau\"".into()));
+            }
+        }
+        threshold
+    };
+    if let Some(m) = d.min_angular_size_deg
+        && !(m.is_finite() && m >= 0.0)
+    {
+        return Err((
+            "min_angular_size_deg".into(),
+            format!("{m} must be a finite number >= 0"),
         ));
     }
     let params = detector_params(id, d.params.as_ref(), camera)?;
@@ -898,6 +1016,8 @@ pub fn resolve_detector(d: &DetectorDesc, camera: CameraFacts) -> Result<Detecto
         id,
         trigger,
         threshold,
+        min_angular_size_deg: d.min_angular_size_deg,
+        course,
         params,
     })
 }
@@ -958,6 +1078,9 @@ fn bare(id: &str) -> DetectorDesc {
         label: None,
         threshold: None,
         trigger: None,
+        tau_threshold_s: None,
+        min_angular_size_deg: None,
+        course: None,
         params: None,
     }
 }

@@ -4,7 +4,7 @@ use std::path::Path;
 use std::sync::Mutex;
 
 use loomlab_scenarios::metrics::Outcome;
-use loomlab_scenarios::reference::{IDEAL_THETA, NULL, ORACLE, REFERENCE_LABELS};
+use loomlab_scenarios::reference::{IDEAL_COURSE, IDEAL_TAU, IDEAL_THETA, NULL, ORACLE, REFERENCE_LABELS};
 use loomlab_scenarios::report::{Report, ReportMeta};
 use loomlab_scenarios::{EpisodeRun, LoadOptions, Runner, Scenario, parse_scenario};
 
@@ -76,10 +76,13 @@ fn an_early_alarm_evades_and_no_alarm_collides() {
     let s = scenario(0.0, EARLY_AND_NEVER);
     let run = run_one(&runner(1), &s);
     // the detectors, then the reference rows
-    let [early, never, null, oracle, ideal] = &run.outcome.detectors[..] else {
-        panic!("two detectors and three reference rows")
+    let [early, never, null, oracle, ideal, ideal_tau, ideal_course] = &run.outcome.detectors[..] else {
+        panic!("two detectors and five reference rows")
     };
-    let labels: Vec<&str> = [null, oracle, ideal].iter().map(|d| d.detector.as_str()).collect();
+    let labels: Vec<&str> = [null, oracle, ideal, ideal_tau, ideal_course]
+        .iter()
+        .map(|d| d.detector.as_str())
+        .collect();
     assert_eq!(labels, REFERENCE_LABELS);
     // ground truth: the ball would hit the standing robot
     assert!(early.threat && never.threat);
@@ -188,8 +191,8 @@ fn a_miss_is_not_a_threat() {
     // The ball passes 2 m to the robot's right; `early`'s false alarm makes it dodge left, away.
     let s = scenario(2.0, EARLY_AND_NEVER);
     let run = run_one(&runner(1), &s);
-    let [early, never, null, oracle, _ideal] = &run.outcome.detectors[..] else {
-        panic!("two detectors and three reference rows")
+    let [early, never, null, oracle, _ideal, _ideal_tau, _ideal_course] = &run.outcome.detectors[..] else {
+        panic!("two detectors and five reference rows")
     };
     assert!(!early.threat && early.t_contact_s.is_none() && early.t_deadline_s.is_none());
     assert!(run.deadline.is_none() && run.trace.t_deadline_s.is_none());
@@ -325,10 +328,21 @@ fn reference_rows_bound_the_detectors() {
         &outcomes,
     );
 
-    // every report has the three reference rows beside the detectors
+    // every report has the five reference rows beside the detectors
     assert_eq!(report.references, REFERENCE_LABELS);
     let ids: Vec<&str> = report.detectors.keys().map(String::as_str).collect();
-    assert_eq!(ids, ["hopfield", "ideal_theta", "null", "oracle", "soc"]);
+    assert_eq!(
+        ids,
+        [
+            "hopfield",
+            "ideal_course",
+            "ideal_tau",
+            "ideal_theta",
+            "null",
+            "oracle",
+            "soc"
+        ]
+    );
     for s in report.scenarios.values() {
         for r in REFERENCE_LABELS {
             assert!(s.detectors.contains_key(r), "{r}");
@@ -416,6 +430,22 @@ fn reference_rows_bound_the_detectors() {
             assert_eq!(d.t_alarm_s, None, "the oracle alarms only on evadable threats");
         }
     }
+    // the ideal τ rows hit every evadable threat here and none of their hits collides (no
+    // re-trigger dodges back into the object); every evadable threat reports the angular size it
+    // required (its true θ at the deadline)
+    let s = &report.detectors[IDEAL_TAU];
+    assert_eq!((s.hits, s.hit_collisions), (evadable, 0), "{IDEAL_TAU}");
+    // the course gate assumes a closing speed (5 m/s) to size the object: the slow balls of this
+    // suite look bigger than they are, so it may gate out a graze; none of its hits collides
+    let s = &report.detectors[IDEAL_COURSE];
+    assert_eq!(s.hit_collisions, 0, "{IDEAL_COURSE}");
+    assert!(s.hits + 1 >= evadable, "{IDEAL_COURSE}: {} of {evadable}", s.hits);
+    for o in &outcomes {
+        let d = &o.detectors[0];
+        assert_eq!(d.theta_required_deg.is_some(), d.evadable(), "episode {}", o.episode);
+        assert!(d.theta_required_deg.is_none_or(|t| t > 0.0 && t < 90.0));
+    }
+
     // no row evades more than the oracle; all rows share the ground truth counts
     for (id, s) in &report.detectors {
         assert!(s.evaded <= oracle.evaded, "{id}");

@@ -495,6 +495,9 @@ fn reference_labels_are_reserved_for_detectors() {
         label: Some(label.into()),
         threshold: None,
         trigger: None,
+        tau_threshold_s: None,
+        min_angular_size_deg: None,
+        course: None,
         params: None,
     };
     let (key, reason) = resolve_detector(&desc("oracle"), CameraFacts::default_with_size(32)).unwrap_err();
@@ -521,6 +524,9 @@ fn detectors_are_built_for_the_camera_facts() {
         label: None,
         threshold: None,
         trigger: None,
+        tau_threshold_s: None,
+        min_angular_size_deg: None,
+        course: None,
         params: None,
     };
     let spec = resolve_detector(&d, facts).unwrap();
@@ -588,4 +594,68 @@ fn a_million_episode_scenario_loads_lazily() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("11000000 episodes") && e.contains("10000000"), "{e}");
+}
+
+#[test]
+fn tau_and_course_strategies_need_theta_and_their_own_keys() {
+    let s = parse(&format!(
+        "{BASE}\n[[detectors]]\nid = \"hopfield\"\nlabel = \"hop_tau\"\ntrigger = \"tau\"\ntau_threshold_s = 0.8\nmin_angular_size_deg = 2.0\ncourse = \"image\"\n"
+    ))
+    .unwrap();
+    let ep = s.episode(0).unwrap();
+    let d = &ep.detectors[0];
+    assert_eq!(d.trigger, TriggerSignal::Tau);
+    assert!(
+        (d.threshold - 1.0 / 0.8).abs() < 1e-12,
+        "the row's threshold is the urgency 1/τ"
+    );
+    let c = d.controller(&ep.controller);
+    assert!((c.tau_threshold_s - 0.8).abs() < 1e-12);
+    assert_eq!(c.min_angular_size_deg, 2.0);
+    assert_eq!(c.course, loomlab_agents::Course::Image);
+    assert!(d.is_strategy());
+    // `angular_size` is today's trigger
+    let s = parse(&format!(
+        "{BASE}\n[[detectors]]\nid = \"hopfield\"\ntrigger = \"angular_size\"\n"
+    ))
+    .unwrap();
+    assert_eq!(
+        s.episode(0).unwrap().detectors[0].trigger,
+        TriggerSignal::AngularSizeDeg
+    );
+    assert!(!s.episode(0).unwrap().detectors[0].is_strategy());
+    for (entry, key, needle) in [
+        ("id = \"soc\"\ntrigger = \"tau\"", "trigger", "θ̂"),
+        ("id = \"fu2020\"\ncourse = \"image\"", "course", "θ̂"),
+        (
+            "id = \"hopfield\"\ntrigger = \"tau\"\nthreshold = 0.5",
+            "threshold",
+            "tau_threshold_s",
+        ),
+        (
+            "id = \"hopfield\"\ntrigger = \"tau\"\ntau_threshold_s = 0.0",
+            "tau_threshold_s",
+            "> 0",
+        ),
+        (
+            "id = \"hopfield\"\ntau_threshold_s = 0.5",
+            "tau_threshold_s",
+            "only used with",
+        ),
+        (
+            "id = \"hopfield\"\ntrigger = \"output\"\ncourse = \"image\"",
+            "course",
+            "θ̂",
+        ),
+    ] {
+        let e = parse(&format!("{BASE}\n[[detectors]]\n{entry}\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(key) && e.contains(needle), "{entry}: {e}");
+    }
+    // the strategy keys belong to the detector rows, not to [controller]
+    let e = parse(&format!("{BASE}\n[controller]\ncourse = \"image\"\n"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("controller.course") && e.contains("[[detectors]]"), "{e}");
 }

@@ -1431,7 +1431,10 @@ fn episodes_with_references() -> Vec<EpisodeOutcome> {
 
 #[test]
 fn reference_labels_are_reserved_and_listed_in_table_order() {
-    assert_eq!(REFERENCE_LABELS, ["null", "oracle", "ideal_theta"]);
+    assert_eq!(
+        REFERENCE_LABELS,
+        ["null", "oracle", "ideal_theta", "ideal_tau", "ideal_course"]
+    );
     for l in REFERENCE_LABELS {
         assert!(reference::is_reference(l));
     }
@@ -1447,7 +1450,8 @@ fn report_lists_the_references_and_the_table_puts_them_last() {
     assert_eq!(report.references, ["null", "oracle", "ideal_theta"]);
     let v: serde_json::Value = serde_json::from_str(&report.to_json()).unwrap();
     assert_eq!(v["references"], serde_json::json!(["null", "oracle", "ideal_theta"]));
-    for r in REFERENCE_LABELS {
+    // (these episodes carry three of the reference rows)
+    for r in &REFERENCE_LABELS[..3] {
         assert!(
             v["detectors"].get(r).is_some() && v["scenarios"]["refs"]["detectors"].get(r).is_some(),
             "{r}"

@@ -37,7 +37,7 @@ pub const PARTIAL_REPORT: &str = "report.partial.json";
 pub const WRITTEN: &str = "written.txt";
 /// The top-level files a run writes: a folder holding one of them holds an earlier run; a folder
 /// without `written.txt` (an older version's) has exactly these deleted by `--overwrite`.
-pub const RUN_FILES: [&str; 12] = [
+pub const RUN_FILES: [&str; 13] = [
     MANIFEST,
     EPISODES_CSV,
     REPORT,
@@ -46,6 +46,7 @@ pub const RUN_FILES: [&str; 12] = [
     "rates.png",
     "collisions.png",
     "lv.png",
+    "theta_required.png",
     "theta_hat.png",
     "trace.png",
     loomlab_report::REPORT_HTML,

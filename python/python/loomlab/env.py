@@ -328,7 +328,9 @@ class EscapeEnv(gym.Env):
             file; ``None``: the default scenario.
         scenario_toml: scenario TOML text instead of ``scenario``.
         detectors: detector ids (list or comma-separated, ``"all"``); ``None``: the scenario's.
-        thresholds: alarm thresholds by detector id (θ̂ degrees for hopfield, output for baselines).
+        thresholds: alarm thresholds by detector id (θ̂ degrees for hopfield, output for baselines,
+            the urgency 1/τ in 1/s for rows with trigger = "tau"; the strategy itself comes from the
+            scenario's [[detectors]] entry).
         frame_size: camera frame size n (default 64; ``None``: the scenario's).
         observe_frames: include the egocentric frame (uint8, n×n) in the observation.
         action_type: ``"continuous"`` (Box(-1, 1, (3,)): forward, yaw rate, lateral) or

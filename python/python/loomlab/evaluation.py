@@ -9,7 +9,8 @@ command, so its row is classified as a detector's is (hit: departed at or before
 deadline less the lead margin; miss; false alarm: departed in an episode without a threat; correct
 rejection), with its closed-loop collision. The scenario runner then runs the same episodes (the
 suite's detectors with their threshold controllers, and the reference rows ``null``, ``oracle``,
-``ideal_theta``) and the policy's row joins them in one report with the keys of ``report.json``.
+``ideal_theta``, ``ideal_tau``, ``ideal_course``) and the policy's row joins them in one report with
+the keys of ``report.json``.
 """
 
 from __future__ import annotations

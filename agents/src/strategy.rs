@@ -1,0 +1,277 @@
+//! Decision strategies: how one frame's percept becomes the scalar the escape controller compares
+//! with its alarm threshold.
+//!
+//! # Perceptual inputs
+//! A strategy sees, per frame, a [`Percept`] and what the robot knows about itself:
+//! - `theta_deg`: the looming object's angular size θ̂ (degrees) — the driving detector's
+//!   estimate, or (reference rows only) an object's true angular size;
+//! - `azimuth_deg` / `elevation_deg`: the object's image position as angles from the optical axis
+//!   (degrees, azimuth positive to the right, elevation positive up). A real detector's agent
+//!   converts the looming side (the x centroid of the temporal contrast, image x in [−1, 1]) into
+//!   an azimuth with the camera's field of view; it has no elevation;
+//! - the robot's own yaw rate (the command it applied during the last camera period) and its body's
+//!   half-width ([`EscapeConfig::body_half_width_m`](crate::EscapeConfig)).
+//!
+//! No strategy reads distances, velocities or contact predictions of other objects.
+//!
+//! # `trigger = "tau"`: time to contact from θ̂
+//! Each frame appends `(t, ln θ̂)` to a window of the last `tau_window_s` seconds (frames with
+//! θ̂ ≤ 0 or NaN are skipped). The least-squares slope `b` of ln θ̂ against t over the window is the
+//! relative expansion rate θ̇/θ at the window's mean time `t̄` (where the fit passes through
+//! `θ̄ = exp(mean ln θ̂)`). The optical τ = θ/θ̇ = 1/b is the time to contact of the object's
+//! *centre*; for a sphere (`sin(θ/2) = R/d`) the time until its *surface* reaches the camera is
+//! `κ(θ̄)/b` with `κ(θ) = 2·tan(θ/2)·(1 − sin(θ/2))/θ` ([`surface_factor`]; κ ≈ 1 − θ/2 for small
+//! θ). Under a constant closing speed the time to contact falls by one second per second, so the
+//! estimate for *now* is `τ̂ = κ(θ̄)/b − (t − t̄)` (lag compensation; causal: only past and present
+//! frames, no look-ahead). The strategy's
+//! decision value is the **urgency** `1/τ̂` (s⁻¹; a τ̂ ≤ 1 ms counts as 1 ms) when θ̂ ≥
+//! `min_angular_size_deg`, `b > 0` and the window holds at least [`MIN_SAMPLES`] frames, else 0;
+//! the controller alarms when the urgency is ≥ `1 / tau_threshold_s`, i.e. τ̂ ≤ `tau_threshold_s`.
+//!
+//! # `course = "image"`: the collision-course gate
+//! Over the last `course_window_s` seconds (longer than the τ window: a bearing rate is a small
+//! difference and the camera's own jitter adds to it), the least-squares slopes of θ, the azimuth (minus the robot's own yaw
+//! rate, which turns the whole image) and the elevation give θ̇ and the bearing rate β̇ (radians).
+//! For an object of radius R at distance d approaching on a straight line, the lateral offset of
+//! its centre from the camera when it arrives is `R · μ` with `μ = 2|β̇|/θ̇` (the miss distance in
+//! object radii: a head-on or constant-bearing approach has μ ≈ 0; both image edges diverge iff
+//! μ < 1). Whether that offset touches the body depends on R, which the image does not give: the
+//! gate converts τ̂ into a distance with an assumed closing speed `course_closing_speed_mps` (or
+//! the robot's own forward speed when that is larger), `R̂ = sin(θ/2) · τ̂ · v̂`, and lets the alarm
+//! through only when the predicted clearance between the object's nearest edge and the camera,
+//! `(μ − 1) · R̂`, is at most the body's half-width. An object closing slower than v̂ looks bigger
+//! than it is to the gate (a graze of the body's edge may be gated out); a faster one smaller
+//! (a near pass just outside the body may pass the gate). Without an image position over the
+//! window (fewer than [`MIN_SAMPLES`] frames with one) the gate is closed.
+//!
+//! # `trigger = "angular_size"` / `"output"`
+//! Stateless: the value is θ̂ (degrees) or the detector's output, compared with `threshold`; the
+//! course gate, when on, sets the value to 0 (θ̂) or NaN (output) while closed.
+
+use std::collections::VecDeque;
+
+use serde::{Deserialize, Serialize};
+
+/// Fewest frames in the window for a τ or bearing-rate estimate.
+pub const MIN_SAMPLES: usize = 3;
+
+/// The collision-course gate (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Course {
+    /// No gate: every alarm goes through.
+    #[default]
+    Off,
+    /// The gate from the object's image position and angular size and the robot's body.
+    Image,
+}
+
+/// What a strategy sees of one object in one frame.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Percept {
+    /// Angular size θ̂ (degrees; NaN when unknown) — or the detector's output for output triggers.
+    pub value: f64,
+    /// Azimuth of the object from the optical axis (degrees, positive right), when known.
+    pub azimuth_deg: Option<f64>,
+    /// Elevation of the object (degrees, positive up), when known.
+    pub elevation_deg: Option<f64>,
+}
+
+/// What the robot knows about itself in one frame.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Ego {
+    /// Yaw rate applied during the last camera period (rad/s, positive = turning left).
+    pub yaw_rate_rps: f64,
+    /// Forward speed applied during the last camera period (m/s).
+    pub forward_mps: f64,
+}
+
+/// Parameters of a strategy (the subset of [`crate::EscapeConfig`] it reads).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StrategyParams {
+    /// τ trigger (true) or stateless value (false).
+    pub tau: bool,
+    /// Smallest θ̂ (degrees) for a τ alarm.
+    pub min_angular_size_deg: f64,
+    /// Length of the estimation window (s).
+    pub window_s: f64,
+    /// The course gate.
+    pub course: Course,
+    /// Closing speed assumed by the gate (m/s).
+    pub closing_speed_mps: f64,
+    /// Length of the window over which the gate estimates the bearing and expansion rates (s).
+    pub course_window_s: f64,
+    /// Half-width of the robot's body (m).
+    pub body_half_width_m: f64,
+    /// Whether the value is an angle (θ̂ or urgency: 0 when gated) or an output (NaN when gated).
+    pub angle_valued: bool,
+}
+
+/// One frame's decision quantities.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Decision {
+    /// The value compared with the controller's alarm threshold (urgency 1/τ̂ for τ triggers).
+    pub value: f64,
+    /// τ̂ (s), when estimated.
+    pub tau_s: Option<f64>,
+    /// Miss distance in object radii μ, when estimated.
+    pub miss_radii: Option<f64>,
+    /// Whether the course gate is open (always true with `course = "off"`).
+    pub gate_open: bool,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Sample {
+    t: f64,
+    theta_rad: f64,
+    azimuth_rad: Option<f64>,
+    elevation_rad: Option<f64>,
+}
+
+/// A causal filter from percepts to decision values (see the module docs).
+#[derive(Debug, Clone)]
+pub struct Strategy {
+    params: StrategyParams,
+    window: VecDeque<Sample>,
+}
+
+/// Least-squares fit of `y` against `x`: `(slope, mean x, mean y)` (None with fewer than
+/// [`MIN_SAMPLES`] points or no spread).
+fn slope(points: impl Iterator<Item = (f64, f64)>) -> Option<(f64, f64, f64)> {
+    let pts: Vec<(f64, f64)> = points.collect();
+    if pts.len() < MIN_SAMPLES {
+        return None;
+    }
+    let n = pts.len() as f64;
+    let mx = pts.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = pts.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    (sxx > 0.0).then(|| (sxy / sxx, mx, my))
+}
+
+/// `κ(θ)`: the time to contact of the surface of a sphere seen at angular size θ (radians) is
+/// `κ(θ) · θ/θ̇` (`sin(θ/2) = R/d` gives `d/v = 2·tan(θ/2)/θ̇` and the surface is `R` nearer:
+/// `κ = 2·tan(θ/2)·(1 − sin(θ/2))/θ`; κ → 1 for small θ).
+pub fn surface_factor(theta_rad: f64) -> f64 {
+    let half = (theta_rad / 2.0).clamp(1e-9, 1.5);
+    2.0 * half.tan() * (1.0 - half.sin()) / theta_rad.max(2e-9)
+}
+
+impl Strategy {
+    /// A fresh strategy.
+    pub fn new(params: StrategyParams) -> Self {
+        Self {
+            params,
+            window: VecDeque::new(),
+        }
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &StrategyParams {
+        &self.params
+    }
+
+    /// Forget the history (new episode).
+    pub fn reset(&mut self) {
+        self.window.clear();
+    }
+
+    /// Whether this strategy keeps state (τ trigger or course gate): only then does `update`
+    /// differ from the raw value.
+    pub fn is_stateful(&self) -> bool {
+        self.params.tau || self.params.course != Course::Off
+    }
+
+    /// Take this frame's percept at time `t_s` and return the decision quantities.
+    pub fn update(&mut self, t_s: f64, percept: Percept, ego: Ego) -> Decision {
+        let p = self.params;
+        if !self.is_stateful() {
+            return Decision {
+                value: percept.value,
+                tau_s: None,
+                miss_radii: None,
+                gate_open: true,
+            };
+        }
+        if !t_s.is_finite() {
+            return Decision {
+                value: if p.angle_valued { 0.0 } else { f64::NAN },
+                tau_s: None,
+                miss_radii: None,
+                gate_open: false,
+            };
+        }
+        let keep_s = p.window_s.max(p.course_window_s);
+        while self.window.front().is_some_and(|s| s.t < t_s - keep_s - 1e-9) {
+            self.window.pop_front();
+        }
+        let theta_rad = if p.tau || p.angle_valued {
+            percept.value.to_radians()
+        } else {
+            f64::NAN
+        };
+        let finite = |v: Option<f64>| v.filter(|x| x.is_finite()).map(f64::to_radians);
+        self.window.push_back(Sample {
+            t: t_s,
+            theta_rad,
+            azimuth_rad: finite(percept.azimuth_deg),
+            elevation_rad: finite(percept.elevation_deg),
+        });
+        let valid_theta = |s: &&Sample| s.theta_rad.is_finite() && s.theta_rad > 0.0;
+        let tau_from = t_s - p.window_s - 1e-9;
+        let course_from = t_s - p.course_window_s - 1e-9;
+        // τ̂ from the slope of ln θ, compensated for the window's lag.
+        let tau_s = slope(
+            self.window
+                .iter()
+                .filter(|s| s.t >= tau_from)
+                .filter(valid_theta)
+                .map(|s| (s.t, s.theta_rad.ln())),
+        )
+        .filter(|&(b, _, _)| b > 0.0)
+        .map(|(b, t_mean, ln_theta_mean)| surface_factor(ln_theta_mean.exp()) / b - (t_s - t_mean));
+        // μ from the bearing rate against the expansion rate.
+        let course = || self.window.iter().filter(|s| s.t >= course_from);
+        let theta_dot = slope(course().filter(valid_theta).map(|s| (s.t, s.theta_rad))).map(|v| v.0);
+        let az_dot = slope(course().filter_map(|s| s.azimuth_rad.map(|a| (s.t, a)))).map(|v| v.0 - ego.yaw_rate_rps);
+        let el_dot = slope(course().filter_map(|s| s.elevation_rad.map(|e| (s.t, e)))).map(|v| v.0);
+        let miss_radii = match (theta_dot, az_dot) {
+            (Some(td), Some(az)) if td > 0.0 => {
+                let bearing_rate = az.hypot(el_dot.unwrap_or(0.0));
+                Some(2.0 * bearing_rate / td)
+            }
+            _ => None,
+        };
+        let gate_open = match p.course {
+            Course::Off => true,
+            Course::Image => match (miss_radii, tau_s) {
+                (Some(mu), Some(tau)) => {
+                    let half = (theta_rad / 2.0).min(std::f64::consts::FRAC_PI_2);
+                    let speed = p.closing_speed_mps.max(ego.forward_mps);
+                    let radius = half.sin() * tau.max(0.0) * speed;
+                    (mu - 1.0) * radius <= p.body_half_width_m
+                }
+                _ => false,
+            },
+        };
+        let value = if p.tau {
+            match tau_s {
+                Some(tau) if gate_open && percept.value >= p.min_angular_size_deg => 1.0 / tau.max(1e-3),
+                _ => 0.0,
+            }
+        } else if gate_open {
+            percept.value
+        } else if p.angle_valued {
+            0.0
+        } else {
+            f64::NAN
+        };
+        Decision {
+            value,
+            tau_s,
+            miss_radii,
+            gate_open,
+        }
+    }
+}
