@@ -375,17 +375,31 @@ impl Variation {
             path.set(&mut probe, Value::Boolean(false))
                 .map_err(|e| (key.clone(), format!("cannot vary this key: {e}")))?;
         }
-        let mut seen = std::collections::HashSet::new();
-        for (key, path) in out
+        let varied: Vec<(&String, &KeyPath)> = out
             .sweep
             .iter()
             .flat_map(|(k, ps, _)| ps.iter().map(move |p| (k, p)))
             .chain(out.random.iter().map(|(k, p, _)| (k, p)))
-        {
+            .collect();
+        let mut seen = std::collections::HashSet::new();
+        for (key, path) in &varied {
             if !seen.insert(path.to_string()) {
                 return Err((
-                    key.clone(),
+                    (*key).clone(),
                     "this key is varied twice (in [sweep] and/or [random])".into(),
+                ));
+            }
+        }
+        // A varied key that holds another (`world` and `world.projectiles[0].speed_mps`): setting
+        // the outer one replaces the table the inner one lives in.
+        for (key, path) in &varied {
+            if let Some((inner, _)) = varied
+                .iter()
+                .find(|(_, p)| p.0.len() > path.0.len() && p.0.starts_with(&path.0))
+            {
+                return Err((
+                    (*key).clone(),
+                    format!("this key holds the varied key `{inner}`: vary one or the other, not both"),
                 ));
             }
         }
@@ -536,6 +550,17 @@ mod tests {
         assert!(KeyPath::parse("a..b").is_err());
         assert!(KeyPath::parse("a[x]").is_err());
         assert!(KeyPath::parse("a[0").is_err());
+    }
+
+    #[test]
+    fn a_varied_key_holding_another_is_an_error() {
+        let text = "[sweep]\nworld = [0.5]\n\"world.projectiles.0.speed_mps\" = [6.0]\n[world]\nprojectiles = [{ speed_mps = 1.0 }]\n";
+        let take = |text: &str| Variation::take_from(&mut text.parse::<Table>().unwrap());
+        let err = take(text).unwrap_err();
+        assert_eq!(err.0, "world");
+        assert!(err.1.contains("world.projectiles.0.speed_mps"), "{}", err.1);
+        let text = "[random.\"world.ground\"]\nmin = 0.0\nmax = 1.0\n[sweep]\n\"world.ground.friction\" = [0.5]\n[world.ground]\nfriction = 1.0\n";
+        assert_eq!(take(text).unwrap_err().0, "world.ground");
     }
 
     #[test]
