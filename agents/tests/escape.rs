@@ -657,32 +657,3 @@ mod strategies {
         );
     }
 }
-
-/// The decision step's cost: run with `cargo test -p loomlab-agents --test escape -- --ignored
-/// --nocapture decision_step_cost` (prints the time per frame of the τ + course strategy).
-#[test]
-#[ignore]
-fn decision_step_cost() {
-    use loomlab_agents::{Course, Ego, Percept};
-    let cfg = EscapeConfig {
-        trigger: TriggerSignal::Tau,
-        course: Course::Image,
-        ..EscapeConfig::default()
-    };
-    let mut s = cfg.strategy();
-    let n = 1_000_000;
-    let start = std::time::Instant::now();
-    let mut acc = 0.0;
-    for k in 0..n {
-        let t = k as f64 / 120.0;
-        let d = 20.0 - (t % 2.0) * 8.0;
-        let p = Percept {
-            value: 2.0 * (0.2f64 / d).asin().to_degrees(),
-            azimuth_deg: Some(0.1 * t),
-            elevation_deg: None,
-        };
-        acc += s.update(t, p, Ego::default()).value;
-    }
-    let per = start.elapsed().as_secs_f64() / n as f64;
-    println!("strategy update: {:.0} ns per frame ({acc:.1})", per * 1e9);
-}

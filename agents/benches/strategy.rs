@@ -1,0 +1,39 @@
+//! The decision step's cost: one update of the τ + collision-course strategy per camera frame
+//! (`cargo bench -p loomlab-agents --bench strategy`; criterion reports frames/s as "elem/s").
+//!
+//! Input: a ball of radius 0.2 m approaching from 20 m to 4 m every 2 s, drifting in azimuth,
+//! sampled at the 120 Hz camera rate.
+
+use std::hint::black_box;
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use loomlab_agents::{Course, Ego, EscapeConfig, Percept, TriggerSignal};
+
+fn strategy_update(c: &mut Criterion) {
+    let cfg = EscapeConfig {
+        trigger: TriggerSignal::Tau,
+        course: Course::Image,
+        ..EscapeConfig::default()
+    };
+    let mut strategy = cfg.strategy();
+    let mut k = 0u64;
+    let mut group = c.benchmark_group("strategy");
+    group.throughput(Throughput::Elements(1));
+    group.bench_function("tau_course_update", |b| {
+        b.iter(|| {
+            let t = k as f64 / 120.0;
+            k += 1;
+            let d = 20.0 - (t % 2.0) * 8.0;
+            let p = Percept {
+                value: 2.0 * (0.2f64 / d).asin().to_degrees(),
+                azimuth_deg: Some(0.1 * t),
+                elevation_deg: None,
+            };
+            black_box(strategy.update(t, black_box(p), Ego::default()).value)
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, strategy_update);
+criterion_main!(benches);
