@@ -86,10 +86,11 @@ rust-test: deps
 ## both for every package they share (fix: name the missing feature in python/Cargo.toml).
 FEATURE_SET = sed 's/ (\*)$$//; s/ (proc-macro)//' | sort -u
 check-features:
-	@$(CARGO) tree -q --workspace -e normal,build,dev -f '{p}|{f}' --prefix none | $(FEATURE_SET) > target/features-workspace.txt
-	@$(CARGO) tree -q -p loomlab-python -e normal,build -f '{p}|{f}' --prefix none | $(FEATURE_SET) > target/features-binding.txt
-	@awk -F'|' 'NR == FNR { shared[$$1] = 1; next } shared[$$1]' target/features-binding.txt target/features-workspace.txt \
-	  | diff -u --label workspace --label binding - target/features-binding.txt \
+	@mkdir -p $(TARGET_DIR)
+	@$(CARGO) tree -q --workspace -e normal,build,dev -f '{p}|{f}' --prefix none | $(FEATURE_SET) > $(TARGET_DIR)/features-workspace.txt
+	@$(CARGO) tree -q -p loomlab-python -e normal,build -f '{p}|{f}' --prefix none | $(FEATURE_SET) > $(TARGET_DIR)/features-binding.txt
+	@awk -F'|' 'NR == FNR { shared[$$1] = 1; next } shared[$$1]' $(TARGET_DIR)/features-binding.txt $(TARGET_DIR)/features-workspace.txt \
+	  | diff -u --label workspace --label binding - $(TARGET_DIR)/features-binding.txt \
 	  || { echo "check-features: the binding's dependency features differ from the test build's (above); name them in python/Cargo.toml" >&2; exit 1; }
 
 ## The Python package (python): a venv in $(VENV), maturin build into the workspace's target
