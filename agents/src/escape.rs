@@ -331,6 +331,16 @@ impl EscapeConfig {
             .to_degrees()
     }
 
+    /// The percept of a real detector: its decision-signal value (θ̂, or the output for output
+    /// triggers) and the looming side (image x in [−1, 1]) as an azimuth.
+    pub fn percept(&self, value: f64, looming_side: Option<f32>) -> Percept {
+        Percept {
+            value,
+            azimuth_deg: looming_side.filter(|x| x.is_finite()).map(|x| self.azimuth_deg(x)),
+            elevation_deg: None,
+        }
+    }
+
     /// The command of the manoeuvre towards `side` given the cruise command.
     pub fn manoeuvre_command(&self, side: DodgeSide, cruise: VelocityCommand) -> VelocityCommand {
         match self.manoeuvre {
@@ -492,13 +502,8 @@ impl EscapeController {
 
     /// The percept of a real detector: its trigger signal and the looming side as an azimuth.
     pub fn percept(&self, signals: &Signals, looming_side: Option<f32>) -> Percept {
-        Percept {
-            value: self.config.trigger.value(signals).unwrap_or(f64::NAN),
-            azimuth_deg: looming_side
-                .filter(|x| x.is_finite())
-                .map(|x| self.config.azimuth_deg(x)),
-            elevation_deg: None,
-        }
+        self.config
+            .percept(self.config.trigger.value(signals).unwrap_or(f64::NAN), looming_side)
     }
 
     /// Advance to time `t_s` with this frame's trigger-signal value (see [`TriggerSignal`]), the

@@ -3,8 +3,8 @@
 use std::sync::Arc;
 
 use loomlab_agents::{
-    ContinuousAction, DiscreteAction, Ego, EscapeAgent, EscapeConfig, EscapeController, Percept, Strategy,
-    TriggerSignal, VelocityCommand,
+    ContinuousAction, DiscreteAction, Ego, EscapeAgent, EscapeConfig, EscapeController, Strategy, TriggerSignal,
+    VelocityCommand,
 };
 use loomlab_detector::{DetectorSet, Frame};
 use loomlab_sim::{GpuContext, RobotState, Sim, StepOutput};
@@ -726,14 +726,7 @@ impl EscapeEnv {
                 // a stateful row's value is its strategy's decision value, as the agent computes it
                 let value = match &mut d.strategy {
                     Some(strategy) => {
-                        let percept = Percept {
-                            value: raw,
-                            azimuth_deg: step
-                                .looming_side
-                                .filter(|x| x.is_finite())
-                                .map(|x| d.controller.azimuth_deg(x)),
-                            elevation_deg: None,
-                        };
+                        let percept = d.controller.percept(raw, step.looming_side);
                         strategy.update(out.t_s, percept, ego).value
                     }
                     None => raw,

@@ -47,7 +47,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
 use loomlab_agents::{
-    Ego, EscapeAgent, EscapeConfig, EscapeController, LoomingSideEstimator, Percept, TriggerSignal, VelocityCommand,
+    Ego, EscapeAgent, EscapeConfig, EscapeController, LoomingSideEstimator, TriggerSignal, VelocityCommand,
 };
 use loomlab_detector::{Detector, Frame};
 use loomlab_sim::{GpuContext, ObjectTruth, Renderer, Sim, SimError};
@@ -646,12 +646,9 @@ fn strategy_signal(
     let mut strategy = config.strategy();
     (0..raw.len())
         .map(|k| {
-            let percept = Percept {
-                value: raw[k],
-                azimuth_deg: sides[k].filter(|x| x.is_finite()).map(|x| config.azimuth_deg(x)),
-                elevation_deg: None,
-            };
-            strategy.update(t_s[k], percept, open_loop_ego(ep, t_s, k)).value
+            strategy
+                .update(t_s[k], config.percept(raw[k], sides[k]), open_loop_ego(ep, t_s, k))
+                .value
         })
         .collect()
 }
