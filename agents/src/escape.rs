@@ -183,6 +183,14 @@ pub struct EscapeConfig {
     /// `world.robot.body`.
     #[serde(skip)]
     pub body_half_width_m: f64,
+    /// How far the robot's body reaches above the camera (m), for the course gate's vertical
+    /// test. Set by the scenario loader from `world.robot.body` and `world.camera.position`.
+    #[serde(skip)]
+    pub body_above_camera_m: f64,
+    /// How far the robot's body reaches below the camera (m), for the course gate's vertical
+    /// test. Set by the scenario loader from `world.robot.body` and `world.camera.position`.
+    #[serde(skip)]
+    pub body_below_camera_m: f64,
     /// Horizontal field of view of the camera (degrees), to turn the looming side's image x into
     /// an azimuth. Set by the scenario loader from `world.camera.fov_deg`.
     #[serde(skip)]
@@ -213,6 +221,8 @@ impl Default for EscapeConfig {
             side_deadband: 0.05,
             base: RobotBase::Holonomic,
             body_half_width_m: 0.2,
+            body_above_camera_m: 0.05,
+            body_below_camera_m: 0.25,
             camera_fov_deg: 60.0,
         }
     }
@@ -266,6 +276,14 @@ impl EscapeConfig {
         non_negative("escape.min_angular_size_deg", self.min_angular_size_deg)?;
         non_negative("escape.side_memory_s", self.side_memory_s)?;
         non_negative("escape.body_half_width_m", self.body_half_width_m)?;
+        for (key, v) in [
+            ("escape.body_above_camera_m", self.body_above_camera_m),
+            ("escape.body_below_camera_m", self.body_below_camera_m),
+        ] {
+            if !v.is_finite() {
+                return Err(invalid(key, v, "must be a finite number"));
+            }
+        }
         if !(self.camera_fov_deg.is_finite() && self.camera_fov_deg > 0.0 && self.camera_fov_deg < 180.0) {
             return Err(invalid(
                 "escape.camera_fov_deg",
@@ -315,6 +333,8 @@ impl EscapeConfig {
             closing_speed_mps: self.course_closing_speed_mps,
             course_window_s: self.course_window_s,
             body_half_width_m: self.body_half_width_m,
+            body_above_camera_m: self.body_above_camera_m,
+            body_below_camera_m: self.body_below_camera_m,
             angle_valued: self.trigger.reads_angular_size(),
         }
     }

@@ -30,19 +30,31 @@
 //!
 //! # `course = "image"`: the collision-course gate
 //! Over the last `course_window_s` seconds (longer than the τ window: a bearing rate is a small
-//! difference and the camera's own jitter adds to it), the least-squares slopes of θ, the azimuth (minus the robot's own yaw
-//! rate, which turns the whole image) and the elevation give θ̇ and the bearing rate β̇ (radians).
-//! For an object of radius R at distance d approaching on a straight line, the lateral offset of
-//! its centre from the camera when it arrives is `R · μ` with `μ = 2|β̇|/θ̇` (the miss distance in
-//! object radii: a head-on or constant-bearing approach has μ ≈ 0; both image edges diverge iff
-//! μ < 1). Whether that offset touches the body depends on R, which the image does not give: the
-//! gate converts τ̂ into a distance with an assumed closing speed `course_closing_speed_mps` (or
-//! the robot's own forward speed when that is larger), `R̂ = sin(θ/2) · τ̂ · v̂`, and lets the alarm
-//! through only when the predicted clearance between the object's nearest edge and the camera,
-//! `(μ − 1) · R̂`, is at most the body's half-width. An object closing slower than v̂ looks bigger
-//! than it is to the gate (a graze of the body's edge may be gated out); a faster one smaller
-//! (a near pass just outside the body may pass the gate). Without an image position over the
-//! window (fewer than [`MIN_SAMPLES`] frames with one) the gate is closed.
+//! difference and the camera's own jitter adds to it), the least-squares slopes of θ, the azimuth
+//! (minus the robot's own yaw rate, which turns the whole image) and the elevation give θ̇ and the
+//! bearing rates (radians). For an object of radius R at distance d approaching on a straight line,
+//! its centre arrives `R · μ` to the side of the camera with `μ = 2·β̇/θ̇` (signed: the predicted
+//! miss in object radii; a head-on or constant-bearing approach has μ ≈ 0; both image edges
+//! diverge iff |μ| < 1); the same ratio of the elevation rate gives the vertical miss. Whether that
+//! offset touches the body depends on R, which the image does not give: the gate converts τ̂ into
+//! a distance with an assumed closing speed `course_closing_speed_mps` (or the robot's own forward
+//! speed when that is larger), `R̂ = sin(θ/2) · τ̂ · v̂`, and lets the alarm through only when
+//! - laterally, the predicted clearance `(|μ| − 1) · R̂` is at most the body's half-width, and
+//! - vertically (only when the percept has elevations and the object's course is straight: the
+//!   elevation in object radii, `sin(e)/sin(θ/2)`, deviates from a straight line by at most
+//!   [`STRAIGHT_COURSE_MAX_RADII`] at the predicted contact — a lobbed ball's course is curved by
+//!   gravity, and extrapolating it straight would call every lob a pass overhead), the object's
+//!   predicted extent `(μ_v ± 1) · R̂` overlaps the body's extent above and below the camera.
+//!
+//! An object closing slower than v̂ looks bigger than it is to the gate (a graze of the body's edge
+//! may be gated out); a faster one smaller (a near pass just outside the body may pass the gate).
+//! Without an image position over the window (fewer than [`MIN_SAMPLES`] frames with one) the gate
+//! is closed. The gate also gives the side on which the object will arrive
+//! ([`Decision::pass_side`], when |μ| ≥ [`PASS_SIDE_MIN_RADII`]): the `ideal_course` reference row
+//! escapes from it (an object seen on the left that will cross to the right is dodged to the
+//! left). Detector rows escape from the looming side: a μ from the temporal-contrast centroid is
+//! too noisy to choose a side (with it, 4 hits of `hopfield_adapted_tau` in `multi_object` dodged
+//! into an object).
 //!
 //! # `trigger = "angular_size"` / `"output"`
 //! Stateless: the value is θ̂ (degrees) or the detector's output, compared with `threshold`; the
@@ -103,6 +115,10 @@ pub struct StrategyParams {
     pub course_window_s: f64,
     /// Half-width of the robot's body (m).
     pub body_half_width_m: f64,
+    /// How far the body reaches above the camera (m).
+    pub body_above_camera_m: f64,
+    /// How far the body reaches below the camera (m).
+    pub body_below_camera_m: f64,
     /// Whether the value is an angle (θ̂ or urgency: 0 when gated) or an output (NaN when gated).
     pub angle_valued: bool,
 }
@@ -114,11 +130,26 @@ pub struct Decision {
     pub value: f64,
     /// τ̂ (s), when estimated.
     pub tau_s: Option<f64>,
-    /// Miss distance in object radii μ, when estimated.
+    /// Predicted lateral miss in object radii μ (signed: positive = the object arrives to the
+    /// right of the camera), when estimated.
     pub miss_radii: Option<f64>,
+    /// Predicted vertical miss in object radii (positive = above the camera), when the window
+    /// holds elevations of an object flying straight (see the module docs).
+    pub vertical_miss_radii: Option<f64>,
+    /// The side (−1 left, +1 right, as image x) on which the object is predicted to arrive, when
+    /// it arrives at least [`PASS_SIDE_MIN_RADII`] object radii off the camera's axis.
+    pub pass_side: Option<f32>,
     /// Whether the course gate is open (always true with `course = "off"`).
     pub gate_open: bool,
 }
+
+/// Smallest predicted lateral miss (object radii) for which [`Decision::pass_side`] is given.
+pub const PASS_SIDE_MIN_RADII: f64 = 0.5;
+
+/// Largest deviation (object radii, at the predicted contact) of the object's vertical course
+/// from a straight line for which the gate's vertical test applies; a more curved course (a
+/// ballistic lob) is judged laterally only.
+pub const STRAIGHT_COURSE_MAX_RADII: f64 = 0.5;
 
 #[derive(Debug, Clone, Copy)]
 struct Sample {
@@ -148,6 +179,35 @@ fn slope(points: impl Iterator<Item = (f64, f64)>) -> Option<(f64, f64, f64)> {
     let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
     let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
     (sxx > 0.0).then(|| (sxy / sxx, mx, my))
+}
+
+/// Least-squares fit of `y = a + b·x + c·x²`: the curvature coefficient `c` (None with fewer than
+/// [`MIN_SAMPLES`] + 1 points or a degenerate spread).
+fn quadratic_coefficient(points: impl Iterator<Item = (f64, f64)>) -> Option<f64> {
+    let pts: Vec<(f64, f64)> = points.collect();
+    if pts.len() < MIN_SAMPLES + 1 {
+        return None;
+    }
+    let n = pts.len() as f64;
+    let mx = pts.iter().map(|p| p.0).sum::<f64>() / n;
+    // moments of the centred x
+    let (mut s2, mut s3, mut s4, mut sy, mut sxy, mut sx2y) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    for &(x, y) in &pts {
+        let u = x - mx;
+        s2 += u * u;
+        s3 += u * u * u;
+        s4 += u * u * u * u;
+        sy += y;
+        sxy += u * y;
+        sx2y += u * u * y;
+    }
+    // normal equations with Σu = 0: [n 0 s2; 0 s2 s3; s2 s3 s4]·[a b c] = [sy sxy sx2y]
+    let det = n * (s2 * s4 - s3 * s3) - s2 * (s2 * s2);
+    if det.abs() < 1e-300 {
+        return None;
+    }
+    let det_c = n * (s2 * sx2y - s3 * sxy) - s2 * (s2 * sy);
+    Some(det_c / det)
 }
 
 /// `κ(θ)`: the time to contact of the surface of a sphere seen at angular size θ (radians) is
@@ -191,6 +251,8 @@ impl Strategy {
                 value: percept.value,
                 tau_s: None,
                 miss_radii: None,
+                vertical_miss_radii: None,
+                pass_side: None,
                 gate_open: true,
             };
         }
@@ -199,6 +261,8 @@ impl Strategy {
                 value: if p.angle_valued { 0.0 } else { f64::NAN },
                 tau_s: None,
                 miss_radii: None,
+                vertical_miss_radii: None,
+                pass_side: None,
                 gate_open: false,
             };
         }
@@ -231,18 +295,33 @@ impl Strategy {
         )
         .filter(|&(b, _, _)| b > 0.0)
         .map(|(b, t_mean, ln_theta_mean)| surface_factor(ln_theta_mean.exp()) / b - (t_s - t_mean));
-        // μ from the bearing rate against the expansion rate.
+        // μ from the bearing rates against the expansion rate.
         let course = || self.window.iter().filter(|s| s.t >= course_from);
-        let theta_dot = slope(course().filter(valid_theta).map(|s| (s.t, s.theta_rad))).map(|v| v.0);
+        let theta_dot = slope(course().filter(valid_theta).map(|s| (s.t, s.theta_rad)))
+            .map(|v| v.0)
+            .filter(|&td| td > 0.0);
         let az_dot = slope(course().filter_map(|s| s.azimuth_rad.map(|a| (s.t, a)))).map(|v| v.0 - ego.yaw_rate_rps);
-        let el_dot = slope(course().filter_map(|s| s.elevation_rad.map(|e| (s.t, e)))).map(|v| v.0);
-        let miss_radii = match (theta_dot, az_dot) {
-            (Some(td), Some(az)) if td > 0.0 => {
-                let bearing_rate = az.hypot(el_dot.unwrap_or(0.0));
-                Some(2.0 * bearing_rate / td)
+        let miss_radii = theta_dot.zip(az_dot).map(|(td, az)| 2.0 * az / td);
+        let vertical_miss_radii = match (theta_dot, tau_s) {
+            (Some(td), Some(tau)) => {
+                let el_dot = slope(course().filter_map(|s| s.elevation_rad.map(|e| (s.t, e)))).map(|v| v.0);
+                // the elevation in object radii, sin(e)/sin(θ/2), is linear in t on a straight
+                // course at constant speed and quadratic under gravity
+                let curvature = quadratic_coefficient(
+                    course()
+                        .filter(valid_theta)
+                        .filter_map(|s| s.elevation_rad.map(|e| (s.t, e.sin() / (s.theta_rad / 2.0).sin()))),
+                );
+                match (el_dot, curvature) {
+                    (Some(ed), Some(c)) if (c * tau * tau).abs() <= STRAIGHT_COURSE_MAX_RADII => Some(2.0 * ed / td),
+                    _ => None,
+                }
             }
             _ => None,
         };
+        let pass_side = miss_radii
+            .filter(|mu| mu.abs() >= PASS_SIDE_MIN_RADII)
+            .map(|mu| if mu > 0.0 { 1.0 } else { -1.0 });
         let gate_open = match p.course {
             Course::Off => true,
             Course::Image => match (miss_radii, tau_s) {
@@ -250,7 +329,11 @@ impl Strategy {
                     let half = (theta_rad / 2.0).min(std::f64::consts::FRAC_PI_2);
                     let speed = p.closing_speed_mps.max(ego.forward_mps);
                     let radius = half.sin() * tau.max(0.0) * speed;
-                    (mu - 1.0) * radius <= p.body_half_width_m
+                    let lateral = (mu.abs() - 1.0) * radius <= p.body_half_width_m;
+                    let vertical = vertical_miss_radii.is_none_or(|v| {
+                        (v - 1.0) * radius <= p.body_above_camera_m && (v + 1.0) * radius >= -p.body_below_camera_m
+                    });
+                    lateral && vertical
                 }
                 _ => false,
             },
@@ -271,6 +354,8 @@ impl Strategy {
             value,
             tau_s,
             miss_radii,
+            vertical_miss_radii,
+            pass_side,
             gate_open,
         }
     }

@@ -19,11 +19,11 @@
 //!   estimator; the row's value is the largest urgency 1/τ̂ over the objects and it dodges away from
 //!   that object's true bearing. Alarm when τ̂ ≤ the controller's `tau_threshold_s` and θ ≥ its
 //!   `min_angular_size_deg`.
-//! - `ideal_course` is `ideal_tau` with the collision-course gate, fed each object's true azimuth.
-//!   The gate judges the miss in the ground plane only (the plane the robot dodges in): the
-//!   vertical course of a thrown object is curved by gravity, so extrapolating its elevation at
-//!   constant velocity would call every lobbed hit a pass overhead. Objects passing overhead are
-//!   therefore not told from hits.
+//! - `ideal_course` is `ideal_tau` with the collision-course gate, fed each object's true azimuth
+//!   and elevation, and dodging away from the side on which the gate predicts the object to
+//!   arrive. The gate's vertical test applies to objects on a straight course only: the vertical
+//!   course of a lobbed ball is curved by gravity, and the gate judges it laterally (see
+//!   [`loomlab_agents::strategy`]).
 //!
 //! `ideal_tau` and `ideal_course` perceive an object only while its reference point is in view and
 //! its angular size fits in the field of view (`θ ≤ fov`): the image cannot show a larger angular
@@ -149,12 +149,16 @@ impl IdealObserver {
                     f64::NAN
                 },
                 azimuth_deg: Some(f64::from(o.bearing_deg)).filter(|_| visible),
-                // the gate judges the miss in the ground plane (see the module docs)
-                elevation_deg: None,
+                elevation_deg: Some(f64::from(o.elevation_deg)).filter(|_| visible),
             };
-            let v = self.per_object[o.id].update(t_s, percept, ego).value;
-            if v > best.0 {
-                best = (v, Some(o.bearing), Some(o.id));
+            let decision = self.per_object[o.id].update(t_s, percept, ego);
+            if decision.value > best.0 {
+                // ideal_course escapes from where the object will arrive, when the gate says
+                let side = match self.kind {
+                    IdealKind::Course => decision.pass_side.or(Some(o.bearing)),
+                    _ => Some(o.bearing),
+                };
+                best = (decision.value, side, Some(o.id));
             }
         }
         best

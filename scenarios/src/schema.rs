@@ -90,6 +90,18 @@ pub fn body_half_width_m(world: &WorldDesc) -> f64 {
     }
 }
 
+/// How far the robot's body reaches above and below the camera (m): `(above, below)` from the
+/// body's half-height and the camera's height over the body's centre (`world.camera.position`).
+pub fn body_extent_about_camera_m(world: &WorldDesc) -> (f64, f64) {
+    let half_height = match &world.robot.body {
+        loomlab_sim::ShapeDesc::Box { size } => f64::from(size[2]) / 2.0,
+        loomlab_sim::ShapeDesc::Cylinder { height_m, .. } => f64::from(*height_m) / 2.0,
+        loomlab_sim::ShapeDesc::Sphere { radius_m } => f64::from(*radius_m),
+    };
+    let camera_z = f64::from(world.camera.position[2]);
+    (half_height - camera_z, half_height + camera_z)
+}
+
 /// The default trigger signal of detector `id`: θ̂ (degrees) for `hopfield`, the output otherwise.
 pub fn default_trigger(id: &str) -> TriggerSignal {
     if id == "hopfield" {
@@ -723,6 +735,8 @@ impl Expansion {
                     controller: EscapeConfig {
                         base: world.robot.base,
                         body_half_width_m: body_half_width_m(&world),
+                        body_above_camera_m: body_extent_about_camera_m(&world).0,
+                        body_below_camera_m: body_extent_about_camera_m(&world).1,
                         camera_fov_deg: f64::from(world.camera.fov_deg),
                         ..doc.controller.clone()
                     },

@@ -64,6 +64,11 @@ pub struct EpisodeTruth {
     pub contact: Option<FirstContact>,
     /// The reference object's id.
     pub reference: Option<usize>,
+    /// A non-threat whose last frame still has an object on a collision course with the robot:
+    /// that object's name and its predicted time to contact after the episode's end (s). Such an
+    /// episode is a threat cut short by `episode.duration_s`, not a non-threat: an alarm on it is
+    /// right. The default suite has none (tested); lengthen the episode when a scenario does.
+    pub cut_short: Option<(String, f64)>,
 }
 
 impl EpisodeTruth {
@@ -90,6 +95,7 @@ pub struct TruthRecorder {
     min_distance_m: Vec<f64>,
     frames: usize,
     contact: Option<FirstContact>,
+    last_collision_course: Option<(usize, f64)>,
 }
 
 impl TruthRecorder {
@@ -101,6 +107,7 @@ impl TruthRecorder {
             objects,
             frames: 0,
             contact: None,
+            last_collision_course: None,
         }
     }
 
@@ -112,6 +119,11 @@ impl TruthRecorder {
                 *d = d.min(f64::from(t.distance_m));
             }
         }
+        self.last_collision_course = out
+            .truth
+            .iter()
+            .filter_map(|t| t.ttc_s.map(|ttc| (t.id, f64::from(ttc))))
+            .min_by(|a, b| a.1.total_cmp(&b.1));
         let frame = self.frames;
         self.frames += 1;
         if self.contact.is_none()
@@ -144,9 +156,21 @@ impl TruthRecorder {
                     .min_by(|&a, &b| self.min_distance_m[a].total_cmp(&self.min_distance_m[b]))
             }
         };
+        let cut_short = match (&self.contact, self.last_collision_course) {
+            (None, Some((id, ttc))) => {
+                let name = self
+                    .objects
+                    .iter()
+                    .find(|o| o.0 == id)
+                    .map_or_else(String::new, |o| o.1.clone());
+                Some((name, ttc))
+            }
+            _ => None,
+        };
         EpisodeTruth {
             contact: self.contact,
             reference,
+            cut_short,
         }
     }
 }

@@ -659,3 +659,28 @@ fn tau_and_course_strategies_need_theta_and_their_own_keys() {
         .to_string();
     assert!(e.contains("controller.course") && e.contains("[[detectors]]"), "{e}");
 }
+
+/// Every non-threat of the default suite is decided within its episode: no object is still on a
+/// collision course with the robot when the episode ends (such an episode is a threat cut short,
+/// and an alarm on it would be scored as a false alarm).
+#[test]
+fn default_suite_non_threats_are_not_threats_cut_short() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(DEFAULT_SUITE);
+    let suite = load_suite(&path, &LoadOptions::default()).unwrap();
+    let mut cut = Vec::new();
+    for ep in suite.episodes() {
+        let ep = ep.unwrap();
+        let truth = loomlab_scenarios::truth::open_loop_truth(&ep, ep.seed).unwrap();
+        if let Some((object, ttc)) = truth.cut_short {
+            cut.push(format!(
+                "{}#{} ({object}: contact {ttc:.2} s after the end)",
+                ep.scenario, ep.index
+            ));
+        }
+    }
+    assert!(
+        cut.is_empty(),
+        "non-threats that end on a collision course (lengthen episode.duration_s or change the scene): {}",
+        cut.join(", ")
+    );
+}
