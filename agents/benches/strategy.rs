@@ -28,6 +28,7 @@ fn strategy_update(c: &mut Criterion) {
                 value: 2.0 * (0.2f64 / d).asin().to_degrees(),
                 azimuth_deg: Some(0.1 * t),
                 elevation_deg: None,
+                extent: None,
             };
             black_box(strategy.update(t, black_box(p), Ego::default()).value)
         })

@@ -358,6 +358,7 @@ impl EscapeConfig {
             value,
             azimuth_deg: looming_side.filter(|x| x.is_finite()).map(|x| self.azimuth_deg(x)),
             elevation_deg: None,
+            extent: None,
         }
     }
 

@@ -27,4 +27,4 @@ pub use command::VelocityCommand;
 pub use error::AgentError;
 pub use escape::{ControllerEvent, DodgeSide, EscapeConfig, EscapeController, Manoeuvre, TriggerSignal};
 pub use looming_side::LoomingSideEstimator;
-pub use strategy::{Course, Decision, Ego, Percept, Strategy, StrategyParams};
+pub use strategy::{Course, Decision, Ego, ImageExtent, Percept, Strategy, StrategyParams};

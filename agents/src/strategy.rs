@@ -87,6 +87,17 @@ pub struct Percept {
     pub azimuth_deg: Option<f64>,
     /// Elevation of the object (degrees, positive up), when known.
     pub elevation_deg: Option<f64>,
+    /// The object's image extent, when known (the ideal rows; detectors give none).
+    pub extent: Option<ImageExtent>,
+}
+
+/// Where an object's image begins and ends, as angles from the optical axis (degrees).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ImageExtent {
+    /// Azimuths of its left and right edges (positive right; `[min, max]`).
+    pub azimuth_deg: [f64; 2],
+    /// Elevations of its bottom and top edges (positive up; `[min, max]`).
+    pub elevation_deg: [f64; 2],
 }
 
 /// What the robot knows about itself in one frame.
@@ -157,6 +168,8 @@ struct Sample {
     theta_rad: f64,
     azimuth_rad: Option<f64>,
     elevation_rad: Option<f64>,
+    /// tan of the edge azimuths and elevations `[left, right, bottom, top]`.
+    edges_tan: Option<[f64; 4]>,
 }
 
 /// A causal filter from percepts to decision values (see the module docs).
@@ -281,6 +294,14 @@ impl Strategy {
             theta_rad,
             azimuth_rad: finite(percept.azimuth_deg),
             elevation_rad: finite(percept.elevation_deg),
+            edges_tan: percept
+                .extent
+                .map(|e| {
+                    let [l, r] = e.azimuth_deg;
+                    let [b, u] = e.elevation_deg;
+                    [l, r, b, u].map(|a| a.clamp(-89.0, 89.0).to_radians().tan())
+                })
+                .filter(|e| e.iter().all(|v| v.is_finite())),
         });
         let valid_theta = |s: &&Sample| s.theta_rad.is_finite() && s.theta_rad > 0.0;
         let tau_from = t_s - p.window_s - 1e-9;
@@ -297,37 +318,62 @@ impl Strategy {
         .map(|(b, t_mean, ln_theta_mean)| surface_factor(ln_theta_mean.exp()) / b - (t_s - t_mean));
         // μ from the bearing rates against the expansion rate.
         let course = || self.window.iter().filter(|s| s.t >= course_from);
-        let theta_dot = slope(course().filter(valid_theta).map(|s| (s.t, s.theta_rad)))
-            .map(|v| v.0)
-            .filter(|&td| td > 0.0);
+        let theta_fit = slope(course().filter(valid_theta).map(|s| (s.t, s.theta_rad))).filter(|v| v.0 > 0.0);
+        let theta_dot = theta_fit.map(|v| v.0);
         let az_dot = slope(course().filter_map(|s| s.azimuth_rad.map(|a| (s.t, a)))).map(|v| v.0 - ego.yaw_rate_rps);
         let miss_radii = theta_dot.zip(az_dot).map(|(td, az)| 2.0 * az / td);
-        let vertical_miss_radii = match (theta_dot, tau_s) {
-            (Some(td), Some(tau)) => {
-                let el_dot = slope(course().filter_map(|s| s.elevation_rad.map(|e| (s.t, e)))).map(|v| v.0);
-                // the elevation in object radii, sin(e)/sin(θ/2), is linear in t on a straight
-                // course at constant speed and quadratic under gravity
-                let curvature = quadratic_coefficient(
-                    course()
-                        .filter(valid_theta)
-                        .filter_map(|s| s.elevation_rad.map(|e| (s.t, e.sin() / (s.theta_rad / 2.0).sin()))),
-                );
-                match (el_dot, curvature) {
-                    (Some(ed), Some(c)) if (c * tau * tau).abs() <= STRAIGHT_COURSE_MAX_RADII => Some(2.0 * ed / td),
-                    _ => None,
-                }
-            }
+        // the elevation in object radii, sin(e)/sin(θ/2), is linear in t on a straight course at
+        // constant speed and quadratic under gravity
+        let has_elevation = course().any(|s| s.elevation_rad.is_some());
+        let curvature = quadratic_coefficient(
+            course()
+                .filter(valid_theta)
+                .filter_map(|s| s.elevation_rad.map(|e| (s.t, e.sin() / (s.theta_rad / 2.0).sin()))),
+        );
+        let straight = tau_s
+            .zip(curvature)
+            .map(|(tau, c)| (c * tau * tau).abs() <= STRAIGHT_COURSE_MAX_RADII);
+        let el_dot = slope(course().filter_map(|s| s.elevation_rad.map(|e| (s.t, e)))).map(|v| v.0);
+        let vertical_miss_radii = match (theta_dot, el_dot, straight) {
+            (Some(td), Some(ed), Some(true)) => Some(2.0 * ed / td),
             _ => None,
         };
-        let pass_side = miss_radii
-            .filter(|mu| mu.abs() >= PASS_SIDE_MIN_RADII)
-            .map(|mu| if mu > 0.0 { 1.0 } else { -1.0 });
-        let gate_open = match p.course {
-            Course::Off => true,
-            Course::Image => match (miss_radii, tau_s) {
-                (Some(mu), Some(tau)) => {
+        let speed = p.closing_speed_mps.max(ego.forward_mps);
+        // the edges' predicted offsets when the object reaches the camera (m): at the window's
+        // mean time, x = d·τ·d(tan a)/dt with the distance d = v̂·τ and τ = θ/θ̇ the optical time
+        // to contact of the centre
+        let predicted_edges = theta_fit.and_then(|(td, _, theta_mean)| {
+            let scale = speed * (theta_mean / td).powi(2);
+            let rate = |i: usize| slope(course().filter_map(|s| s.edges_tan.map(|e| (s.t, e[i])))).map(|(b, _, m)| (b, m));
+            let lateral = |(rate, mean): (f64, f64)| scale * (rate - ego.yaw_rate_rps * (1.0 + mean * mean));
+            Some((
+                [lateral(rate(0)?), lateral(rate(1)?)],
+                [scale * rate(2)?.0, scale * rate(3)?.0],
+            ))
+        });
+        let pass_side = match predicted_edges {
+            Some(([l, r], _)) => {
+                let (centre, half) = ((l + r) / 2.0, (r - l).abs() / 2.0);
+                (centre.abs() >= PASS_SIDE_MIN_RADII * half).then_some(centre.signum() as f32)
+            }
+            None => miss_radii
+                .filter(|mu| mu.abs() >= PASS_SIDE_MIN_RADII)
+                .map(|mu| mu.signum() as f32),
+        };
+        let overlaps = |[a, b]: [f64; 2], low: f64, high: f64| a.min(b) <= high && a.max(b) >= low;
+        let gate_open = match (p.course, tau_s) {
+            (Course::Off, _) => true,
+            (Course::Image, None) => false,
+            // elevations seen, but too few to tell a straight course from a lob yet: wait
+            (Course::Image, Some(_)) if has_elevation && straight.is_none() => false,
+            (Course::Image, Some(tau)) => match (predicted_edges, miss_radii) {
+                (Some((lateral, vertical)), _) => {
+                    overlaps(lateral, -p.body_half_width_m, p.body_half_width_m)
+                        && (straight != Some(true)
+                            || overlaps(vertical, -p.body_below_camera_m, p.body_above_camera_m))
+                }
+                (None, Some(mu)) => {
                     let half = (theta_rad / 2.0).min(std::f64::consts::FRAC_PI_2);
-                    let speed = p.closing_speed_mps.max(ego.forward_mps);
                     let radius = half.sin() * tau.max(0.0) * speed;
                     let lateral = (mu.abs() - 1.0) * radius <= p.body_half_width_m;
                     let vertical = vertical_miss_radii.is_none_or(|v| {
@@ -335,7 +381,7 @@ impl Strategy {
                     });
                     lateral && vertical
                 }
-                _ => false,
+                (None, None) => false,
             },
         };
         let value = if p.tau {

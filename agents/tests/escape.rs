@@ -393,6 +393,7 @@ mod strategies {
                 value: 2.0 * (self.r / d).asin().to_degrees(),
                 azimuth_deg: Some((-y).atan2(x).to_degrees()),
                 elevation_deg: None,
+                extent: None,
             }
         }
         /// Time until the surface reaches the camera (head-on approaches only).
@@ -538,6 +539,7 @@ mod strategies {
                 value: 2.0 * (a.r / x.hypot(z)).asin().to_degrees(),
                 azimuth_deg: Some(0.0),
                 elevation_deg: Some(z.atan2(x).to_degrees()),
+                extent: None,
             };
             out.push((t, p.value, s.update(t, p, a.ego())));
         }

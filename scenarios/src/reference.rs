@@ -39,7 +39,7 @@
 //! urgency 1/τ̂ (s⁻¹, threshold `1 / tau_threshold_s`). Reference rows are excluded from
 //! regressions and from threshold calibration.
 
-use loomlab_agents::{Course, Ego, EscapeConfig, Percept, Strategy, TriggerSignal};
+use loomlab_agents::{Course, Ego, EscapeConfig, ImageExtent, Percept, Strategy, TriggerSignal};
 use loomlab_sim::{ObjectKind, ObjectTruth};
 
 /// Label of the never-alarming reference row.
@@ -150,6 +150,10 @@ impl IdealObserver {
                 },
                 azimuth_deg: Some(f64::from(o.bearing_deg)).filter(|_| visible),
                 elevation_deg: Some(f64::from(o.elevation_deg)).filter(|_| visible),
+                extent: visible.then(|| ImageExtent {
+                    azimuth_deg: o.azimuth_extent_deg.map(f64::from),
+                    elevation_deg: o.elevation_extent_deg.map(f64::from),
+                }),
             };
             let decision = self.per_object[o.id].update(t_s, percept, ego);
             if decision.value > best.0 {

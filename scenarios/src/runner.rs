@@ -943,6 +943,7 @@ mod tests {
 
     /// A ball of half-size 0.15 m on the optical axis whose centre is `distance(k)` away.
     fn ball(distance: f64) -> ObjectTruth {
+        let half_deg = (0.15 / distance).asin().to_degrees() as f32;
         ObjectTruth {
             id: 0,
             name: "ball".into(),
@@ -957,6 +958,8 @@ mod tests {
             bearing: 0.0,
             bearing_deg: 0.0,
             elevation_deg: 0.0,
+            azimuth_extent_deg: [-half_deg, half_deg],
+            elevation_extent_deg: [-half_deg, half_deg],
             in_view: true,
             in_contact: false,
         }

@@ -34,7 +34,7 @@ use crate::render::{FrameDesc, GpuContext, RenderInstance, Renderer, frame_to_u8
 use crate::robot::{Command, RobotState};
 use crate::shape::{AngularPrimitive, collider_shape};
 use crate::trajectory::{Motion, PlacedShape, Pose64, Segment, Trajectory, time_of_impact};
-use crate::truth::{Contact, ObjectTruth, angular_size};
+use crate::truth::{Contact, ObjectTruth, angular_extent, angular_size};
 use crate::world::{BuiltWorld, WorldDesc};
 
 /// Half-width of the central difference used for angular rates (s).
@@ -747,6 +747,7 @@ impl Sim {
                 };
                 let center = pose.transform_point(o.center);
                 let proj = camera.project(&cam, center);
+                let (azimuth_extent, elevation_extent) = angular_extent(&o.angular, &pose, &cam);
                 let in_view =
                     matches!((proj.image_x, proj.image_y), (Some(x), Some(y)) if x.abs() <= 1.0 && y.abs() <= 1.0);
                 let bearing = match proj.image_x {
@@ -783,6 +784,8 @@ impl Sim {
                     bearing: bearing as f32,
                     bearing_deg: proj.bearing_deg as f32,
                     elevation_deg: proj.elevation_deg as f32,
+                    azimuth_extent_deg: azimuth_extent.map(|v| v as f32),
+                    elevation_extent_deg: elevation_extent.map(|v| v as f32),
                     in_view,
                     in_contact,
                 }

@@ -41,6 +41,11 @@ pub struct ObjectTruth {
     pub bearing_deg: f32,
     /// Elevation of the reference point (degrees, positive = up).
     pub elevation_deg: f32,
+    /// Azimuths of the object's left and right image edges (degrees, positive = right; `[min, max]`):
+    /// the extremes over its vertices and spheres.
+    pub azimuth_extent_deg: [f32; 2],
+    /// Elevations of the object's bottom and top image edges (degrees, positive = up; `[min, max]`).
+    pub elevation_extent_deg: [f32; 2],
     /// Whether the reference point projects inside the image.
     pub in_view: bool,
     /// Whether the object touches the robot's body now (from rapier's narrow phase).
@@ -123,9 +128,64 @@ pub(crate) fn angular_size(prims: &[AngularPrimitive], pose: &Pose64, eye: DVec3
     best.max(min_dot_points.acos()).min(pi)
 }
 
+/// The azimuth and elevation extents (degrees, `[min, max]` each) of a set of primitives (in the
+/// body frame at `pose`) seen from the camera at `cam` (x forward, y left, z up): the extremes of
+/// the vertices' directions and of each sphere's centre ± its angular radius. Points behind the
+/// camera count at ±90°.
+pub(crate) fn angular_extent(prims: &[AngularPrimitive], pose: &Pose64, cam: &Pose64) -> ([f64; 2], [f64; 2]) {
+    let to_cam = cam.rotation.inverse();
+    let mut az = [f64::INFINITY, f64::NEG_INFINITY];
+    let mut el = [f64::INFINITY, f64::NEG_INFINITY];
+    let mut include = |c: DVec3, radius: f64| {
+        let rel = to_cam * (pose.transform_point(c) - cam.position);
+        let len = rel.length();
+        let half = if len <= radius { 90.0 } else { (radius / len).asin().to_degrees() };
+        let a = (-rel.y).atan2(rel.x.max(0.0)).to_degrees();
+        let e = rel.z.atan2(rel.x.hypot(rel.y)).to_degrees();
+        az = [az[0].min(a - half), az[1].max(a + half)];
+        el = [el[0].min(e - half), el[1].max(e + half)];
+    };
+    for p in prims {
+        match p {
+            AngularPrimitive::Point(q) => include(*q, 0.0),
+            AngularPrimitive::Sphere(c, r) => include(*c, *r),
+        }
+    }
+    (az, el)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::glam::DQuat;
+
+    #[test]
+    fn extents_of_a_sphere_and_a_box() {
+        let pose = Pose64 {
+            position: DVec3::new(10.0, -1.0, 0.5),
+            rotation: DQuat::IDENTITY,
+        };
+        let cam = Pose64 {
+            position: DVec3::ZERO,
+            rotation: DQuat::IDENTITY,
+        };
+        let (az, el) = angular_extent(&[AngularPrimitive::Sphere(DVec3::ZERO, 0.5)], &pose, &cam);
+        let (a, e) = (1.0f64.atan2(10.0).to_degrees(), 0.5f64.atan2(101f64.sqrt()).to_degrees());
+        let half = (0.5 / 101.25f64.sqrt()).asin().to_degrees();
+        assert!((az[0] - (a - half)).abs() < 1e-9 && (az[1] - (a + half)).abs() < 1e-9, "{az:?}");
+        assert!((el[0] - (e - half)).abs() < 1e-9 && (el[1] - (e + half)).abs() < 1e-9, "{el:?}");
+        // a unit cube: its far inner and near outer edges bound the azimuths
+        let corners: Vec<AngularPrimitive> = (0..8)
+            .map(|i| {
+                let c = |b: usize| if i & b == 0 { -0.5 } else { 0.5 };
+                AngularPrimitive::Point(DVec3::new(c(1), c(2), c(4)))
+            })
+            .collect();
+        let (az, el) = angular_extent(&corners, &pose, &cam);
+        assert!((az[0] - 0.5f64.atan2(10.5).to_degrees()).abs() < 1e-9, "{az:?}");
+        assert!((az[1] - 1.5f64.atan2(9.5).to_degrees()).abs() < 1e-9, "{az:?}");
+        assert!((el[1] - 1.0f64.atan2(9.5f64.hypot(0.5)).to_degrees()).abs() < 1e-9, "{el:?}");
+    }
 
     #[test]
     fn sphere_angular_size_is_two_asin() {
