@@ -315,16 +315,18 @@ fn per_scenario_table(report: &Report) -> String {
                     |s| format!("{} / {evadable}, {} / {non_threats}", s.evaded, s.false_alarms),
                 ));
             }
-            let best = sc
-                .detectors
-                .iter()
-                .filter(|(label, _)| !report.references.contains(label))
-                .max_by(|a, b| a.1.evaded.cmp(&b.1.evaded).then(b.0.cmp(a.0)));
-            row.push(match best {
-                Some((label, s)) if evadable > 0 => {
-                    format!("`{label}` {} / {evadable}", s.evaded)
-                }
-                _ => "–".into(),
+            let detector_rows = || sc.detectors.iter().filter(|(label, _)| !report.references.contains(label));
+            let most = detector_rows().map(|(_, s)| s.evaded).max().unwrap_or(0);
+            row.push(if evadable == 0 {
+                "–".into()
+            } else if most == 0 {
+                format!("none (0 / {evadable})")
+            } else {
+                let best: Vec<String> = detector_rows()
+                    .filter(|(_, s)| s.evaded == most)
+                    .map(|(label, _)| format!("`{label}`"))
+                    .collect();
+                format!("{} {most} / {evadable}", best.join(", "))
             });
             row
         })
@@ -386,9 +388,9 @@ fn takeaways(report: &Report) -> String {
             .fold((0, 0), |(l, q), (_, s)| (l + s.late_misses, q + s.silent_misses));
         let _ = writeln!(
             out,
-            "3. **The detectors are far from the ideal rows.** The best detector row, `{label}`, \
-             evades {} of {} evadable threats at {} false alarms; over all detector rows {late} \
-             misses came too late and {silent} had no alarm at all.",
+            "3. **Real detectors.** The detector row that evades most, `{label}`, evades {} of {} \
+             evadable threats at {} false alarms; over all detector rows {late} misses came too late \
+             and {silent} had no alarm at all.",
             s.evaded,
             s.evadable_threats,
             pct(s.false_alarm_rate)
