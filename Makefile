@@ -16,8 +16,8 @@ export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 
 # pyo3 crate a member, the same dependency features everywhere: check-features), so a fresh machine
 # compiles the dependency graph once, plus one `check` pass shared by clippy and rustdoc. Before,
 # CI compiled it three times (a dev build for the tests and the suite check, the binding's own
-# workspace, and that workspace's clippy pass) and took 31-37 minutes; the README's "Development"
-# section has the measured time per step.
+# workspace, and that workspace's clippy pass) and took 31-37 minutes; docs/contributing.md has the
+# measured time per step.
 PROFILE ?= release
 CARGO_PROFILE = --profile $(PROFILE)
 TARGET_DIR = $${CARGO_TARGET_DIR:-$(CURDIR)/target}
@@ -159,7 +159,7 @@ test:
 	$(call STEP,suite-check)
 	$(call STEP,python-test)
 
-## RL on the detector signals (issue 17; README "Training a policy"). `make rl-result` trains PPO
+## RL on the detector signals (issue 17; docs/tutorial.md §6, the result in docs/results.md). `make rl-result` trains PPO
 ## (stable-baselines3, CPU torch) on loomlab/EscapeDiscrete-v0 with normalized observations for at
 ## most RL_WALL_S seconds, evaluates it on held-out seeds next to the calibrated threshold
 ## controllers and the reference rows, and draws docs/rl_learning_curve.png. Torch lives in its own

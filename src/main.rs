@@ -3,7 +3,7 @@
 //! library crates (`loomlab-detector`, `loomlab-sim`, `loomlab-agents`, `loomlab-scenarios`).
 
 /// `println!` that never panics: a closed stdout (`loomlab run … | head -1`) stops the printing,
-/// not the program (its files and run state are what matter; see README "Reliability").
+/// not the program (its files and run state are what matter; see docs/reference.md, "loomlab run").
 macro_rules! outln {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
