@@ -40,11 +40,16 @@ fn generated_tables_match_the_baseline() {
     }
     // The README's table is one of them, and it carries the reference rows beside the detectors.
     let readme = read("README.md");
-    let begin = readme.find("<!-- results-table:begin -->").expect("README has the results table");
+    let begin = readme
+        .find("<!-- results-table:begin -->")
+        .expect("README has the results table");
     let end = readme.find("<!-- results-table:end -->").unwrap();
     let table = &readme[begin..end];
     for label in report.detectors.keys() {
-        assert!(table.contains(&format!("| `{label}`")), "README table lacks the row {label}");
+        assert!(
+            table.contains(&format!("| `{label}`")),
+            "README table lacks the row {label}"
+        );
     }
     assert!(!report.references.is_empty());
 }
@@ -85,7 +90,10 @@ fn table_check_fails_on_a_stale_readme_and_update_fixes_it() {
 fn readme_is_short_and_starts_with_the_two_commands() {
     let readme = read("README.md");
     let lines = readme.lines().count();
-    assert!(lines <= 250, "README.md has {lines} lines; the limit is 250 (move detail to docs/)");
+    assert!(
+        lines <= 250,
+        "README.md has {lines} lines; the limit is 250 (move detail to docs/)"
+    );
     for cmd in ["make run", "make test"] {
         assert!(readme.lines().any(|l| l.starts_with(cmd)), "README lacks `{cmd}`");
     }
@@ -93,10 +101,16 @@ fn readme_is_short_and_starts_with_the_two_commands() {
 
 /// Every Markdown file the guide consists of: the README, docs/ and the READMEs of the crates.
 fn markdown_files() -> Vec<PathBuf> {
-    let mut files: Vec<PathBuf> = ["README.md", "scenarios/README.md", "sim/README.md", "stimuli/README.md", "python/README.md"]
-        .iter()
-        .map(|f| root().join(f))
-        .collect();
+    let mut files: Vec<PathBuf> = [
+        "README.md",
+        "scenarios/README.md",
+        "sim/README.md",
+        "stimuli/README.md",
+        "python/README.md",
+    ]
+    .iter()
+    .map(|f| root().join(f))
+    .collect();
     for e in std::fs::read_dir(root().join("docs")).unwrap() {
         let p = e.unwrap().path();
         if p.extension().is_some_and(|x| x == "md") {
@@ -181,11 +195,15 @@ fn relative_links_point_to_existing_files_and_anchors() {
             }
             let (path, anchor) = link.split_once('#').unwrap_or((link.as_str(), ""));
             let target = if path.is_empty() { file.clone() } else { dir.join(path) };
-            let rel = target
-                .canonicalize()
-                .ok()
-                .and_then(|t| t.strip_prefix(root().canonicalize().unwrap()).ok().map(Path::to_path_buf));
-            if PENDING.iter().any(|p| dir.join(path).ends_with(p) || root().join(p) == target) {
+            let rel = target.canonicalize().ok().and_then(|t| {
+                t.strip_prefix(root().canonicalize().unwrap())
+                    .ok()
+                    .map(Path::to_path_buf)
+            });
+            if PENDING
+                .iter()
+                .any(|p| dir.join(path).ends_with(p) || root().join(p) == target)
+            {
                 continue;
             }
             let Some(rel) = rel else {
@@ -195,7 +213,10 @@ fn relative_links_point_to_existing_files_and_anchors() {
             if !anchor.is_empty() && rel.extension().is_some_and(|x| x == "md") {
                 let target_md = std::fs::read_to_string(root().join(&rel)).unwrap();
                 if !anchors(&target_md).iter().any(|a| a == anchor) {
-                    broken.push(format!("{name}: ({link}): no heading or id `{anchor}` in {}", rel.display()));
+                    broken.push(format!(
+                        "{name}: ({link}): no heading or id `{anchor}` in {}",
+                        rel.display()
+                    ));
                 }
             }
         }
@@ -211,7 +232,11 @@ fn marked_blocks<'a>(md: &'a str, marker: &str) -> Vec<(&'a str, String)> {
         if !line.trim_start().starts_with(marker) || i + 1 >= lines.len() || !lines[i + 1].starts_with("```") {
             continue;
         }
-        let body: Vec<&str> = lines[i + 2..].iter().take_while(|l| !l.starts_with("```")).copied().collect();
+        let body: Vec<&str> = lines[i + 2..]
+            .iter()
+            .take_while(|l| !l.starts_with("```"))
+            .copied()
+            .collect();
         out.push((*line, body.join("\n") + "\n"));
     }
     out
@@ -223,8 +248,16 @@ fn tutorial_files_are_the_files_in_the_repository() {
     let blocks = marked_blocks(&tutorial, "<!-- file: ");
     assert!(!blocks.is_empty(), "the tutorial shows no file");
     for (marker, body) in blocks {
-        let path = marker.trim().trim_start_matches("<!-- file: ").trim_end_matches("-->").trim();
-        assert_eq!(body, read(path), "docs/tutorial.md shows {path} other than it is: copy the file into the page");
+        let path = marker
+            .trim()
+            .trim_start_matches("<!-- file: ")
+            .trim_end_matches("-->")
+            .trim();
+        assert_eq!(
+            body,
+            read(path),
+            "docs/tutorial.md shows {path} other than it is: copy the file into the page"
+        );
     }
 }
 
@@ -237,11 +270,18 @@ fn tutorial_commands_run() {
     for (_, body) in marked_blocks(&tutorial, "<!-- smoke-run -->") {
         for line in body.lines() {
             let cmd = line.split(" #").next().unwrap().trim();
-            let Some(args) = cmd.strip_prefix("loomlab ") else { continue };
+            let Some(args) = cmd.strip_prefix("loomlab ") else {
+                continue;
+            };
             let args: Vec<String> = args.split_whitespace().map(|a| a.replace("out/", &out)).collect();
             let args: Vec<&str> = args.iter().map(String::as_str).collect();
             let o = loomlab(&args);
-            assert_eq!(o.status.code(), Some(0), "docs/tutorial.md: `{cmd}` failed:\n{}", text(&o.stderr));
+            assert_eq!(
+                o.status.code(),
+                Some(0),
+                "docs/tutorial.md: `{cmd}` failed:\n{}",
+                text(&o.stderr)
+            );
             ran += 1;
         }
     }

@@ -2,8 +2,8 @@
 
 mod common;
 mod detect_cli;
+mod docs;
 mod render_cli;
 mod report_html;
 mod run_cli;
 mod run_resume;
-mod docs;

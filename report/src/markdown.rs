@@ -30,10 +30,22 @@ pub const REGENERATE: &str = "make readme-table";
 
 /// The generated blocks: name and what it holds.
 pub const BLOCKS: [(&str, &str); 5] = [
-    ("results-table", "pooled rates of every row, with 95 % intervals (README)"),
-    ("results-takeaways", "three sentences with the numbers they rest on (README)"),
-    ("results-full", "pooled counts, misses, collisions and the l/|v| fit of every row (docs/results.md)"),
-    ("results-per-scenario", "per scenario: threats, non-threats, required angular size, reference and best detector rows"),
+    (
+        "results-table",
+        "pooled rates of every row, with 95 % intervals (README)",
+    ),
+    (
+        "results-takeaways",
+        "three sentences with the numbers they rest on (README)",
+    ),
+    (
+        "results-full",
+        "pooled counts, misses, collisions and the l/|v| fit of every row (docs/results.md)",
+    ),
+    (
+        "results-per-scenario",
+        "per scenario: threats, non-threats, required angular size, reference and best detector rows",
+    ),
     ("results-suite", "one line: suite, seed, episodes, threats"),
 ];
 
@@ -143,7 +155,11 @@ fn rows(report: &Report) -> Vec<(&str, &DetectorSummary, bool)> {
 }
 
 fn label_cell(label: &str, reference: bool) -> String {
-    if reference { format!("`{label}` *") } else { format!("`{label}`") }
+    if reference {
+        format!("`{label}` *")
+    } else {
+        format!("`{label}`")
+    }
 }
 
 fn num(v: Option<f64>, digits: usize) -> String {
@@ -315,7 +331,11 @@ fn per_scenario_table(report: &Report) -> String {
                     |s| format!("{} / {evadable}, {} / {non_threats}", s.evaded, s.false_alarms),
                 ));
             }
-            let detector_rows = || sc.detectors.iter().filter(|(label, _)| !report.references.contains(label));
+            let detector_rows = || {
+                sc.detectors
+                    .iter()
+                    .filter(|(label, _)| !report.references.contains(label))
+            };
             let most = detector_rows().map(|(_, s)| s.evaded).max().unwrap_or(0);
             row.push(if evadable == 0 {
                 "–".into()
@@ -435,7 +455,10 @@ mod tests {
         let t = results_table(&r);
         let positions: Vec<usize> = rows(&r)
             .iter()
-            .map(|(label, _, _)| t.find(&format!("| `{label}`")).unwrap_or_else(|| panic!("{label}: {t}")))
+            .map(|(label, _, _)| {
+                t.find(&format!("| `{label}`"))
+                    .unwrap_or_else(|| panic!("{label}: {t}"))
+            })
             .collect();
         assert!(positions.windows(2).all(|w| w[0] < w[1]), "{t}");
         for reference in &r.references {
@@ -451,6 +474,9 @@ mod tests {
         let e = update_blocks("<!-- results-table:begin -->\n", &r).unwrap_err();
         assert!(e.contains("no `<!-- results-table:end -->`"), "{e}");
         // other comments are left alone
-        assert_eq!(update_blocks("<!-- a note -->\n", &r).unwrap(), ("<!-- a note -->\n".into(), 0));
+        assert_eq!(
+            update_blocks("<!-- a note -->\n", &r).unwrap(),
+            ("<!-- a note -->\n".into(), 0)
+        );
     }
 }

@@ -33,7 +33,10 @@ pub struct TableArgs {
 pub fn run(args: TableArgs) -> anyhow::Result<i32> {
     let report = Report::read_json(&args.report)?;
     if args.update.is_empty() {
-        outln!("{}", render_block("results-table", &report).unwrap_or_default().trim_end());
+        outln!(
+            "{}",
+            render_block("results-table", &report).unwrap_or_default().trim_end()
+        );
         return Ok(0);
     }
     let mut stale = 0;
@@ -53,7 +56,10 @@ pub fn run(args: TableArgs) -> anyhow::Result<i32> {
         }
         let (new, blocks) = update_blocks(&text, &report).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
         if blocks == 0 {
-            bail!("{}: no generated block (`<!-- results-table:begin -->` … `:end -->`)", file.display());
+            bail!(
+                "{}: no generated block (`<!-- results-table:begin -->` … `:end -->`)",
+                file.display()
+            );
         }
         if new != text {
             std::fs::write(file, new).with_context(|| format!("cannot write {}", file.display()))?;
