@@ -9,15 +9,15 @@ PYTHON ?= python3
 # Mesa's Vulkan loader complains on every device creation when XDG_RUNTIME_DIR is unset (CI, containers).
 export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 $$d && echo $$d)
 
-.PHONY: run cli test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-venv python-env python-examples suite-check sweep bless bench figures fmt rl-env rl-train rl-table rl-result
+.PHONY: run cli test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-venv python-env python-examples suite-check sweep bless readme-table bench figures fmt rl-env rl-train rl-table rl-result
 
 # One build for everything that runs code: `make run`, the tests, the suite check, the Python
 # binding and the sweep tests all use the release profile of one workspace (one Cargo.lock, the
 # pyo3 crate a member, the same dependency features everywhere: check-features), so a fresh machine
 # compiles the dependency graph once, plus one `check` pass shared by clippy and rustdoc. Before,
 # CI compiled it three times (a dev build for the tests and the suite check, the binding's own
-# workspace, and that workspace's clippy pass) and took 31-37 minutes; the README's "Development"
-# section has the measured time per step.
+# workspace, and that workspace's clippy pass) and took 31-37 minutes; docs/contributing.md has the
+# measured time per step.
 PROFILE ?= release
 CARGO_PROFILE = --profile $(PROFILE)
 TARGET_DIR = $${CARGO_TARGET_DIR:-$(CURDIR)/target}
@@ -134,9 +134,19 @@ BASELINE ?= scenarios/baseline/default-report.json
 suite-check: deps cli
 	$(BIN) run --out out/suite-check --overwrite --baseline $(BASELINE) --brief --no-plots --no-html
 
-## Re-run the default suite and make its report the new baseline (after an intended change).
+## Re-run the default suite and make its report the new baseline (after an intended change), then
+## regenerate the documentation's tables from it (readme-table).
 bless: deps cli
 	$(BIN) run --out out/bless --overwrite --baseline $(BASELINE) --bless
+	$(MAKE) --no-print-directory readme-table
+
+## The results tables of README.md and docs/results.md, generated from the committed baseline report
+## (the blocks between `<!-- NAME:begin -->` and `<!-- NAME:end -->`; `loomlab table --help`). The
+## test `docs::generated_tables_match_the_baseline` (in rust-test) fails until this is run after a
+## baseline changes.
+DOC_TABLES = README.md docs/results.md
+readme-table: cli
+	$(BIN) table $(BASELINE) $(addprefix --update ,$(DOC_TABLES))
 
 ## Everything CI runs. First the installs (apt, pip) run beside the compilation of every test
 ## binary, which needs neither; then lints, tests, the suite check and the Python side, in order,
@@ -149,7 +159,7 @@ test:
 	$(call STEP,suite-check)
 	$(call STEP,python-test)
 
-## RL on the detector signals (issue 17; README "Training a policy"). `make rl-result` trains PPO
+## RL on the detector signals (issue 17; docs/tutorial.md §6, the result in docs/results.md). `make rl-result` trains PPO
 ## (stable-baselines3, CPU torch) on loomlab/EscapeDiscrete-v0 with normalized observations for at
 ## most RL_WALL_S seconds, evaluates it on held-out seeds next to the calibrated threshold
 ## controllers and the reference rows, and draws docs/rl_learning_curve.png. Torch lives in its own

@@ -3,7 +3,7 @@
 //! library crates (`loomlab-detector`, `loomlab-sim`, `loomlab-agents`, `loomlab-scenarios`).
 
 /// `println!` that never panics: a closed stdout (`loomlab run … | head -1`) stops the printing,
-/// not the program (its files and run state are what matter; see README "Reliability").
+/// not the program (its files and run state are what matter; see docs/reference.md, "loomlab run").
 macro_rules! outln {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
@@ -43,6 +43,9 @@ enum Command {
     /// Run a scenario suite closed-loop (default: the default suite), print the results table and
     /// write report.json, episodes.csv and plots; with --baseline, exit 1 on regressions.
     Run(cli::run::RunArgs),
+    /// Print a report.json's results as a Markdown table, or rewrite (--update) / check (--check)
+    /// the generated tables of Markdown files, such as the README's (`make readme-table`).
+    Table(cli::table::TableArgs),
 }
 
 /// Exit code of a failure to write an output (disk full, permissions): not the user's input.
@@ -55,6 +58,7 @@ fn main() {
         Command::Figures(a) => cli::figures::run(a),
         Command::Render(a) => cli::render::run(a),
         Command::Run(a) => cli::run::run(a),
+        Command::Table(a) => cli::table::run(a),
     };
     match result {
         Ok(code) => std::process::exit(code),

@@ -2,6 +2,7 @@
 
 mod common;
 mod detect_cli;
+mod docs;
 mod render_cli;
 mod report_html;
 mod run_cli;

@@ -332,10 +332,11 @@ fn no_suite_argument_runs_the_default_suite() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// The default suite against its committed baseline (minutes: `make suite-check` runs it in a release
-/// build; `cargo test -- --ignored default_suite` here).
+/// The default suite against its committed baseline (minutes: `make suite-check` runs the same check
+/// with the same release build; here `cargo test --release --workspace --test cli -- --ignored
+/// default_suite`).
 #[test]
-#[ignore = "runs the whole default suite (about 4 min in release on 2 cores); make suite-check"]
+#[ignore = "runs the whole default suite (about 2 min in release on 2 cores); make suite-check"]
 fn default_suite_does_not_regress() {
     let dir = tmp("default-suite");
     let o = loomlab(&[

@@ -6,6 +6,8 @@
 //!   false alarm, first hit), their frames re-rendered and written as GIFs with the alarms marked;
 //! - [`page`]: the run page (`report.html`): summary and per-scenario tables, plots, exemplars, the
 //!   comparison with a baseline report;
+//! - [`markdown`]: the Markdown tables the README and `docs/results.md` quote from the committed
+//!   baseline report, between marker comments (`loomlab table`, `make readme-table`);
 //! - [`sweep_page`]: the sweep page: ranking table and hit-rate-vs-false-alarm-rate scatter,
 //!   each point linking to its own run page.
 //!
@@ -14,6 +16,7 @@
 
 pub mod exemplar;
 pub mod html;
+pub mod markdown;
 pub mod page;
 pub mod plot;
 pub mod run_plots;

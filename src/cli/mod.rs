@@ -5,6 +5,7 @@ pub mod figures;
 pub mod render;
 pub mod run;
 pub mod run_dir;
+pub mod table;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
