@@ -488,6 +488,7 @@ impl EscapeController {
         let ego = Ego {
             yaw_rate_rps: last.yaw_rate_rps,
             forward_mps: last.forward_mps,
+            ..Ego::default()
         };
         self.strategy.update(t_s, percept, ego)
     }

@@ -107,6 +107,12 @@ pub struct Ego {
     pub yaw_rate_rps: f64,
     /// Forward speed applied during the last camera period (m/s).
     pub forward_mps: f64,
+    /// The camera's yaw relative to its mount in this frame (rad, positive = left: camera shake as
+    /// the robot's inertial sensor measures it); image azimuths are corrected by it.
+    pub camera_yaw_rad: f64,
+    /// The camera's pitch relative to its mount in this frame (rad, positive = up); image
+    /// elevations are corrected by it.
+    pub camera_pitch_rad: f64,
 }
 
 /// Parameters of a strategy (the subset of [`crate::EscapeConfig`] it reads).
@@ -150,9 +156,17 @@ pub struct Decision {
     /// The side (−1 left, +1 right, as image x) on which the object is predicted to arrive, when
     /// it arrives at least [`PASS_SIDE_MIN_RADII`] object radii off the camera's axis.
     pub pass_side: Option<f32>,
+    /// The rate of change of the optical time to contact dτ/dt over the gate's window (−1 at a
+    /// constant closing speed), when estimated.
+    pub tau_rate: Option<f64>,
     /// Whether the course gate is open (always true with `course = "off"`).
     pub gate_open: bool,
 }
+
+/// The rate of change of the time to contact, dτ/dt, at or above which an approaching object
+/// decelerates hard enough to stop before it arrives (Lee 1976: −1 at constant speed, −0.5 for
+/// a deceleration that stops it just at contact): the gate closes for it.
+pub const STOPPING_TAU_RATE: f64 = -0.5;
 
 /// Smallest predicted lateral miss (object radii) for which [`Decision::pass_side`] is given.
 pub const PASS_SIDE_MIN_RADII: f64 = 0.5;
@@ -194,19 +208,35 @@ fn slope(points: impl Iterator<Item = (f64, f64)>) -> Option<(f64, f64, f64)> {
     (sxx > 0.0).then(|| (sxy / sxx, mx, my))
 }
 
-/// Least-squares fit of `y = a + b·x + c·x²`: the curvature coefficient `c` (None with fewer than
-/// [`MIN_SAMPLES`] + 1 points or a degenerate spread).
-fn quadratic_coefficient(points: impl Iterator<Item = (f64, f64)>) -> Option<f64> {
+/// A least-squares parabola `y = a + b·u + c·u²` in `u = x − mean_x`.
+#[derive(Debug, Clone, Copy)]
+struct Parabola {
+    mean_x: f64,
+    a: f64,
+    b: f64,
+    c: f64,
+}
+
+impl Parabola {
+    fn at(&self, x: f64) -> f64 {
+        let u = x - self.mean_x;
+        self.a + self.b * u + self.c * u * u
+    }
+}
+
+/// Least-squares fit of a parabola (None with fewer than [`MIN_SAMPLES`] + 1 points or a
+/// degenerate spread).
+fn parabola(points: impl Iterator<Item = (f64, f64)>) -> Option<Parabola> {
     let pts: Vec<(f64, f64)> = points.collect();
     if pts.len() < MIN_SAMPLES + 1 {
         return None;
     }
     let n = pts.len() as f64;
-    let mx = pts.iter().map(|p| p.0).sum::<f64>() / n;
+    let mean_x = pts.iter().map(|p| p.0).sum::<f64>() / n;
     // moments of the centred x
     let (mut s2, mut s3, mut s4, mut sy, mut sxy, mut sx2y) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     for &(x, y) in &pts {
-        let u = x - mx;
+        let u = x - mean_x;
         s2 += u * u;
         s3 += u * u * u;
         s4 += u * u * u * u;
@@ -214,13 +244,17 @@ fn quadratic_coefficient(points: impl Iterator<Item = (f64, f64)>) -> Option<f64
         sxy += u * y;
         sx2y += u * u * y;
     }
-    // normal equations with Σu = 0: [n 0 s2; 0 s2 s3; s2 s3 s4]·[a b c] = [sy sxy sx2y]
-    let det = n * (s2 * s4 - s3 * s3) - s2 * (s2 * s2);
+    // normal equations with Σu = 0: [n 0 s2; 0 s2 s3; s2 s3 s4]·[a b c] = [sy sxy sx2y] (Cramer)
+    let det = n * (s2 * s4 - s3 * s3) - s2 * s2 * s2;
     if det.abs() < 1e-300 {
         return None;
     }
-    let det_c = n * (s2 * sx2y - s3 * sxy) - s2 * (s2 * sy);
-    Some(det_c / det)
+    Some(Parabola {
+        mean_x,
+        a: (sy * (s2 * s4 - s3 * s3) + s2 * (sxy * s3 - s2 * sx2y)) / det,
+        b: (n * (sxy * s4 - s3 * sx2y) + sy * s3 * s2 - s2 * s2 * sxy) / det,
+        c: (n * (s2 * sx2y - s3 * sxy) - sy * s2 * s2) / det,
+    })
 }
 
 /// `κ(θ)`: the time to contact of the surface of a sphere seen at angular size θ (radians) is
@@ -266,6 +300,7 @@ impl Strategy {
                 miss_radii: None,
                 vertical_miss_radii: None,
                 pass_side: None,
+                tau_rate: None,
                 gate_open: true,
             };
         }
@@ -276,6 +311,7 @@ impl Strategy {
                 miss_radii: None,
                 vertical_miss_radii: None,
                 pass_side: None,
+                tau_rate: None,
                 gate_open: false,
             };
         }
@@ -289,17 +325,19 @@ impl Strategy {
             f64::NAN
         };
         let finite = |v: Option<f64>| v.filter(|x| x.is_finite()).map(f64::to_radians);
+        // directions in the camera mount's frame: the camera's own rotation removed
+        let (yaw, pitch) = (ego.camera_yaw_rad, ego.camera_pitch_rad);
         self.window.push_back(Sample {
             t: t_s,
             theta_rad,
-            azimuth_rad: finite(percept.azimuth_deg),
-            elevation_rad: finite(percept.elevation_deg),
+            azimuth_rad: finite(percept.azimuth_deg).map(|a| a - yaw),
+            elevation_rad: finite(percept.elevation_deg).map(|e| e + pitch),
             edges_tan: percept
                 .extent
                 .map(|e| {
-                    let [l, r] = e.azimuth_deg;
-                    let [b, u] = e.elevation_deg;
-                    [l, r, b, u].map(|a| a.clamp(-89.0, 89.0).to_radians().tan())
+                    let [l, r] = e.azimuth_deg.map(|a| a.to_radians() - yaw);
+                    let [b, u] = e.elevation_deg.map(|a| a.to_radians() + pitch);
+                    [l, r, b, u].map(|a| a.clamp(-1.55, 1.55).tan())
                 })
                 .filter(|e| e.iter().all(|v| v.is_finite())),
         });
@@ -325,14 +363,14 @@ impl Strategy {
         // the elevation in object radii, sin(e)/sin(θ/2), is linear in t on a straight course at
         // constant speed and quadratic under gravity
         let has_elevation = course().any(|s| s.elevation_rad.is_some());
-        let curvature = quadratic_coefficient(
+        let height_radii = parabola(
             course()
                 .filter(valid_theta)
                 .filter_map(|s| s.elevation_rad.map(|e| (s.t, e.sin() / (s.theta_rad / 2.0).sin()))),
         );
         let straight = tau_s
-            .zip(curvature)
-            .map(|(tau, c)| (c * tau * tau).abs() <= STRAIGHT_COURSE_MAX_RADII);
+            .zip(height_radii)
+            .map(|(tau, h)| (h.c * tau * tau).abs() <= STRAIGHT_COURSE_MAX_RADII);
         let el_dot = slope(course().filter_map(|s| s.elevation_rad.map(|e| (s.t, e)))).map(|v| v.0);
         let vertical_miss_radii = match (theta_dot, el_dot, straight) {
             (Some(td), Some(ed), Some(true)) => Some(2.0 * ed / td),
@@ -344,7 +382,8 @@ impl Strategy {
         // to contact of the centre
         let predicted_edges = theta_fit.and_then(|(td, _, theta_mean)| {
             let scale = speed * (theta_mean / td).powi(2);
-            let rate = |i: usize| slope(course().filter_map(|s| s.edges_tan.map(|e| (s.t, e[i])))).map(|(b, _, m)| (b, m));
+            let rate =
+                |i: usize| slope(course().filter_map(|s| s.edges_tan.map(|e| (s.t, e[i])))).map(|(b, _, m)| (b, m));
             let lateral = |(rate, mean): (f64, f64)| scale * (rate - ego.yaw_rate_rps * (1.0 + mean * mean));
             Some((
                 [lateral(rate(0)?), lateral(rate(1)?)],
@@ -360,29 +399,44 @@ impl Strategy {
                 .filter(|mu| mu.abs() >= PASS_SIDE_MIN_RADII)
                 .map(|mu| mu.signum() as f32),
         };
+        // dτ/dt from ln θ = a + b·t + c·t²: τ = 1/(b + 2ct), so dτ/dt = −2c/b² at the window's mean
+        let tau_rate = slope(course().filter(valid_theta).map(|s| (s.t, s.theta_rad.ln())))
+            .filter(|v| v.0 > 0.0)
+            .zip(parabola(course().filter(valid_theta).map(|s| (s.t, s.theta_rad.ln()))))
+            .map(|((b, _, _), ln_theta)| -2.0 * ln_theta.c / (b * b));
         let overlaps = |[a, b]: [f64; 2], low: f64, high: f64| a.min(b) <= high && a.max(b) >= low;
         let gate_open = match (p.course, tau_s) {
             (Course::Off, _) => true,
             (Course::Image, None) => false,
             // elevations seen, but too few to tell a straight course from a lob yet: wait
             (Course::Image, Some(_)) if has_elevation && straight.is_none() => false,
-            (Course::Image, Some(tau)) => match (predicted_edges, miss_radii) {
-                (Some((lateral, vertical)), _) => {
-                    overlaps(lateral, -p.body_half_width_m, p.body_half_width_m)
-                        && (straight != Some(true)
-                            || overlaps(vertical, -p.body_below_camera_m, p.body_above_camera_m))
-                }
-                (None, Some(mu)) => {
-                    let half = (theta_rad / 2.0).min(std::f64::consts::FRAC_PI_2);
-                    let radius = half.sin() * tau.max(0.0) * speed;
-                    let lateral = (mu.abs() - 1.0) * radius <= p.body_half_width_m;
-                    let vertical = vertical_miss_radii.is_none_or(|v| {
-                        (v - 1.0) * radius <= p.body_above_camera_m && (v + 1.0) * radius >= -p.body_below_camera_m
-                    });
-                    lateral && vertical
-                }
-                (None, None) => false,
-            },
+            // braking to a stop before it arrives
+            (Course::Image, Some(_)) if tau_rate.is_some_and(|r| r >= STOPPING_TAU_RATE) => false,
+            (Course::Image, Some(tau)) => {
+                let radius = (theta_rad / 2.0).min(std::f64::consts::FRAC_PI_2).sin() * tau.max(0.0) * speed;
+                let within_body_height = |centre_radii: f64| {
+                    (centre_radii - 1.0) * radius <= p.body_above_camera_m
+                        && (centre_radii + 1.0) * radius >= -p.body_below_camera_m
+                };
+                // a curved course (a lob) is extrapolated along its parabola
+                let curved_course_ok = match (straight, height_radii) {
+                    (Some(false), Some(h)) => within_body_height(h.at(t_s + tau)),
+                    _ => true,
+                };
+                curved_course_ok
+                    && match (predicted_edges, miss_radii) {
+                        (Some((lateral, vertical)), _) => {
+                            overlaps(lateral, -p.body_half_width_m, p.body_half_width_m)
+                                && (straight != Some(true)
+                                    || overlaps(vertical, -p.body_below_camera_m, p.body_above_camera_m))
+                        }
+                        (None, Some(mu)) => {
+                            (mu.abs() - 1.0) * radius <= p.body_half_width_m
+                                && vertical_miss_radii.is_none_or(within_body_height)
+                        }
+                        (None, None) => false,
+                    }
+            }
         };
         let value = if p.tau {
             match tau_s {
@@ -402,6 +456,7 @@ impl Strategy {
             miss_radii,
             vertical_miss_radii,
             pass_side,
+            tau_rate,
             gate_open,
         }
     }

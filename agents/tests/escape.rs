@@ -406,6 +406,7 @@ mod strategies {
             Ego {
                 yaw_rate_rps: 0.0,
                 forward_mps: self.camera_vx,
+                ..Ego::default()
             }
         }
     }

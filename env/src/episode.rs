@@ -719,6 +719,7 @@ impl EscapeEnv {
             let ego = Ego {
                 yaw_rate_rps: last.yaw_rate_rps,
                 forward_mps: last.forward_mps,
+                ..Ego::default()
             };
             let step = self.agent.step(out.t_s, &frame, cruise_now)?;
             for (d, s) in self.detectors.iter_mut().zip(&step.signals) {

@@ -50,7 +50,7 @@ use loomlab_agents::{
     Ego, EscapeAgent, EscapeConfig, EscapeController, LoomingSideEstimator, TriggerSignal, VelocityCommand,
 };
 use loomlab_detector::{Detector, Frame};
-use loomlab_sim::{GpuContext, ObjectTruth, Renderer, Sim, SimError};
+use loomlab_sim::{Camera, GpuContext, ObjectTruth, Renderer, Sim, SimError};
 use rayon::prelude::*;
 
 use crate::deadline::{EscapeDeadline, escape_deadline_cancellable, replay_trigger};
@@ -630,6 +630,18 @@ fn open_loop_ego(ep: &EpisodeSpec, t_s: &[f64], k: usize) -> Ego {
     Ego {
         yaw_rate_rps: cmd.yaw_rate_rps,
         forward_mps: cmd.forward_mps,
+        ..Ego::default()
+    }
+}
+
+/// What an ideal observer knows of the robot's own motion at time `t_s` beside its command: the
+/// camera's shake rotation (its inertial sensor).
+fn with_camera_rotation(ego: Ego, camera: Option<&Camera>, t_s: f64) -> Ego {
+    let [yaw, pitch, _] = camera.map_or([0.0; 3], |c| c.shake_rotation(t_s));
+    Ego {
+        camera_yaw_rad: yaw,
+        camera_pitch_rad: pitch,
+        ..ego
     }
 }
 
@@ -672,11 +684,14 @@ fn ideal_tail(
         episode: ep.index,
         source,
     })?;
+    let camera = sim.camera().clone();
     let mut decide = |agent: &mut EscapeAgent, t: f64, truth: &[ObjectTruth], applied: VelocityCommand| {
         let ego = Ego {
             yaw_rate_rps: applied.yaw_rate_rps,
             forward_mps: applied.forward_mps,
+            ..Ego::default()
         };
+        let ego = with_camera_rotation(ego, Some(&camera), t);
         let (value, side, object) = observer.update(t, truth, ego);
         agent
             .decide_about(t, side, value, object, ep.cruise.command_at(t))
@@ -741,6 +756,8 @@ fn reference_rows<'a>(
     deadline: Option<&EscapeDeadline>,
 ) -> Vec<Row<'a>> {
     let frames = t_s.len();
+    // the world was built for the open-loop pass, so its camera builds
+    let camera = ep.world.camera.build(ep.seed).ok();
     let indicator = |k: Option<usize>| -> Vec<f64> {
         (0..frames)
             .map(|i| if Some(i) == k { INDICATOR_THRESHOLD } else { 0.0 })
@@ -779,7 +796,10 @@ fn reference_rows<'a>(
         let mut observer = IdealObserver::new(kind, &ep.controller, ideal_theta_threshold_deg(ep));
         let config = observer.config().clone();
         let signal = (0..frames)
-            .map(|k| observer.update(t_s[k], &truth[k], open_loop_ego(ep, t_s, k)).0)
+            .map(|k| {
+                let ego = with_camera_rotation(open_loop_ego(ep, t_s, k), camera.as_ref(), t_s[k]);
+                observer.update(t_s[k], &truth[k], ego).0
+            })
             .collect();
         rows.push(row(
             label,

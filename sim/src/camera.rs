@@ -243,6 +243,19 @@ impl Camera {
         }
     }
 
+    /// The shake's rotation of the camera relative to its mount at time `t`: `[yaw, pitch, roll]`
+    /// (rad; yaw positive = left, pitch positive = up; zeros without shake) — what the robot's
+    /// inertial sensor measures.
+    pub fn shake_rotation(&self, t: f64) -> [f64; 3] {
+        match &self.shake {
+            None => [0.0; 3],
+            Some(axes) => {
+                let v = |i: usize| axes[i].iter().map(|(a, w, p)| a * (w * t + p).sin()).sum::<f64>();
+                [v(0), v(1), v(2)]
+            }
+        }
+    }
+
     /// Projects a world point into the camera at `cam`.
     pub fn project(&self, cam: &Pose64, p: DVec3) -> Projection {
         let rel = cam.rotation.inverse() * (p - cam.position);

@@ -952,6 +952,6 @@ fn cannot_reach(seg: &Segment, robot_radius: f64, center: DVec3, radius: f64, ho
             let dz = center.z - p0.z;
             ((dh - rho).powi(2) + dz * dz).sqrt() > reach
         }
-        Motion::Ballistic { .. } => false,
+        Motion::Braking { .. } | Motion::Ballistic { .. } => false,
     }
 }

@@ -72,6 +72,14 @@ pub enum Motion {
         /// Yaw rate (rad/s, positive = counter-clockwise seen from above).
         yaw_rate: f64,
     },
+    /// Straight-line braking: starts at `velocity` and decelerates along it at `deceleration`
+    /// until it stands (at `|velocity| / deceleration` after the segment start); orientation fixed.
+    Braking {
+        /// World velocity at the segment start.
+        velocity: DVec3,
+        /// Deceleration (m/s², > 0).
+        deceleration: f64,
+    },
     /// Free flight under gravity `-gravity · ẑ`; orientation fixed.
     Ballistic {
         /// Velocity at the segment start.
@@ -112,6 +120,14 @@ impl Segment {
                     rotation: r * self.pose0.rotation,
                 }
             }
+            Motion::Braking { velocity, deceleration } => {
+                let tau = tau.clamp(0.0, velocity.length() / deceleration);
+                Pose64 {
+                    position: self.pose0.position + velocity * tau
+                        - velocity.normalize_or_zero() * (0.5 * deceleration * tau * tau),
+                    rotation: self.pose0.rotation,
+                }
+            }
             Motion::Ballistic { velocity, gravity } => Pose64 {
                 position: self.pose0.position + velocity * tau - DVec3::Z * (0.5 * gravity * tau * tau),
                 rotation: self.pose0.rotation,
@@ -128,6 +144,9 @@ impl Segment {
             Motion::Arc { center, yaw_rate } => {
                 let p = self.pose_at(t).position - center;
                 DVec3::new(-yaw_rate * p.y, yaw_rate * p.x, 0.0)
+            }
+            Motion::Braking { velocity, deceleration } => {
+                velocity.normalize_or_zero() * (velocity.length() - deceleration * tau.max(0.0)).max(0.0)
             }
             Motion::Ballistic { velocity, gravity } => velocity - DVec3::Z * (gravity * tau),
         }
@@ -150,7 +169,7 @@ impl Segment {
                 let local_center = start.inverse_transform_point(c);
                 NonlinearRigidMotion::new(start, local_center, Vec3::ZERO, Vec3::new(0.0, 0.0, yaw_rate as f32))
             }
-            Motion::Ballistic { .. } => return None,
+            Motion::Braking { .. } | Motion::Ballistic { .. } => return None,
         })
     }
 
@@ -159,7 +178,7 @@ impl Segment {
         match self.motion {
             Motion::Hold => Some(DVec3::ZERO),
             Motion::Linear { velocity } => Some(velocity),
-            Motion::Arc { .. } | Motion::Ballistic { .. } => None,
+            Motion::Arc { .. } | Motion::Braking { .. } | Motion::Ballistic { .. } => None,
         }
     }
 
@@ -168,6 +187,7 @@ impl Segment {
         match self.motion {
             Motion::Hold => 0.0,
             Motion::Linear { velocity } => velocity.length(),
+            Motion::Braking { .. } => self.velocity_at(t).length(),
             Motion::Arc { yaw_rate, .. } => self.velocity_at(t).length() + yaw_rate.abs() * radius,
             Motion::Ballistic { gravity, .. } => self.velocity_at(t).length() + gravity * span,
         }
@@ -227,6 +247,42 @@ impl Trajectory {
             });
         }
         Trajectory { segments }
+    }
+
+    /// Holds at `pose` until `t_start`, drives at `velocity` until `t_brake`, then brakes at
+    /// `deceleration` (m/s², > 0) to a stop and holds there.
+    pub fn hold_drive_brake_hold(pose: Pose64, t_start: f64, velocity: DVec3, t_brake: f64, deceleration: f64) -> Self {
+        let drive = Segment {
+            t0: t_start,
+            t1: t_brake,
+            pose0: pose,
+            motion: Motion::Linear { velocity },
+        };
+        let t_stop = t_brake + velocity.length() / deceleration;
+        let brake = Segment {
+            t0: t_brake,
+            t1: t_stop,
+            pose0: drive.pose_at(t_brake),
+            motion: Motion::Braking { velocity, deceleration },
+        };
+        Trajectory {
+            segments: vec![
+                Segment {
+                    t0: f64::NEG_INFINITY,
+                    t1: t_start,
+                    pose0: pose,
+                    motion: Motion::Hold,
+                },
+                drive,
+                brake,
+                Segment {
+                    t0: t_stop,
+                    t1: f64::INFINITY,
+                    pose0: brake.pose_at(t_stop),
+                    motion: Motion::Hold,
+                },
+            ],
+        }
     }
 
     /// The segment active at time `t`.
@@ -400,6 +456,21 @@ mod tests {
         let p = s.pose_at(std::f64::consts::PI);
         assert!((p.position - DVec3::new(-1.0, 0.0, 0.0)).length() < 1e-12);
         assert!((s.velocity_at(0.0) - DVec3::new(0.0, 1.0, 0.0)).length() < 1e-12);
+    }
+
+    #[test]
+    fn braking_stops_after_v2_over_2a_and_holds() {
+        let v = DVec3::new(-6.0, 0.0, 0.0);
+        let traj =
+            Trajectory::hold_drive_brake_hold(Pose64::from_xyz_yaw(DVec3::new(20.0, 0.0, 0.0), 0.0), 0.5, v, 1.5, 4.0);
+        // 6 m of driving, then 36 / 8 = 4.5 m of braking over 1.5 s
+        assert!((traj.pose_at(1.5).position.x - 14.0).abs() < 1e-12);
+        assert!((traj.pose_at(3.0).position.x - 9.5).abs() < 1e-12);
+        assert!((traj.pose_at(10.0).position.x - 9.5).abs() < 1e-12);
+        assert!((traj.velocity_at(2.25).x + 3.0).abs() < 1e-12);
+        assert_eq!(traj.velocity_at(3.5), DVec3::ZERO);
+        // the speed falls continuously
+        assert!((traj.velocity_at(1.5 + 1e-9).x + 6.0).abs() < 1e-6);
     }
 
     #[test]

@@ -139,7 +139,11 @@ pub(crate) fn angular_extent(prims: &[AngularPrimitive], pose: &Pose64, cam: &Po
     let mut include = |c: DVec3, radius: f64| {
         let rel = to_cam * (pose.transform_point(c) - cam.position);
         let len = rel.length();
-        let half = if len <= radius { 90.0 } else { (radius / len).asin().to_degrees() };
+        let half = if len <= radius {
+            90.0
+        } else {
+            (radius / len).asin().to_degrees()
+        };
         let a = (-rel.y).atan2(rel.x.max(0.0)).to_degrees();
         let e = rel.z.atan2(rel.x.hypot(rel.y)).to_degrees();
         az = [az[0].min(a - half), az[1].max(a + half)];
@@ -170,10 +174,19 @@ mod tests {
             rotation: DQuat::IDENTITY,
         };
         let (az, el) = angular_extent(&[AngularPrimitive::Sphere(DVec3::ZERO, 0.5)], &pose, &cam);
-        let (a, e) = (1.0f64.atan2(10.0).to_degrees(), 0.5f64.atan2(101f64.sqrt()).to_degrees());
+        let (a, e) = (
+            1.0f64.atan2(10.0).to_degrees(),
+            0.5f64.atan2(101f64.sqrt()).to_degrees(),
+        );
         let half = (0.5 / 101.25f64.sqrt()).asin().to_degrees();
-        assert!((az[0] - (a - half)).abs() < 1e-9 && (az[1] - (a + half)).abs() < 1e-9, "{az:?}");
-        assert!((el[0] - (e - half)).abs() < 1e-9 && (el[1] - (e + half)).abs() < 1e-9, "{el:?}");
+        assert!(
+            (az[0] - (a - half)).abs() < 1e-9 && (az[1] - (a + half)).abs() < 1e-9,
+            "{az:?}"
+        );
+        assert!(
+            (el[0] - (e - half)).abs() < 1e-9 && (el[1] - (e + half)).abs() < 1e-9,
+            "{el:?}"
+        );
         // a unit cube: its far inner and near outer edges bound the azimuths
         let corners: Vec<AngularPrimitive> = (0..8)
             .map(|i| {
@@ -184,7 +197,10 @@ mod tests {
         let (az, el) = angular_extent(&corners, &pose, &cam);
         assert!((az[0] - 0.5f64.atan2(10.5).to_degrees()).abs() < 1e-9, "{az:?}");
         assert!((az[1] - 1.5f64.atan2(9.5).to_degrees()).abs() < 1e-9, "{az:?}");
-        assert!((el[1] - 1.0f64.atan2(9.5f64.hypot(0.5)).to_degrees()).abs() < 1e-9, "{el:?}");
+        assert!(
+            (el[1] - 1.0f64.atan2(9.5f64.hypot(0.5)).to_degrees()).abs() < 1e-9,
+            "{el:?}"
+        );
     }
 
     #[test]

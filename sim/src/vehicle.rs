@@ -72,6 +72,9 @@ pub struct VehicleDesc {
     pub start_time_s: f32,
     /// Distance after which it stops (m). Default: never stops.
     pub travel_m: Option<f32>,
+    /// Deceleration with which it brakes to stand at the end of `travel_m` (m/s², > 0; straight
+    /// paths only). Default: it stops at once (an infinite deceleration).
+    pub brake_mps2: Option<f32>,
 }
 
 impl Default for VehicleDesc {
@@ -86,6 +89,7 @@ impl Default for VehicleDesc {
             speed_mps: 10.0,
             start_time_s: 0.0,
             travel_m: None,
+            brake_mps2: None,
         }
     }
 }
@@ -174,11 +178,45 @@ impl VehicleDesc {
             Some(d) if speed > 0.0 => t0 + f64::from(d) / speed,
             _ => f64::INFINITY,
         };
+        let trajectory = match (self.brake_mps2, self.travel_m, motion) {
+            (None, ..) => Trajectory::hold_move_hold(pose, t0, motion, t_end),
+            (Some(a), _, _) if !(a.is_finite() && a > 0.0) => {
+                return Err(SimError::invalid(k("brake_mps2"), a, "must be a finite number > 0"));
+            }
+            (Some(a), Some(d), Motion::Linear { velocity }) => {
+                let braking_m = speed * speed / (2.0 * f64::from(a));
+                if braking_m > f64::from(d) {
+                    return Err(SimError::invalid(
+                        k("brake_mps2"),
+                        a,
+                        &format!(
+                            "braking from {speed} m/s takes {braking_m:.2} m, more than travel_m = {d}; brake harder or travel further"
+                        ),
+                    ));
+                }
+                let t_brake = t0 + (f64::from(d) - braking_m) / speed;
+                Trajectory::hold_drive_brake_hold(pose, t0, velocity, t_brake, f64::from(a))
+            }
+            (Some(a), None, _) => {
+                return Err(SimError::invalid(
+                    k("brake_mps2"),
+                    a,
+                    "needs travel_m (where the vehicle stops)",
+                ));
+            }
+            (Some(a), Some(_), _) => {
+                return Err(SimError::invalid(
+                    k("brake_mps2"),
+                    a,
+                    "braking needs a straight path with a speed > 0 (curvature_per_m = 0)",
+                ));
+            }
+        };
         Ok(ObjectSpec {
             name: self.name.clone().unwrap_or_else(|| format!("vehicle{index}")),
             kind: ObjectKind::Vehicle,
             parts,
-            trajectory: Trajectory::hold_move_hold(pose, t0, motion, t_end),
+            trajectory,
             ball: None,
         })
     }
