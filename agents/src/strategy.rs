@@ -156,6 +156,9 @@ pub struct Decision {
     /// The side (−1 left, +1 right, as image x) on which the object is predicted to arrive, when
     /// it arrives at least [`PASS_SIDE_MIN_RADII`] object radii off the camera's axis.
     pub pass_side: Option<f32>,
+    /// Where the object's edges are predicted to be when it reaches the camera (m, from the image
+    /// extent): `[left, right, bottom, top]` relative to the camera (lateral positive = right).
+    pub arrival_extent_m: Option<[f64; 4]>,
     /// The rate of change of the optical time to contact dτ/dt over the gate's window (−1 at a
     /// constant closing speed), when estimated.
     pub tau_rate: Option<f64>,
@@ -300,6 +303,7 @@ impl Strategy {
                 miss_radii: None,
                 vertical_miss_radii: None,
                 pass_side: None,
+                arrival_extent_m: None,
                 tau_rate: None,
                 gate_open: true,
             };
@@ -311,6 +315,7 @@ impl Strategy {
                 miss_radii: None,
                 vertical_miss_radii: None,
                 pass_side: None,
+                arrival_extent_m: None,
                 tau_rate: None,
                 gate_open: false,
             };
@@ -380,8 +385,13 @@ impl Strategy {
         // the edges' predicted offsets when the object reaches the camera (m): at the window's
         // mean time, x = d·τ·d(tan a)/dt with the distance d = v̂·τ and τ = θ/θ̇ the optical time
         // to contact of the centre
-        let predicted_edges = theta_fit.and_then(|(td, _, theta_mean)| {
-            let scale = speed * (theta_mean / td).powi(2);
+        // τ from the growth of the object's vertical extent (tan top − tan bottom ∝ height/depth of
+        // its nearest face: the time to contact of that face, whatever the object's shape), else θ/θ̇
+        let extent_tau = slope(course().filter_map(|s| s.edges_tan.map(|e| (s.t, e[3] - e[2]))))
+            .filter(|&(rate, _, mean)| rate > 0.0 && mean > 0.0)
+            .map(|(rate, _, mean)| mean / rate);
+        let predicted_edges = extent_tau.or(theta_fit.map(|(td, _, theta_mean)| theta_mean / td)).and_then(|tau_c| {
+            let scale = speed * tau_c.powi(2);
             let rate =
                 |i: usize| slope(course().filter_map(|s| s.edges_tan.map(|e| (s.t, e[i])))).map(|(b, _, m)| (b, m));
             let lateral = |(rate, mean): (f64, f64)| scale * (rate - ego.yaw_rate_rps * (1.0 + mean * mean));
@@ -410,17 +420,34 @@ impl Strategy {
             (Course::Image, None) => false,
             // elevations seen, but too few to tell a straight course from a lob yet: wait
             (Course::Image, Some(_)) if has_elevation && straight.is_none() => false,
-            // braking to a stop before it arrives
-            (Course::Image, Some(_)) if tau_rate.is_some_and(|r| r >= STOPPING_TAU_RATE) => false,
+            // braking to a stop before it arrives (a lob's distance shrinks unevenly: not judged)
+            (Course::Image, Some(_)) if tau_rate.is_some_and(|r| r >= STOPPING_TAU_RATE) && straight != Some(false) => {
+                false
+            }
             (Course::Image, Some(tau)) => {
                 let radius = (theta_rad / 2.0).min(std::f64::consts::FRAC_PI_2).sin() * tau.max(0.0) * speed;
                 let within_body_height = |centre_radii: f64| {
                     (centre_radii - 1.0) * radius <= p.body_above_camera_m
                         && (centre_radii + 1.0) * radius >= -p.body_below_camera_m
                 };
-                // a curved course (a lob) is extrapolated along its parabola
+                // a curved course (a lob) is extrapolated along its parabola to the time its
+                // distance ahead, in object radii cos(e)·cos(a)/sin(θ/2), reaches zero (a lob's
+                // distance shrinks unevenly, so τ̂ overestimates its arrival time), or to τ̂ when
+                // that is sooner (a course that bends because the object was just launched)
                 let curved_course_ok = match (straight, height_radii) {
-                    (Some(false), Some(h)) => within_body_height(h.at(t_s + tau)),
+                    (Some(false), Some(h)) => {
+                        let ahead = slope(course().filter(valid_theta).filter_map(|s| {
+                            let (a, e) = (s.azimuth_rad?, s.elevation_rad?);
+                            Some((s.t, e.cos() * a.cos() / (s.theta_rad / 2.0).sin()))
+                        }));
+                        match ahead {
+                            Some((rate, t_mean, mean)) if rate < 0.0 => {
+                                let arrival_s = (-(mean + rate * (t_s - t_mean)) / rate).min(tau);
+                                within_body_height(h.at(t_s + arrival_s.max(0.0)))
+                            }
+                            _ => false,
+                        }
+                    }
                     _ => true,
                 };
                 curved_course_ok
@@ -456,6 +483,7 @@ impl Strategy {
             miss_radii,
             vertical_miss_radii,
             pass_side,
+            arrival_extent_m: predicted_edges.map(|([l, r], [b, t])| [l, r, b, t]),
             tau_rate,
             gate_open,
         }

@@ -365,7 +365,8 @@ fn a_dodge_on_a_differential_drive_turns_away_and_drives_instead_of_sidestepping
 /// relative to a camera that may itself drive forward.
 mod strategies {
     use loomlab_agents::{
-        Course, DodgeSide, Ego, EscapeConfig, EscapeController, Percept, Strategy, TriggerSignal, VelocityCommand,
+        Course, Decision, DodgeSide, Ego, EscapeConfig, EscapeController, ImageExtent, Percept, Strategy, TriggerSignal,
+        VelocityCommand,
     };
 
     const DT: f64 = 1.0 / 120.0;
@@ -599,6 +600,197 @@ mod strategies {
         let [x, y] = a.rel(*t);
         assert!(y > 0.0 && x > 0.0, "still on the left at t {t:.2}");
         assert_eq!(d.pass_side, Some(1.0), "arrives on the right: μ {:?}", d.miss_radii);
+    }
+
+    /// A percept of a box with centre `c` (camera frame: x forward, y left, z up) and half sizes
+    /// `h`, from its eight corners: the largest angle between two of them, the centre's direction
+    /// and the corners' azimuth and elevation extremes.
+    fn box_percept(c: [f64; 3], h: [f64; 3]) -> Percept {
+        let corners: Vec<[f64; 3]> = (0..8)
+            .map(|i| {
+                let s = |b: usize, k: usize| if i & b == 0 { c[k] - h[k] } else { c[k] + h[k] };
+                [s(1, 0), s(2, 1), s(4, 2)]
+            })
+            .collect();
+        let unit = |p: &[f64; 3]| {
+            let n = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+            [p[0] / n, p[1] / n, p[2] / n]
+        };
+        let mut theta = 0.0f64;
+        for a in &corners {
+            for b in &corners {
+                let (u, v) = (unit(a), unit(b));
+                theta = theta.max((u[0] * v[0] + u[1] * v[1] + u[2] * v[2]).clamp(-1.0, 1.0).acos());
+            }
+        }
+        let az = |p: &[f64; 3]| (-p[1]).atan2(p[0]).to_degrees();
+        let el = |p: &[f64; 3]| p[2].atan2(p[0].hypot(p[1])).to_degrees();
+        let span = |f: &dyn Fn(&[f64; 3]) -> f64| {
+            corners
+                .iter()
+                .map(f)
+                .fold([f64::INFINITY, f64::NEG_INFINITY], |m, v| [m[0].min(v), m[1].max(v)])
+        };
+        Percept {
+            value: theta.to_degrees(),
+            azimuth_deg: Some(az(&c)),
+            elevation_deg: Some(el(&c)),
+            extent: Some(ImageExtent {
+                azimuth_deg: span(&az),
+                elevation_deg: span(&el),
+            }),
+        }
+    }
+
+    /// Runs the gate on a box driving at `speed` along −x, its centre `lateral_m` to the side of
+    /// the camera (positive left) and `height_m` above it; the camera stands.
+    fn run_box(cfg: &EscapeConfig, lateral_m: f64, height_m: f64, h: [f64; 3], speed: f64) -> Vec<(f64, Decision)> {
+        let mut s: Strategy = cfg.strategy();
+        let mut out = Vec::new();
+        for k in 0..2000 {
+            let t = k as f64 * DT;
+            let x = 20.0 - speed * t;
+            if x - h[0] < 0.3 {
+                break;
+            }
+            out.push((t, s.update(t, box_percept([x, lateral_m, height_m], h), Ego::default())));
+        }
+        out
+    }
+
+    #[test]
+    fn course_gate_judges_wide_and_tall_objects_by_their_image_edges() {
+        let cfg = config(Course::Image);
+        let w = cfg.body_half_width_m;
+        // a car (4 × 1.8 × 1.4 m) in the next lane, its side 1 m beside the body: its angular size
+        // (the diagonal) is much larger than its width, but its edges pass beside the body
+        let car = [2.0, 0.9, 0.7];
+        let passing_car = run_box(&cfg, w + 1.0 + car[1], 0.4, car, 6.0);
+        assert!(passing_car.iter().all(|(_, d)| d.value < cfg.alarm_threshold()));
+        // judged as a sphere of its angular size (no image extent, as for a detector row) it passes
+        let mut sphere = cfg.strategy();
+        let sphere_alarms = (0..2000).any(|k| {
+            let t = k as f64 * DT;
+            let x = 20.0 - 6.0 * t;
+            let p = Percept {
+                extent: None,
+                ..box_percept([x, w + 1.0 + car[1], 0.4], car)
+            };
+            x - car[0] >= 0.3 && sphere.update(t, p, Ego::default()).value >= cfg.alarm_threshold()
+        });
+        assert!(sphere_alarms, "the sphere model gates the car out too: the test shows nothing");
+        // the same car in the robot's lane is let through
+        assert!(
+            run_box(&cfg, 0.3, 0.4, car, 6.0)
+                .iter()
+                .any(|(_, d)| d.value >= cfg.alarm_threshold())
+        );
+        // a tall pole (2 m high, 0.3 m thick) the robot passes 0.3 m from its side
+        let pole = [0.15, 0.15, 1.0];
+        let passing_pole = run_box(&cfg, -(w + 0.3 + pole[1]), 0.7, pole, 3.0);
+        assert!(passing_pole.iter().all(|(_, d)| d.value < cfg.alarm_threshold()));
+        assert!(
+            run_box(&cfg, 0.1, 0.7, pole, 3.0)
+                .iter()
+                .any(|(_, d)| d.value >= cfg.alarm_threshold())
+        );
+    }
+
+    #[test]
+    fn course_gate_closes_for_an_object_braking_to_a_stop_before_it_arrives() {
+        let cfg = config(Course::Image);
+        let r = 0.9;
+        // drives at 6 m/s from 25 m, brakes at 3 m/s² from t = 1 s: stops 25 − 6 − 6 = 13 m away
+        // at t = 3 s; the same object without braking arrives
+        let position = |t: f64, brake: bool| {
+            let tb = t.clamp(0.0, 1.0);
+            let after = if brake { (t - 1.0).clamp(0.0, 2.0) } else { (t - 1.0).max(0.0) };
+            25.0 - 6.0 * tb - 6.0 * after + if brake { 1.5 * after * after } else { 0.0 }
+        };
+        for brake in [true, false] {
+            let mut s = cfg.strategy();
+            let mut alarm = false;
+            let mut rate = None;
+            for k in 0..480 {
+                let t = k as f64 * DT;
+                let d = position(t, brake);
+                if d < 1.5 {
+                    break;
+                }
+                let p = Percept {
+                    value: 2.0 * (r / d).asin().to_degrees(),
+                    azimuth_deg: Some(0.0),
+                    elevation_deg: None,
+                    extent: None,
+                };
+                let decision = s.update(t, p, Ego::default());
+                alarm |= decision.value >= cfg.alarm_threshold();
+                if (1.4..1.5).contains(&t) {
+                    rate = decision.tau_rate;
+                }
+            }
+            let rate = rate.expect("dτ/dt estimated");
+            if brake {
+                // dτ/dt = −1 + a·d/v² > −0.5 once it brakes hard enough to stop short
+                assert!(!alarm, "braking: no alarm");
+                assert!(rate > -0.5, "dτ/dt {rate}");
+            } else {
+                assert!(alarm, "constant speed: an alarm");
+                assert!((rate + 1.0).abs() < 0.05, "dτ/dt {rate}");
+            }
+        }
+    }
+
+    #[test]
+    fn course_gate_follows_a_lob_and_removes_the_cameras_own_shake() {
+        let cfg = config(Course::Image);
+        const G: f64 = 9.81;
+        // a ball lobbed from 12 m ahead, 2 s flight, landing on the camera: x = 12 − 6t,
+        // z = vz·t − g·t²/2 with vz = g (so z = 0 at t = 2 s); the camera pitches ±1.5° at 4 Hz
+        let r = 0.2;
+        let run = |aim_z: f64, shake: bool| {
+            let mut s = cfg.strategy();
+            let mut first = None;
+            for k in 0..240 {
+                let t = k as f64 * DT;
+                let (x, z) = (12.0 - 6.0 * t, aim_z * t / 2.0 + G * t - G * t * t / 2.0);
+                if x.hypot(z) - r < 0.5 {
+                    break;
+                }
+                let pitch = if shake { 1.5f64.to_radians() * (std::f64::consts::TAU * 4.0 * t).sin() } else { 0.0 };
+                let d = x.hypot(z);
+                let half = (r / d).asin().to_degrees();
+                let el = z.atan2(x).to_degrees() - pitch.to_degrees();
+                let p = Percept {
+                    value: 2.0 * half,
+                    azimuth_deg: Some(0.0),
+                    elevation_deg: Some(el),
+                    extent: Some(ImageExtent {
+                        azimuth_deg: [-half, half],
+                        elevation_deg: [el - half, el + half],
+                    }),
+                };
+                let ego = Ego {
+                    camera_pitch_rad: pitch,
+                    ..Ego::default()
+                };
+                let d = s.update(t, p, ego);
+                if d.value >= cfg.alarm_threshold() && first.is_none() {
+                    first = Some(t);
+                }
+            }
+            first
+        };
+        // τ̂ from θ: the alarm comes when the ball's image says it is 1 s away (a lob's distance
+        // shrinks slowly while it rises: later than 1 s before it lands, 2 s)
+        let hit = run(0.0, false).expect("a lob onto the camera is let through");
+        assert!(hit < 1.5, "alarm at {hit:.3} s");
+        // the same lob passing 1.5 m over the camera is not
+        assert_eq!(run(1.5, false), None);
+        // a shaking camera that knows its own rotation sees the same
+        let shaken = run(0.0, true).expect("let through with camera shake");
+        assert!((shaken - hit).abs() < 0.02, "{shaken:.3} vs {hit:.3}");
+        assert_eq!(run(1.5, true), None);
     }
 
     #[test]

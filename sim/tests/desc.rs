@@ -61,6 +61,22 @@ fn validation_errors_name_the_key() {
             "world.vehicles[0].toward",
         ),
         (
+            "[[world.vehicles]]\nbrake_mps2 = 3\n",
+            "world.vehicles[0].brake_mps2",
+        ),
+        (
+            "[[world.vehicles]]\nspeed_mps = 10\ntravel_m = 5\nbrake_mps2 = 3\n",
+            "world.vehicles[0].brake_mps2",
+        ),
+        (
+            "[[world.vehicles]]\ntravel_m = 50\nbrake_mps2 = -1\n",
+            "world.vehicles[0].brake_mps2",
+        ),
+        (
+            "[[world.vehicles]]\ntravel_m = 50\nbrake_mps2 = 3\ncurvature_per_m = 0.1\n",
+            "world.vehicles[0].brake_mps2",
+        ),
+        (
             "[[world.scenery]]\nkind = \"pole\"\nradius_m = -1\n",
             "world.scenery[0].shape.radius_m",
         ),
