@@ -148,7 +148,10 @@ pub struct EscapeConfig {
     pub tau_window_s: f64,
     /// The collision-course gate ([`crate::strategy`]); needs θ̂.
     pub course: Course,
-    /// Closing speed the course gate assumes to turn τ̂ into a distance (m/s, > 0).
+    /// Closing speed the course gate assumes to turn τ̂ into a distance (m/s, > 0; default 10: a
+    /// thrown ball). An object closing faster looks nearer the robot's axis than it is (a fast near
+    /// pass may get through), a slower one farther (a slow graze of the body's edge may be gated
+    /// out); objects standing in the world close at the robot's own speed, which the gate uses.
     pub course_closing_speed_mps: f64,
     /// Window over which the course gate estimates the bearing and expansion rates (s, > 0).
     pub course_window_s: f64,
@@ -206,7 +209,7 @@ impl Default for EscapeConfig {
             min_angular_size_deg: 1.0,
             tau_window_s: 0.1,
             course: Course::Off,
-            course_closing_speed_mps: 5.0,
+            course_closing_speed_mps: 10.0,
             course_window_s: 0.25,
             side_memory_s: 0.5,
             manoeuvre: Manoeuvre::DodgeLateral,

@@ -29,32 +29,51 @@
 //! the controller alarms when the urgency is ≥ `1 / tau_threshold_s`, i.e. τ̂ ≤ `tau_threshold_s`.
 //!
 //! # `course = "image"`: the collision-course gate
-//! Over the last `course_window_s` seconds (longer than the τ window: a bearing rate is a small
-//! difference and the camera's own jitter adds to it), the least-squares slopes of θ, the azimuth
-//! (minus the robot's own yaw rate, which turns the whole image) and the elevation give θ̇ and the
-//! bearing rates (radians). For an object of radius R at distance d approaching on a straight line,
-//! its centre arrives `R · μ` to the side of the camera with `μ = 2·β̇/θ̇` (signed: the predicted
-//! miss in object radii; a head-on or constant-bearing approach has μ ≈ 0; both image edges
-//! diverge iff |μ| < 1); the same ratio of the elevation rate gives the vertical miss. Whether that
-//! offset touches the body depends on R, which the image does not give: the gate converts τ̂ into
-//! a distance with an assumed closing speed `course_closing_speed_mps` (or the robot's own forward
-//! speed when that is larger), `R̂ = sin(θ/2) · τ̂ · v̂`, and lets the alarm through only when
-//! - laterally, the predicted clearance `(|μ| − 1) · R̂` is at most the body's half-width, and
-//! - vertically (only when the percept has elevations and the object's course is straight: the
-//!   elevation in object radii, `sin(e)/sin(θ/2)`, deviates from a straight line by at most
-//!   [`STRAIGHT_COURSE_MAX_RADII`] at the predicted contact — a lobbed ball's course is curved by
-//!   gravity, and extrapolating it straight would call every lob a pass overhead), the object's
-//!   predicted extent `(μ_v ± 1) · R̂` overlaps the body's extent above and below the camera.
+//! The gate lets an alarm through only when the object's image says it will touch the robot's
+//! body. It reads the object's image over the last `course_window_s` seconds (longer than the τ
+//! window: a bearing rate is a small difference): its angular size θ, the direction of its
+//! reference point and, when the percept has one, its image extent (the edges' azimuths and
+//! elevations). Directions are first corrected for the camera's own rotation (the robot's yaw
+//! rate and the camera shake its inertial sensor measures, [`Ego`]).
 //!
-//! An object closing slower than v̂ looks bigger than it is to the gate (a graze of the body's edge
-//! may be gated out); a faster one smaller (a near pass just outside the body may pass the gate).
-//! Without an image position over the window (fewer than [`MIN_SAMPLES`] frames with one) the gate
-//! is closed. The gate also gives the side on which the object will arrive
-//! ([`Decision::pass_side`], when |μ| ≥ [`PASS_SIDE_MIN_RADII`]): the `ideal_course` reference row
-//! escapes from it (an object seen on the left that will cross to the right is dodged to the
-//! left). Detector rows escape from the looming side: a μ from the temporal-contrast centroid is
-//! too noisy to choose a side (with it, 4 hits of `hopfield_adapted_tau` in `multi_object` dodged
-//! into an object).
+//! **Where it arrives.** The image gives no scale: it gives offsets in units of the object's
+//! distance. The gate converts them with an assumed closing speed v̂ (`course_closing_speed_mps`,
+//! or the robot's forward speed when larger): a point at image direction `u = tan a` moving at
+//! constant velocity arrives (reaches the camera's depth) at a lateral offset `x = v̂ · τ² · u̇`,
+//! with τ the time to contact at the window's mean time. With an image extent, τ comes from the
+//! growth of the object's vertical extent (the time to contact of its nearest face, whatever its
+//! shape) and the four edges are extrapolated: the object is on a collision course when its
+//! predicted extent overlaps the body's (half-width beside the camera, its reach above and below
+//! the camera). An object whose edges all move as those of an object standing in the world
+//! (`u̇ · τ = u` within [`STANDING_TOLERANCE`]) closes at the robot's own speed, which then replaces
+//! v̂. Without an extent (a detector row), the object is taken as a sphere: its centre arrives
+//! `R · μ` beside the camera with `μ = 2·β̇/θ̇` (the miss in object radii; |μ| < 1 iff both edges
+//! diverge) and `R̂ = sin(θ/2) · τ̂ · v̂`; the gate needs `(|μ| − 1) · R̂` ≤ the body's half-width.
+//!
+//! **Vertically**, the elevation in object radii `sin(e)/sin(θ/2)` is linear in time on a straight
+//! course at constant speed and a parabola under gravity. When it deviates from a straight line by
+//! more than [`STRAIGHT_COURSE_MAX_RADII`] at the predicted contact, the course is curved (a lob)
+//! and its parabola is followed to the time the object's distance ahead reaches zero (or τ̂, if
+//! sooner: a course that bends because the object was just launched); otherwise the edges (or
+//! the centre) are extrapolated straight. Until the window holds enough elevations to tell, the
+//! gate stays closed.
+//!
+//! **Stopping short.** An object braking hard enough to stop before it arrives has dτ/dt ≥
+//! [`STOPPING_TAU_RATE`] (−1 at a constant speed; Lee 1976); the gate closes for it (dτ/dt from a
+//! parabola fitted to ln θ; not judged on curved courses, whose distance shrinks unevenly).
+//!
+//! **Limits.** An object closing faster than v̂ looks nearer the axis than it is (a fast near pass
+//! may get through); a slower one farther (a slow graze of the body's edge may be gated out). An
+//! object whose extreme edges lie at different depths (the side of a long vehicle) looks nearer the
+//! axis than it is. Without an image position over the window (fewer than [`MIN_SAMPLES`] frames)
+//! the gate is closed.
+//!
+//! **Escape side.** The gate also gives the side on which the object will arrive
+//! ([`Decision::pass_side`], when it arrives at least [`PASS_SIDE_MIN_RADII`] half-sizes off the
+//! axis): the `ideal_course` reference row escapes from it (an object seen on the left that will
+//! cross to the right is dodged to the left). Detector rows escape from the looming side: a μ from
+//! the temporal-contrast centroid is too noisy to choose a side (with it, 4 hits of
+//! `hopfield_adapted_tau` in `multi_object` dodged into an object).
 //!
 //! # `trigger = "angular_size"` / `"output"`
 //! Stateless: the value is θ̂ (degrees) or the detector's output, compared with `threshold`; the
@@ -170,6 +189,10 @@ pub struct Decision {
 /// decelerates hard enough to stop before it arrives (Lee 1976: −1 at constant speed, −0.5 for
 /// a deceleration that stops it just at contact): the gate closes for it.
 pub const STOPPING_TAU_RATE: f64 = -0.5;
+
+/// Relative tolerance within which an object's edges move as those of an object standing in the
+/// world (`d(tan a)/dt · τ = tan a`): the gate then scales the image by the robot's own speed.
+pub const STANDING_TOLERANCE: f64 = 0.1;
 
 /// Smallest predicted lateral miss (object radii) for which [`Decision::pass_side`] is given.
 pub const PASS_SIDE_MIN_RADII: f64 = 0.5;
@@ -391,13 +414,22 @@ impl Strategy {
             .filter(|&(rate, _, mean)| rate > 0.0 && mean > 0.0)
             .map(|(rate, _, mean)| mean / rate);
         let predicted_edges = extent_tau.or(theta_fit.map(|(td, _, theta_mean)| theta_mean / td)).and_then(|tau_c| {
-            let scale = speed * tau_c.powi(2);
             let rate =
                 |i: usize| slope(course().filter_map(|s| s.edges_tan.map(|e| (s.t, e[i])))).map(|(b, _, m)| (b, m));
+            let edges = [rate(0)?, rate(1)?, rate(2)?, rate(3)?];
+            // an object that stands in the world, seen from a robot driving straight, has
+            // d(tan a)/dt = tan a / τ at every edge: then it closes at the robot's own speed
+            let standing = ego.forward_mps > 0.0
+                && ego.yaw_rate_rps == 0.0
+                && edges
+                    .iter()
+                    .all(|&(rate, mean)| (rate * tau_c - mean).abs() <= STANDING_TOLERANCE * mean.abs().max(0.05));
+            let closing = if standing { ego.forward_mps } else { speed };
+            let scale = closing * tau_c.powi(2);
             let lateral = |(rate, mean): (f64, f64)| scale * (rate - ego.yaw_rate_rps * (1.0 + mean * mean));
             Some((
-                [lateral(rate(0)?), lateral(rate(1)?)],
-                [scale * rate(2)?.0, scale * rate(3)?.0],
+                [lateral(edges[0]), lateral(edges[1])],
+                [scale * edges[2].0, scale * edges[3].0],
             ))
         });
         let pass_side = match predicted_edges {
