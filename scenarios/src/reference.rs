@@ -157,10 +157,10 @@ impl IdealObserver {
             };
             let decision = self.per_object[o.id].update(t_s, percept, ego);
             if decision.value > best.0 {
-                // ideal_course escapes from where the object will arrive, when the gate says
+                // the τ rows escape from where the object will arrive, when the image says
                 let side = match self.kind {
-                    IdealKind::Course => decision.pass_side.or(Some(o.bearing)),
-                    _ => Some(o.bearing),
+                    IdealKind::Course | IdealKind::Tau => decision.pass_side.or(Some(o.bearing)),
+                    IdealKind::Theta => Some(o.bearing),
                 };
                 best = (decision.value, side, Some(o.id));
             }
