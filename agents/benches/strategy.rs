@@ -2,12 +2,13 @@
 //! (`cargo bench -p loomlab-agents --bench strategy`; criterion reports frames/s as "elem/s").
 //!
 //! Input: a ball of radius 0.2 m approaching from 20 m to 4 m every 2 s, drifting in azimuth,
-//! sampled at the 120 Hz camera rate.
+//! sampled at the 120 Hz camera rate: as a detector row sees it (θ̂ and an azimuth), and as the
+//! ideal rows see each object (elevation and image extent too).
 
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use loomlab_agents::{Course, Ego, EscapeConfig, Percept, TriggerSignal};
+use loomlab_agents::{Course, Ego, EscapeConfig, ImageExtent, Percept, TriggerSignal};
 
 fn strategy_update(c: &mut Criterion) {
     let cfg = EscapeConfig {
@@ -29,6 +30,28 @@ fn strategy_update(c: &mut Criterion) {
                 azimuth_deg: Some(0.1 * t),
                 elevation_deg: None,
                 extent: None,
+            };
+            black_box(strategy.update(t, black_box(p), Ego::default()).value)
+        })
+    });
+    // the ideal rows' percept: elevation and image extent too (every object, every frame)
+    let mut strategy = cfg.strategy();
+    let mut k = 0u64;
+    group.bench_function("tau_course_update_with_extent", |b| {
+        b.iter(|| {
+            let t = k as f64 / 120.0;
+            k += 1;
+            let d = 20.0 - (t % 2.0) * 8.0;
+            let half = (0.2f64 / d).asin().to_degrees();
+            let (az, el) = (0.1 * t, 0.05 * t);
+            let p = Percept {
+                value: 2.0 * half,
+                azimuth_deg: Some(az),
+                elevation_deg: Some(el),
+                extent: Some(ImageExtent {
+                    azimuth_deg: [az - half, az + half],
+                    elevation_deg: [el - half, el + half],
+                }),
             };
             black_box(strategy.update(t, black_box(p), Ego::default()).value)
         })
