@@ -413,25 +413,27 @@ impl Strategy {
         let extent_tau = slope(course().filter_map(|s| s.edges_tan.map(|e| (s.t, e[3] - e[2]))))
             .filter(|&(rate, _, mean)| rate > 0.0 && mean > 0.0)
             .map(|(rate, _, mean)| mean / rate);
-        let predicted_edges = extent_tau.or(theta_fit.map(|(td, _, theta_mean)| theta_mean / td)).and_then(|tau_c| {
-            let rate =
-                |i: usize| slope(course().filter_map(|s| s.edges_tan.map(|e| (s.t, e[i])))).map(|(b, _, m)| (b, m));
-            let edges = [rate(0)?, rate(1)?, rate(2)?, rate(3)?];
-            // an object that stands in the world, seen from a robot driving straight, has
-            // d(tan a)/dt = tan a / τ at every edge: then it closes at the robot's own speed
-            let standing = ego.forward_mps > 0.0
-                && ego.yaw_rate_rps == 0.0
-                && edges
-                    .iter()
-                    .all(|&(rate, mean)| (rate * tau_c - mean).abs() <= STANDING_TOLERANCE * mean.abs().max(0.05));
-            let closing = if standing { ego.forward_mps } else { speed };
-            let scale = closing * tau_c.powi(2);
-            let lateral = |(rate, mean): (f64, f64)| scale * (rate - ego.yaw_rate_rps * (1.0 + mean * mean));
-            Some((
-                [lateral(edges[0]), lateral(edges[1])],
-                [scale * edges[2].0, scale * edges[3].0],
-            ))
-        });
+        let predicted_edges = extent_tau
+            .or(theta_fit.map(|(td, _, theta_mean)| theta_mean / td))
+            .and_then(|tau_c| {
+                let rate =
+                    |i: usize| slope(course().filter_map(|s| s.edges_tan.map(|e| (s.t, e[i])))).map(|(b, _, m)| (b, m));
+                let edges = [rate(0)?, rate(1)?, rate(2)?, rate(3)?];
+                // an object that stands in the world, seen from a robot driving straight, has
+                // d(tan a)/dt = tan a / τ at every edge: then it closes at the robot's own speed
+                let standing = ego.forward_mps > 0.0
+                    && ego.yaw_rate_rps == 0.0
+                    && edges
+                        .iter()
+                        .all(|&(rate, mean)| (rate * tau_c - mean).abs() <= STANDING_TOLERANCE * mean.abs().max(0.05));
+                let closing = if standing { ego.forward_mps } else { speed };
+                let scale = closing * tau_c.powi(2);
+                let lateral = |(rate, mean): (f64, f64)| scale * (rate - ego.yaw_rate_rps * (1.0 + mean * mean));
+                Some((
+                    [lateral(edges[0]), lateral(edges[1])],
+                    [scale * edges[2].0, scale * edges[3].0],
+                ))
+            });
         let pass_side = match predicted_edges {
             Some(([l, r], _)) => {
                 let (centre, half) = ((l + r) / 2.0, (r - l).abs() / 2.0);

@@ -365,8 +365,8 @@ fn a_dodge_on_a_differential_drive_turns_away_and_drives_instead_of_sidestepping
 /// relative to a camera that may itself drive forward.
 mod strategies {
     use loomlab_agents::{
-        Course, Decision, DodgeSide, Ego, EscapeConfig, EscapeController, ImageExtent, Percept, Strategy, TriggerSignal,
-        VelocityCommand,
+        Course, Decision, DodgeSide, Ego, EscapeConfig, EscapeController, ImageExtent, Percept, Strategy,
+        TriggerSignal, VelocityCommand,
     };
 
     const DT: f64 = 1.0 / 120.0;
@@ -678,7 +678,10 @@ mod strategies {
             };
             x - car[0] >= 0.3 && sphere.update(t, p, Ego::default()).value >= cfg.alarm_threshold()
         });
-        assert!(sphere_alarms, "the sphere model gates the car out too: the test shows nothing");
+        assert!(
+            sphere_alarms,
+            "the sphere model gates the car out too: the test shows nothing"
+        );
         // the same car in the robot's lane is let through
         assert!(
             run_box(&cfg, 0.3, 0.4, car, 6.0)
@@ -704,7 +707,11 @@ mod strategies {
         // at t = 3 s; the same object without braking arrives
         let position = |t: f64, brake: bool| {
             let tb = t.clamp(0.0, 1.0);
-            let after = if brake { (t - 1.0).clamp(0.0, 2.0) } else { (t - 1.0).max(0.0) };
+            let after = if brake {
+                (t - 1.0).clamp(0.0, 2.0)
+            } else {
+                (t - 1.0).max(0.0)
+            };
             25.0 - 6.0 * tb - 6.0 * after + if brake { 1.5 * after * after } else { 0.0 }
         };
         for brake in [true, false] {
@@ -757,7 +764,11 @@ mod strategies {
                 if x.hypot(z) - r < 0.5 {
                     break;
                 }
-                let pitch = if shake { 1.5f64.to_radians() * (std::f64::consts::TAU * 4.0 * t).sin() } else { 0.0 };
+                let pitch = if shake {
+                    1.5f64.to_radians() * (std::f64::consts::TAU * 4.0 * t).sin()
+                } else {
+                    0.0
+                };
                 let d = x.hypot(z);
                 let half = (r / d).asin().to_degrees();
                 let el = z.atan2(x).to_degrees() - pitch.to_degrees();

@@ -189,7 +189,7 @@ impl VehicleDesc {
                     return Err(SimError::invalid(
                         k("brake_mps2"),
                         a,
-                        &format!(
+                        format!(
                             "braking from {speed} m/s takes {braking_m:.2} m, more than travel_m = {d}; brake harder or travel further"
                         ),
                     ));

@@ -60,10 +60,7 @@ fn validation_errors_name_the_key() {
             "[[world.vehicles]]\nstart = [1, 2]\ntoward = [1, 2]\n",
             "world.vehicles[0].toward",
         ),
-        (
-            "[[world.vehicles]]\nbrake_mps2 = 3\n",
-            "world.vehicles[0].brake_mps2",
-        ),
+        ("[[world.vehicles]]\nbrake_mps2 = 3\n", "world.vehicles[0].brake_mps2"),
         (
             "[[world.vehicles]]\nspeed_mps = 10\ntravel_m = 5\nbrake_mps2 = 3\n",
             "world.vehicles[0].brake_mps2",
