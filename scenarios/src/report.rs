@@ -326,7 +326,7 @@ pub fn format_summary_table(detectors: &BTreeMap<String, DetectorSummary>) -> St
         out += "* reference row from ground truth (null: never alarms; oracle: alarms at each escape deadline; \
                 ideal_theta: true angular size of a moving object >= the hopfield threshold; ideal_tau: \
                 time to contact from each object's true angular size; ideal_course: ideal_tau behind the \
-                collision-course gate on true bearings)\n";
+                collision-course gate on the true image)\n";
     }
     out
 }
