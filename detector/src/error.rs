@@ -45,6 +45,6 @@ pub enum DetectorError {
         reason: String,
     },
     /// An unknown detector id was requested.
-    #[error("unknown detector `{0}`; known ids: hopfield, soc, keil2004, cizek2019, fu2020 (or `all`)")]
+    #[error("unknown detector `{0}`; known ids: {known} (or `all`)", known = crate::registry::detector_ids().join(", "))]
     UnknownDetector(String),
 }

@@ -547,10 +547,11 @@ fn scenario_toml(name: &str) -> PyResult<&'static str> {
     scenarios::builtin(name).map_err(to_py)
 }
 
-/// The ids of every detector (`hopfield`, `soc`, `keil2004`, `cizek2019`, `fu2020`).
+/// The ids of every built-in detector, in display order (the registry's: `hopfield`, `soc`,
+/// `keil2004`, `cizek2019`, `fu2020`, …).
 #[pyfunction]
 fn detector_ids() -> Vec<&'static str> {
-    loomlab_detector::DETECTOR_IDS.to_vec()
+    loomlab_detector::detector_ids()
 }
 
 /// Raises the exception an environment error of this kind maps to (tests of the mapping).

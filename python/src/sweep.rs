@@ -192,14 +192,14 @@ pub fn run_suite(
         if let Some(ids) = &detectors
             && let Some(bad) = ids
                 .iter()
-                .find(|id| !loomlab_detector::DETECTOR_IDS.contains(&id.as_str()))
+                .find(|id| loomlab_detector::Registry::builtin().find(id).is_none())
         {
             return Err(loomlab_scenarios::ScenarioError::key(
                 &suite,
                 "detectors",
                 format!(
                     "unknown detector `{bad}`; known ids: {}",
-                    loomlab_detector::DETECTOR_IDS.join(", ")
+                    loomlab_detector::detector_ids().join(", ")
                 ),
             )
             .into());
@@ -209,6 +209,7 @@ pub fn run_suite(
             size,
             detectors,
             detector_entries,
+            ..Default::default()
         };
         let s = load_suite(&suite, &opts)?;
         let specs: Vec<EpisodeSpec> = s

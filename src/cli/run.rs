@@ -181,6 +181,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
         size: args.size,
         detectors,
         detector_entries,
+        ..Default::default()
     };
     let suite_path = args.suite.clone().unwrap_or_else(default_suite);
     let suite = load_suite(&suite_path, &opts)?;

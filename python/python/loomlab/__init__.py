@@ -104,7 +104,7 @@ def run_suite(
 
 
 def detector_ids() -> list:
-    """Every detector id: hopfield, soc, keil2004, cizek2019, fu2020."""
+    """Every built-in detector id, in display order (the Rust registry's: hopfield, soc, ...)."""
     return list(_native.detector_ids())
 
 
