@@ -14,8 +14,10 @@
 //! (`python/loomlab`).
 
 mod convert;
+mod detectors;
 mod errors;
 mod evaluation;
+mod run;
 mod scenarios;
 mod sweep;
 
@@ -599,6 +601,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyEscapeVectorEnv>()?;
     m.add_class::<sweep::SweepPlan>()?;
     m.add_function(wrap_pyfunction!(sweep::run_suite, m)?)?;
+    m.add_function(wrap_pyfunction!(run::run_cli, m)?)?;
     m.add_function(wrap_pyfunction!(evaluation::evaluation_report, m)?)?;
     m.add_function(wrap_pyfunction!(evaluation::calibrate_thresholds, m)?)?;
     m.add_function(wrap_pyfunction!(scenario_names, m)?)?;

@@ -404,6 +404,9 @@ pub struct LoadOptions {
     /// Use these `[[detectors]]` entries instead of every scenario's own list (a detectors file,
     /// or the parameter points of a sweep); `detectors` then filters them by id.
     pub detector_entries: Option<Vec<DetectorDesc>>,
+    /// Entries run in addition to the rows chosen above, in every scenario (Python detectors);
+    /// their ids must be in `registry`.
+    pub added_detectors: Vec<DetectorDesc>,
     /// The detectors that ids resolve to (default: [`Registry::builtin`]; a run adds its own, e.g.
     /// Python detectors, with [`Registry::with`]).
     pub registry: Registry,
@@ -821,6 +824,8 @@ fn resolve(doc: &ScenarioDoc, opts: &LoadOptions) -> Result<(WorldDesc, Vec<Dete
             out
         }
     };
+    let added = opts.added_detectors.iter().map(|d| (None, d.clone()));
+    let wanted: Vec<(Option<usize>, DetectorDesc)> = wanted.into_iter().chain(added).collect();
     if wanted.is_empty() {
         return Err((
             "detectors".into(),
