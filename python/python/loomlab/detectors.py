@@ -44,7 +44,9 @@ _LABEL = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,63}")
 
 
 def _snake(name: str) -> str:
-    return re.sub(r"(?<=[a-z0-9])([A-Z])", r"_\1", name).lower()
+    """``NumpySoc`` → ``numpy_soc``, ``NotANumber`` → ``not_a_number``, ``LGMDModel`` → ``lgmd_model``."""
+    name = re.sub(r"(.)([A-Z][a-z]+)", r"\1_\2", name)
+    return re.sub(r"([a-z0-9])([A-Z])", r"\1_\2", name).lower()
 
 
 class PythonDetector:
