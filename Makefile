@@ -9,7 +9,7 @@ PYTHON ?= python3
 # Mesa's Vulkan loader complains on every device creation when XDG_RUNTIME_DIR is unset (CI, containers).
 export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 $$d && echo $$d)
 
-.PHONY: run cli test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-venv python-env python-examples suite-check sweep bless bench figures fmt rl-env rl-train rl-table rl-result
+.PHONY: run cli test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-venv python-env python-examples suite-check sweep bless bench bench-python figures fmt rl-env rl-train rl-table rl-result
 
 # One build for everything that runs code: `make run`, the tests, the suite check, the Python
 # binding and the sweep tests all use the release profile of one workspace (one Cargo.lock, the
@@ -183,6 +183,11 @@ rl-result: rl-train rl-table
 ## Criterion benchmarks (detector, baselines, simulator step).
 bench: deps
 	$(CARGO) bench --workspace
+
+## What a Python detector (loomlab.PythonDetector) costs per frame over its own work, at 96×96
+## (docs/adding-a-detector.md; a benchmark, not a test).
+bench-python: python-env
+	$(VENV)/bin/python python/bench/python_detector_overhead.py
 
 ## Regenerate the paper's artificial-video figures into out/figures.
 figures:

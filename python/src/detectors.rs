@@ -306,3 +306,48 @@ fn describe_exception(py: Python<'_>, e: &PyErr) -> String {
     }
     text
 }
+
+/// Seconds that `frames` steps of a `loomlab.PythonDetector` take through the runner's glue (a
+/// fresh instance, then `step` on an n×n frame of the runner's `Frame` type, called from a worker
+/// thread with the GIL acquired per step, exactly as an episode calls it), for the overhead
+/// benchmark (`make bench-python`).
+#[pyfunction]
+pub fn _time_python_detector(py: Python<'_>, detector: Bound<'_, PyAny>, n: usize, frames: usize) -> PyResult<f64> {
+    if !(1..=4096).contains(&n) || frames > 10_000_000 {
+        return Err(pyo3::exceptions::PyValueError::new_err(
+            "n must be in 1..=4096 and frames at most 10^7",
+        ));
+    }
+    let (registry, descs) = registry_with(vec![PythonEntry::read(&detector)?])?;
+    let id = &descs[0].id;
+    let camera = CameraFacts {
+        n,
+        fov_deg: 60.0,
+        frame_rate_hz: 120.0,
+    };
+    let params = registry
+        .get(id)
+        .and_then(|r| {
+            r.configure(None, &camera).map_err(|e| DetectorError::InvalidImage(e.to_string()))
+        })
+        .map_err(|e| errors::DetectorError::new_err(e.to_string()))?;
+    let frame_data: Vec<Frame> = (0..2)
+        .map(|k| Frame::from_f32(n, (0..n * n).map(|i| ((i * 7 + k * 13) % 101) as f32 / 100.0).collect()))
+        .collect::<Result<_, _>>()
+        .map_err(|e| errors::DetectorError::new_err(e.to_string()))?;
+    py.detach(|| {
+        std::thread::scope(|s| {
+            s.spawn(|| -> Result<f64, DetectorError> {
+                let mut d = params.build(n)?;
+                let started = std::time::Instant::now();
+                for k in 0..frames {
+                    d.step(&frame_data[k % 2])?;
+                }
+                Ok(started.elapsed().as_secs_f64())
+            })
+            .join()
+        })
+    })
+    .map_err(|_| errors::DetectorError::new_err("the benchmark thread panicked"))?
+    .map_err(|e| errors::DetectorError::new_err(e.to_string()))
+}

@@ -602,6 +602,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<sweep::SweepPlan>()?;
     m.add_function(wrap_pyfunction!(sweep::run_suite, m)?)?;
     m.add_function(wrap_pyfunction!(run::run_cli, m)?)?;
+    m.add_function(wrap_pyfunction!(detectors::_time_python_detector, m)?)?;
     m.add_function(wrap_pyfunction!(evaluation::evaluation_report, m)?)?;
     m.add_function(wrap_pyfunction!(evaluation::calibrate_thresholds, m)?)?;
     m.add_function(wrap_pyfunction!(scenario_names, m)?)?;
