@@ -57,7 +57,8 @@ deps:
 	fi
 
 ## Formatting and lints (warnings are errors) of the whole workspace, the pyo3 crate included, and
-## of the Python side (ruff, and the stubs checked against the built module).
+## of the Python side (ruff, the stubs checked against the built module, mypy on the package's
+## public API: run_suite, PythonDetector, python -m loomlab).
 lint: lint-rust lint-python
 
 # pyo3's build script needs an interpreter: the venv's (clippy checks the binding too).
@@ -70,6 +71,8 @@ lint-python: python-env
 	$(VENV)/bin/ruff check python
 	$(VENV)/bin/ruff format --check python
 	cd python && $(abspath $(VENV))/bin/python -m mypy.stubtest loomlab._native --allowlist stubtest-allowlist.txt
+	cd python && $(abspath $(VENV))/bin/mypy python/loomlab/__init__.py python/loomlab/detectors.py python/loomlab/__main__.py \
+	  examples/python_detector.py bench/python_detector_overhead.py tests/test_detectors.py
 
 ## Compile every test binary and the CLI (what CI overlaps with the installs). The binding is in
 ## the selection (its lib has no tests: nothing links libpython) so that its dependencies' features

@@ -45,8 +45,11 @@ class NumpySoc:
         return 0.0 if previous is None else float(np.abs(f - previous).sum())
 
 
-class DictTheta(Trivial):
+class DictTheta:
     """Returns a dict with θ̂ and an image position (the dict path)."""
+
+    def reset(self) -> None:
+        pass
 
     def step(self, frame: np.ndarray) -> dict:
         return {"output": 0.0, "angular_size_deg": 1.0, "image_x": 0.0}

@@ -328,7 +328,8 @@ pub fn _time_python_detector(py: Python<'_>, detector: Bound<'_, PyAny>, n: usiz
     let params = registry
         .get(id)
         .and_then(|r| {
-            r.configure(None, &camera).map_err(|e| DetectorError::InvalidImage(e.to_string()))
+            r.configure(None, &camera)
+                .map_err(|e| DetectorError::InvalidImage(e.to_string()))
         })
         .map_err(|e| errors::DetectorError::new_err(e.to_string()))?;
     let frame_data: Vec<Frame> = (0..2)

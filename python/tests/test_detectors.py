@@ -92,12 +92,18 @@ class Raises:
         raise RuntimeError("boom in step")
 
 
-class BadKey(Raises):
+class BadKey:
+    def reset(self) -> None:
+        pass
+
     def step(self, frame: np.ndarray) -> dict:
         return {"output": 1.0, "colour": 2.0}
 
 
-class NotANumber(Raises):
+class NotANumber:
+    def reset(self) -> None:
+        pass
+
     def step(self, frame: np.ndarray) -> str:
         return "high"
 
@@ -130,7 +136,7 @@ def test_bad_wrappers_are_refused_with_the_fix():
         loomlab.run_suite(SUITE, detectors=[3], limit=1)  # type: ignore[list-item]
 
 
-MODULE = '''
+MODULE = """
 import time
 import numpy as np
 
@@ -149,7 +155,7 @@ class Slow(NumpySoc):
     def step(self, frame):
         time.sleep(0.01)
         return super().step(frame)
-'''
+"""
 
 
 def _cli(tmp_path: Path, *args: str, **kw) -> subprocess.Popen:
@@ -168,8 +174,21 @@ def _cli(tmp_path: Path, *args: str, **kw) -> subprocess.Popen:
 
 def test_python_m_loomlab_run_writes_the_run_folder(tmp_path):
     out = tmp_path / "run"
-    p = _cli(tmp_path, "--detector", "my_detectors:NumpySoc", "--label", "np_soc", "--detectors", "soc", "--limit", "3",
-             "--size", "32", "--out", str(out))
+    p = _cli(
+        tmp_path,
+        "--detector",
+        "my_detectors:NumpySoc",
+        "--label",
+        "np_soc",
+        "--detectors",
+        "soc",
+        "--limit",
+        "3",
+        "--size",
+        "32",
+        "--out",
+        str(out),
+    )
     stdout, stderr = p.communicate(timeout=600)
     assert p.returncode == 0, stderr
     for name in ("report.json", "report.html", "episodes.csv", "manifest.json", "roc.png"):
@@ -187,8 +206,22 @@ def test_python_m_loomlab_run_writes_the_run_folder(tmp_path):
 
 def test_ctrl_c_keeps_the_finished_episodes_and_resume_completes(tmp_path):
     out = tmp_path / "run"
-    args = ("--detector", "my_detectors:Slow", "--detectors", "soc", "--limit", "6", "--size", "32", "--jobs", "1",
-            "--out", str(out), "--no-html", "--no-plots")
+    args = (
+        "--detector",
+        "my_detectors:Slow",
+        "--detectors",
+        "soc",
+        "--limit",
+        "6",
+        "--size",
+        "32",
+        "--jobs",
+        "1",
+        "--out",
+        str(out),
+        "--no-html",
+        "--no-plots",
+    )
     p = _cli(tmp_path, *args)
     csv = out / "episodes.csv"
     deadline = time.monotonic() + 300

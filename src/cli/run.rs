@@ -98,7 +98,7 @@ pub struct RunArgs {
     /// Print only the pooled table, not one table per scenario.
     #[arg(long)]
     pub brief: bool,
-    /// Also write every episode's open-loop trace to DIR/traces/<scenario>_<episode>.csv (time,
+    /// Also write every episode's open-loop trace to DIR/traces/SCENARIO_EPISODE.csv (time,
     /// true angular size and TTC of the reference object, each detector's trigger signal and output).
     #[arg(long)]
     pub traces: bool,

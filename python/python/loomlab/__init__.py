@@ -78,15 +78,15 @@ def scenario_toml(name: str) -> str:
 
 
 def run_suite(
-    suite: Union[str, "os.PathLike[str]"],
+    suite: Union[str, "_os.PathLike[str]"],
     *,
     seed: int = 0,
     size: Optional[int] = None,
     limit: Optional[int] = None,
     detectors: Optional[Sequence[Union[str, Dict[str, Any], PythonDetector]]] = None,
-    detectors_file: Union[str, "os.PathLike[str]", None] = None,
+    detectors_file: Union[str, "_os.PathLike[str]", None] = None,
     jobs: Optional[int] = None,
-    out: Union[str, "os.PathLike[str]", None] = None,
+    out: Union[str, "_os.PathLike[str]", None] = None,
     resume: bool = False,
 ) -> Dict[str, Any]:
     """Runs a scenario suite in this process and returns its report (the ``report.json`` dict).

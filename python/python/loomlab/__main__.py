@@ -14,7 +14,10 @@ from __future__ import annotations
 import sys
 from typing import List, Optional
 
-USAGE = "usage: python -m loomlab run [SUITE] --detector module:Class [--label L] [--threshold T] [--trigger S] [loomlab run options]"
+USAGE = (
+    "usage: python -m loomlab run [SUITE] --detector module:Class [--label L] [--threshold T] [--trigger S] "
+    "[loomlab run options]"
+)
 
 
 def _python_detectors(argv: List[str]):

@@ -21,6 +21,7 @@ __all__ = [
     "scenario_toml",
     "detector_ids",
     "_raise",
+    "_time_python_detector",
     "LoomlabError",
     "ScenarioError",
     "RenderError",

@@ -75,7 +75,9 @@ class PythonDetector:
     ) -> None:
         for method in ("reset", "step"):
             if not callable(getattr(detector, method, None)):
-                raise TypeError(f"PythonDetector: {detector!r} has no method {method}(); it needs reset() and step(frame)")
+                raise TypeError(
+                    f"PythonDetector: {detector!r} has no method {method}(); it needs reset() and step(frame)"
+                )
         cls = detector if isinstance(detector, type) else type(detector)
         label = label if label is not None else getattr(detector, "label", None) or _snake(cls.__name__)
         if not isinstance(label, str) or not _LABEL.fullmatch(label):
@@ -105,7 +107,10 @@ class PythonDetector:
         self.trigger: str = trigger
 
     def __repr__(self) -> str:
-        return f"PythonDetector({self.detector!r}, label={self.label!r}, threshold={self.threshold!r}, trigger={self.trigger!r})"
+        return (
+            f"PythonDetector({self.detector!r}, label={self.label!r}, threshold={self.threshold!r}, "
+            f"trigger={self.trigger!r})"
+        )
 
 
 def load_class(spec: str) -> Any:
