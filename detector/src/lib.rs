@@ -35,4 +35,4 @@ pub use registry::{
     CameraFacts, ConfiguredDetector, DetectorConfig, DetectorParams, DetectorSet, Registration, Registry, Signal,
     detector_ids, parse_detector_list,
 };
-pub use signals::{Detector, Signals};
+pub use signals::{Detector, EfferenceCopy, Signals};

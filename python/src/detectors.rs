@@ -23,7 +23,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTracebackMethods, PyType};
 
 use loomlab_detector::registry::{CameraFacts, Configure, ConfiguredDetector, ParamError, Registration, Signal};
-use loomlab_detector::{Detector, DetectorError, DetectorParams, Frame, Registry, Signals};
+use loomlab_detector::{Detector, DetectorError, DetectorParams, EfferenceCopy, Frame, Registry, Signals};
 use loomlab_scenarios::schema::{DetectorDesc, trigger_of};
 
 use crate::errors;
@@ -168,6 +168,11 @@ impl ConfiguredDetector for PythonConfigured {
                         )
                     })?
             };
+            let wants_ego = py
+                .import("loomlab.detectors")
+                .and_then(|m| m.call_method1("_accepts_ego", (&instance,)))
+                .and_then(|v| v.extract::<bool>())
+                .map_err(|e| self.failed(py, "inspecting step()", e))?;
             instance
                 .call_method0("reset")
                 .map_err(|e| self.failed(py, "reset()", e))?;
@@ -175,6 +180,7 @@ impl ConfiguredDetector for PythonConfigured {
                 id: self.id,
                 instance: instance.unbind(),
                 n,
+                wants_ego,
                 reset_error: None,
             }) as Box<dyn Detector>)
         })
@@ -194,6 +200,8 @@ struct PythonInstance {
     id: &'static str,
     instance: Py<PyAny>,
     n: usize,
+    /// Whether `step` takes a second argument, the efference copy.
+    wants_ego: bool,
     /// An exception of `reset()` (the trait's `reset` cannot fail): reported by the next step.
     reset_error: Option<String>,
 }
@@ -221,6 +229,18 @@ impl Detector for PythonInstance {
     }
 
     fn step(&mut self, frame: &Frame) -> Result<Signals, DetectorError> {
+        self.call_step(frame, None)
+    }
+
+    fn step_moving(&mut self, frame: &Frame, ego: &EfferenceCopy) -> Result<Signals, DetectorError> {
+        self.call_step(frame, Some(ego))
+    }
+}
+
+impl PythonInstance {
+    /// `step(frame)`, or `step(frame, ego)` when it takes the efference copy (a dict
+    /// `{forward_mps, yaw_rate_rps, lateral_mps}`; `None` where there is none).
+    fn call_step(&mut self, frame: &Frame, ego: Option<&EfferenceCopy>) -> Result<Signals, DetectorError> {
         if let Some(reason) = self.reset_error.take() {
             return Err(self.failed(reason));
         }
@@ -235,11 +255,24 @@ impl Detector for PythonInstance {
             ArrayView2::from_shape((n, n), frame.data()).map_err(|e| DetectorError::InvalidImage(e.to_string()))?;
         Python::attach(|py| {
             let array = view.to_pyarray(py);
-            let answer = self
-                .instance
-                .bind(py)
-                .call_method1("step", (array,))
-                .map_err(|e| self.failed(format!("step(frame): {}", describe_exception(py, &e))))?;
+            let step = self.instance.bind(py);
+            let answer = if self.wants_ego {
+                let ego = match ego {
+                    Some(e) => {
+                        let d = PyDict::new(py);
+                        d.set_item("forward_mps", e.forward_mps)
+                            .and_then(|()| d.set_item("yaw_rate_rps", e.yaw_rate_rps))
+                            .and_then(|()| d.set_item("lateral_mps", e.lateral_mps))
+                            .map_err(|e| self.failed(format!("building the efference copy: {e}")))?;
+                        d.into_any()
+                    }
+                    None => py.None().into_bound(py),
+                };
+                step.call_method1("step", (array, ego))
+            } else {
+                step.call_method1("step", (array,))
+            };
+            let answer = answer.map_err(|e| self.failed(format!("step(frame): {}", describe_exception(py, &e))))?;
             signals_of(&answer).map_err(|why| self.failed(format!("step(frame) returned {why}")))
         })
     }

@@ -84,6 +84,29 @@ def test_a_dict_with_theta_can_trigger():
     assert row["hits"] + row["false_alarms"] == 1
 
 
+class EgoForward:
+    """Outputs the forward speed of its efference copy (``step(frame, ego)``)."""
+
+    def reset(self) -> None:
+        pass
+
+    def step(self, frame: np.ndarray, ego: Optional[dict]) -> float:
+        assert ego is not None and set(ego) == {"forward_mps", "yaw_rate_rps", "lateral_mps"}
+        return float(ego["forward_mps"])
+
+
+def test_a_step_with_two_arguments_gets_the_efference_copy(tmp_path):
+    from conftest import SHORT_SCENARIO  # the robot cruises at 1 m/s
+
+    scenario = tmp_path / "short.toml"
+    scenario.write_text(SHORT_SCENARIO.split("[[world.projectiles]]")[0])  # no threat: alarms are false
+    below = loomlab.PythonDetector(EgoForward, label="below", threshold=0.5)
+    above = loomlab.PythonDetector(EgoForward, label="above", threshold=1.5)
+    report = loomlab.run_suite(scenario, detectors=["soc", below, above], limit=1)
+    alarms = {k: report["detectors"][k]["hits"] + report["detectors"][k]["false_alarms"] for k in ("below", "above")}
+    assert alarms == {"below": 1, "above": 0}
+
+
 class Raises:
     def reset(self) -> None:
         pass

@@ -11,6 +11,7 @@ escape controller and scoring as a Rust detector's signals. See docs/adding-a-de
 from __future__ import annotations
 
 import importlib
+import inspect
 import re
 from typing import Any, Dict, Optional, Union
 
@@ -36,7 +37,9 @@ class Detector(Protocol):
         """Forget all history (called before every episode's first frame)."""
 
     def step(self, frame: np.ndarray) -> StepResult:
-        """Process the next frame: float32 (n, n), luminance in [0, 1]."""
+        """Process the next frame: float32 (n, n), luminance in [0, 1]. A ``step(frame, ego)`` also
+        gets the efference copy: the command the robot applied during the camera period that ended
+        with this frame, ``{"forward_mps": ..., "yaw_rate_rps": ..., "lateral_mps": ...}``."""
         ...
 
 
@@ -53,7 +56,9 @@ class PythonDetector:
     """A Python detector for :func:`loomlab.run_suite` and ``python -m loomlab run``.
 
     ``detector`` is an object with ``reset()`` and ``step(frame) -> float | dict``, or a class whose
-    no-argument constructor makes one. The runner needs a fresh detector for every episode (and for
+    no-argument constructor makes one. A ``step(frame, ego)`` also gets the efference copy, the
+    command applied during the frame's camera period (``forward_mps``, ``yaw_rate_rps``,
+    ``lateral_mps``). The runner needs a fresh detector for every episode (and for
     the closed loop after an alarm), possibly on several threads: it calls the class, or
     ``copy.deepcopy`` of the object, then ``reset()``. The Python calls hold the GIL, so they run
     one at a time while rendering and the Rust detectors run in parallel.
@@ -111,6 +116,16 @@ class PythonDetector:
             f"PythonDetector({self.detector!r}, label={self.label!r}, threshold={self.threshold!r}, "
             f"trigger={self.trigger!r})"
         )
+
+
+def _accepts_ego(detector: Any) -> bool:
+    """Whether ``detector.step`` takes a second positional argument (the efference copy)."""
+    try:
+        params = inspect.signature(detector.step).parameters.values()
+    except (TypeError, ValueError):
+        return False
+    positional = [p for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    return len(positional) >= 2 or any(p.kind == p.VAR_POSITIONAL for p in params)
 
 
 def load_class(spec: str) -> Any:
