@@ -9,7 +9,7 @@ PYTHON ?= python3
 # Mesa's Vulkan loader complains on every device creation when XDG_RUNTIME_DIR is unset (CI, containers).
 export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 $$d && echo $$d)
 
-.PHONY: run cli test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-venv python-env python-examples suite-check sweep bless readme-table bench figures fmt rl-env rl-train rl-table rl-result
+.PHONY: run cli test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-venv python-env python-examples suite-check sweep bless readme-table bench bench-python figures fmt rl-env rl-train rl-table rl-result
 
 # One build for everything that runs code: `make run`, the tests, the suite check, the Python
 # binding and the sweep tests all use the release profile of one workspace (one Cargo.lock, the
@@ -57,7 +57,8 @@ deps:
 	fi
 
 ## Formatting and lints (warnings are errors) of the whole workspace, the pyo3 crate included, and
-## of the Python side (ruff, and the stubs checked against the built module).
+## of the Python side (ruff, the stubs checked against the built module, mypy on the package's
+## public API: run_suite, PythonDetector, python -m loomlab).
 lint: lint-rust lint-python
 
 # pyo3's build script needs an interpreter: the venv's (clippy checks the binding too).
@@ -70,6 +71,8 @@ lint-python: python-env
 	$(VENV)/bin/ruff check python
 	$(VENV)/bin/ruff format --check python
 	cd python && $(abspath $(VENV))/bin/python -m mypy.stubtest loomlab._native --allowlist stubtest-allowlist.txt
+	cd python && $(abspath $(VENV))/bin/mypy python/loomlab/__init__.py python/loomlab/detectors.py python/loomlab/__main__.py \
+	  examples/python_detector.py bench/python_detector_overhead.py tests/test_detectors.py
 
 ## Compile every test binary and the CLI (what CI overlaps with the installs). The binding is in
 ## the selection (its lib has no tests: nothing links libpython) so that its dependencies' features
@@ -193,6 +196,11 @@ rl-result: rl-train rl-table
 ## Criterion benchmarks (detector, baselines, simulator step).
 bench: deps
 	$(CARGO) bench --workspace
+
+## What a Python detector (loomlab.PythonDetector) costs per frame over its own work, at 96×96
+## (docs/adding-a-detector.md; a benchmark, not a test).
+bench-python: python-env
+	$(VENV)/bin/python python/bench/python_detector_overhead.py
 
 ## Regenerate the paper's artificial-video figures into out/figures.
 figures:

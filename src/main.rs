@@ -1,25 +1,9 @@
 //! `loomlab`: closed-loop testbed for looming detectors. The binary parses arguments, dispatches to
-//! one module per subcommand (`cli/`) and maps errors to exit codes; every capability lives in the
-//! library crates (`loomlab-detector`, `loomlab-sim`, `loomlab-agents`, `loomlab-scenarios`).
+//! one module per subcommand (`cli/`, in this package's library so that the Python package runs the
+//! same `loomlab run`) and maps errors to exit codes; every capability lives in the library crates
+//! (`loomlab-detector`, `loomlab-sim`, `loomlab-agents`, `loomlab-scenarios`).
 
-/// `println!` that never panics: a closed stdout (`loomlab run … | head -1`) stops the printing,
-/// not the program (its files and run state are what matter; see docs/reference.md, "loomlab run").
-macro_rules! outln {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stdout().lock(), $($arg)*);
-    }};
-}
-
-/// `eprintln!` that never panics (a closed stderr is ignored).
-macro_rules! errln {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stderr().lock(), $($arg)*);
-    }};
-}
-
-mod cli;
+use loomlab::{cli, errln};
 
 use clap::{Parser, Subcommand};
 

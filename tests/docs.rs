@@ -12,9 +12,6 @@ use crate::common::{loomlab, s, text, tmp};
 const BASELINE: &str = "scenarios/baseline/default-report.json";
 /// Documents with generated blocks (the Makefile's `DOC_TABLES`).
 const GENERATED: [&str; 2] = ["README.md", "docs/results.md"];
-/// Links to pages written on another branch (issue 26: the detector registry), not yet merged
-/// here. Remove an entry once the page exists.
-const PENDING: [&str; 1] = ["docs/adding-a-detector.md"];
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -200,12 +197,6 @@ fn relative_links_point_to_existing_files_and_anchors() {
                     .ok()
                     .map(Path::to_path_buf)
             });
-            if PENDING
-                .iter()
-                .any(|p| dir.join(path).ends_with(p) || root().join(p) == target)
-            {
-                continue;
-            }
             let Some(rel) = rel else {
                 broken.push(format!("{name}: ({link}): no such file"));
                 continue;

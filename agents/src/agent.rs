@@ -3,7 +3,8 @@
 //! One camera frame goes through exactly this path, in the scenario runner's closed-loop tails,
 //! in its escape-deadline replays and in every Gymnasium step:
 //!
-//! 1. every detector of the agent steps on the frame ([`Detector::step`]);
+//! 1. every detector of the agent steps on the frame ([`Detector::step_moving`], with the command
+//!    the agent returned for the period that ended with it as the efference copy);
 //! 2. the looming side is estimated from this frame and the previous one
 //!    ([`LoomingSideEstimator`], the x centroid of the temporal contrast);
 //! 3. the escape controller reads the **driving** detector's trigger signal (the first detector;
@@ -48,6 +49,10 @@ pub struct EscapeAgent {
     detectors: Vec<Box<dyn Detector>>,
     side: LoomingSideEstimator,
     controller: EscapeController,
+    /// The command the last step returned: applied during the period that ends with the next
+    /// frame, the detectors' efference copy (`None`: no step since the last reset; then the cruise
+    /// command).
+    applied: Option<VelocityCommand>,
 }
 
 impl std::fmt::Debug for EscapeAgent {
@@ -67,6 +72,7 @@ impl EscapeAgent {
             detectors,
             side: LoomingSideEstimator::default(),
             controller: EscapeController::new(controller)?,
+            applied: None,
         })
     }
 
@@ -77,6 +83,7 @@ impl EscapeAgent {
             detectors,
             side: LoomingSideEstimator::default(),
             controller,
+            applied: None,
         }
     }
 
@@ -87,6 +94,7 @@ impl EscapeAgent {
         }
         self.side.reset();
         self.controller.reset();
+        self.applied = None;
     }
 
     /// Replaces the detector at `index` (e.g. rebuilt with other parameters).
@@ -117,8 +125,9 @@ impl EscapeAgent {
     /// robot follows when nothing threatens it.
     pub fn step(&mut self, t_s: f64, frame: &Frame, cruise: VelocityCommand) -> Result<AgentStep, DetectorError> {
         let mut signals = Vec::with_capacity(self.detectors.len());
+        let ego = self.applied.unwrap_or(cruise).efference_copy();
         for d in &mut self.detectors {
-            signals.push(d.step(frame)?);
+            signals.push(d.step_moving(frame, &ego)?);
         }
         let looming_side = self.side.update(frame);
         let percept = match signals.first() {
@@ -131,6 +140,7 @@ impl EscapeAgent {
         let trigger_value = self.controller.perceive(t_s, percept, cruise).value;
         let mut step = self.decide(t_s, looming_side, trigger_value, cruise);
         step.signals = signals;
+        self.applied = Some(step.command);
         Ok(step)
     }
 

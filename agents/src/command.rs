@@ -18,6 +18,15 @@ pub struct VelocityCommand {
 }
 
 impl VelocityCommand {
+    /// This command as the efference copy a detector gets for the camera period it was applied in.
+    pub fn efference_copy(&self) -> loomlab_detector::EfferenceCopy {
+        loomlab_detector::EfferenceCopy {
+            forward_mps: self.forward_mps,
+            yaw_rate_rps: self.yaw_rate_rps,
+            lateral_mps: self.lateral_mps,
+        }
+    }
+
     /// All components zero: stand still.
     pub const STOP: Self = Self {
         forward_mps: 0.0,

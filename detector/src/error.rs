@@ -44,7 +44,16 @@ pub enum DetectorError {
         /// What is wrong, naming the key and the fix.
         reason: String,
     },
+    /// A detector implemented outside Rust (a Python detector) failed: its exception, or an
+    /// answer of the wrong form.
+    #[error("detector `{detector}`: {reason}")]
+    Failed {
+        /// The detector's id.
+        detector: String,
+        /// What went wrong (the exception and where it was raised, or what was expected).
+        reason: String,
+    },
     /// An unknown detector id was requested.
-    #[error("unknown detector `{0}`; known ids: hopfield, soc, keil2004, cizek2019, fu2020 (or `all`)")]
+    #[error("unknown detector `{0}`; known ids: {known} (or `all`)", known = crate::registry::detector_ids().join(", "))]
     UnknownDetector(String),
 }

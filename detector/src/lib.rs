@@ -31,5 +31,8 @@ pub use baselines::{BASELINE_IDS, BaselineConfigs, baseline_by_id};
 pub use error::DetectorError;
 pub use frame::{Frame, NonSquare};
 pub use hopfield::{Hopfield, HopfieldConfig, HopfieldSignals, Implementation};
-pub use registry::{DETECTOR_IDS, DetectorSet, parse_detector_list};
-pub use signals::{Detector, Signals};
+pub use registry::{
+    CameraFacts, ConfiguredDetector, DetectorConfig, DetectorParams, DetectorSet, Registration, Registry, Signal,
+    detector_ids, parse_detector_list,
+};
+pub use signals::{Detector, EfferenceCopy, Signals};

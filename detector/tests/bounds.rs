@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use loomlab_detector::stimulus::StimulusSpec;
-use loomlab_detector::{DETECTOR_IDS, DetectorSet, HopfieldConfig, MIN_FRAME_SIZE};
+use loomlab_detector::{DetectorSet, HopfieldConfig, MIN_FRAME_SIZE, detector_ids};
 
 #[test]
 fn min_frame_size_is_what_the_default_detectors_need() {
@@ -19,7 +19,7 @@ fn min_frame_size_is_what_the_default_detectors_need() {
     };
     let e = too_small.validate().unwrap_err().to_string();
     assert!(e.contains("n ≥ 20") && e.contains("MIN_FRAME_SIZE"), "{e}");
-    for id in DETECTOR_IDS {
+    for id in detector_ids() {
         DetectorSet::default().build(id, MIN_FRAME_SIZE).unwrap();
     }
 }

@@ -6,7 +6,7 @@ use loomlab_agents::{
     ContinuousAction, DiscreteAction, Ego, EscapeAgent, EscapeConfig, EscapeController, Strategy, TriggerSignal,
     VelocityCommand,
 };
-use loomlab_detector::{DetectorSet, Frame};
+use loomlab_detector::{DetectorParams, Frame};
 use loomlab_sim::{GpuContext, RobotState, Sim, StepOutput};
 use serde::{Deserialize, Serialize};
 
@@ -196,8 +196,8 @@ pub struct EpisodeSnapshot {
 /// What the environment keeps per detector (the detector itself lives in the [`EscapeAgent`]).
 struct DetectorSlot {
     label: String,
-    id: &'static str,
-    params: DetectorSet,
+    id: String,
+    params: DetectorParams,
     trigger: TriggerSignal,
     threshold: f64,
     /// The row's escape-controller configuration (its decision strategy), threshold included.
@@ -375,8 +375,8 @@ impl EscapeEnv {
             let (controller, strategy) = slot_controller(spec, &first.controller, threshold);
             detectors.push(DetectorSlot {
                 label: spec.label.clone(),
-                id: spec.id,
-                params: spec.params,
+                id: spec.id.clone(),
+                params: spec.params.clone(),
                 trigger: spec.trigger,
                 threshold,
                 controller,
@@ -451,8 +451,8 @@ impl EscapeEnv {
     }
 
     /// The chosen detectors' ids, in observation order.
-    pub fn detector_ids(&self) -> Vec<&'static str> {
-        self.detectors.iter().map(|d| d.id).collect()
+    pub fn detector_ids(&self) -> Vec<&str> {
+        self.detectors.iter().map(|d| d.id.as_str()).collect()
     }
 
     /// Names of each detector's signal vector (`output` then its auxiliary signals).
@@ -548,7 +548,7 @@ impl EscapeEnv {
         for (i, (slot, d)) in self.detectors.iter_mut().zip(&spec.detectors).enumerate() {
             if slot.params != d.params {
                 self.agent.replace_detector(i, d.build(self.n as usize)?);
-                slot.params = d.params;
+                slot.params = d.params.clone();
             }
             slot.trace.clear();
             slot.trigger = d.trigger;

@@ -120,7 +120,10 @@ impl EnvOptions {
             return Err(EnvError::option(
                 "detectors",
                 "[]",
-                "choose at least one detector (hopfield, soc, keil2004, cizek2019, fu2020)",
+                format!(
+                    "choose at least one detector ({})",
+                    loomlab_detector::detector_ids().join(", ")
+                ),
             ));
         }
         for (id, t) in &self.thresholds {

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use loomlab_detector::{DETECTOR_IDS, DetectorError};
+use loomlab_detector::{DetectorError, Registry};
 
 use super::{EnvError, EnvOptions};
 use loomlab_scenarios::ScenarioError;
@@ -47,7 +47,7 @@ impl EnvScenario {
     pub fn load(&self, options: &EnvOptions, seed: u64) -> Result<ScenarioEpisodes, EnvError> {
         if let Some(ids) = &options.detectors {
             for id in ids {
-                if !DETECTOR_IDS.contains(&id.as_str()) {
+                if Registry::builtin().find(id).is_none() {
                     return Err(DetectorError::UnknownDetector(id.clone()).into());
                 }
             }
@@ -57,6 +57,7 @@ impl EnvScenario {
             size: options.frame_size,
             detectors: options.detectors.clone(),
             detector_entries: None,
+            ..Default::default()
         };
         let parsed = parse_scenario(&self.text, &self.path, None, &opts)?;
         let sc = ScenarioEpisodes {

@@ -513,6 +513,7 @@ fn normalized_features_stay_in_bounds_on_the_default_scenarios() {
         size: Some(32),
         detectors: None,
         detector_entries: None,
+        ..Default::default()
     };
     let suite = loomlab_scenarios::load_suite(&suite_path, &load).unwrap();
     let episodes = suite.episodes().collect::<Result<Vec<_>, _>>().unwrap();

@@ -44,6 +44,7 @@ pub fn suite_episodes(
             size: options.frame_size,
             detectors: options.detectors.clone(),
             detector_entries: None,
+            ..Default::default()
         };
         let s = load_suite(&path, &opts)?;
         let episodes = s

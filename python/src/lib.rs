@@ -14,8 +14,10 @@
 //! (`python/loomlab`).
 
 mod convert;
+mod detectors;
 mod errors;
 mod evaluation;
+mod run;
 mod scenarios;
 mod sweep;
 
@@ -547,10 +549,11 @@ fn scenario_toml(name: &str) -> PyResult<&'static str> {
     scenarios::builtin(name).map_err(to_py)
 }
 
-/// The ids of every detector (`hopfield`, `soc`, `keil2004`, `cizek2019`, `fu2020`).
+/// The ids of every built-in detector, in display order (the registry's: `hopfield`, `soc`,
+/// `keil2004`, `cizek2019`, `fu2020`, …).
 #[pyfunction]
 fn detector_ids() -> Vec<&'static str> {
-    loomlab_detector::DETECTOR_IDS.to_vec()
+    loomlab_detector::detector_ids()
 }
 
 /// Raises the exception an environment error of this kind maps to (tests of the mapping).
@@ -598,6 +601,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyEscapeVectorEnv>()?;
     m.add_class::<sweep::SweepPlan>()?;
     m.add_function(wrap_pyfunction!(sweep::run_suite, m)?)?;
+    m.add_function(wrap_pyfunction!(run::run_cli, m)?)?;
+    m.add_function(wrap_pyfunction!(detectors::_time_python_detector, m)?)?;
     m.add_function(wrap_pyfunction!(evaluation::evaluation_report, m)?)?;
     m.add_function(wrap_pyfunction!(evaluation::calibrate_thresholds, m)?)?;
     m.add_function(wrap_pyfunction!(scenario_names, m)?)?;

@@ -350,8 +350,11 @@ impl Runner {
                 let cmd = ep.cruise.command_at(sim.time());
                 let mut out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
                 let frame = Frame::from_f32(nn, std::mem::take(&mut out.frame)).map_err(|e| c.det(e))?;
+                // the efference copy: the command applied during this period, as the escape
+                // agent passes it in the closed loop (the same up to the first alarm)
+                let ego = cmd.efference_copy();
                 for (i, (d, spec)) in detectors.iter_mut().zip(&ep.detectors).enumerate() {
-                    let s = d.step(&frame).map_err(|e| c.det(e))?;
+                    let s = d.step_moving(&frame, &ego).map_err(|e| c.det(e))?;
                     signal[i].push(spec.trigger.value(&s).unwrap_or(f64::NAN));
                     output[i].push(s.output);
                 }

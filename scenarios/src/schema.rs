@@ -19,7 +19,7 @@
 //! [robot]                          # the cruise command (the body and start pose are in [world.robot])
 //! forward_mps = 1.0
 //!
-//! [[detectors]]                    # default: all five detectors at their default thresholds
+//! [[detectors]]                    # default: every registered detector at its default threshold
 //! id = "hopfield"
 //! threshold = 10.0                 # degrees of θ̂ for hopfield, output units for the baselines
 //!
@@ -40,8 +40,8 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use loomlab_agents::{Course, EscapeConfig, TriggerSignal, VelocityCommand};
-use loomlab_detector::baselines::BaselineConfigs;
-use loomlab_detector::{DETECTOR_IDS, Detector, DetectorError, DetectorSet, HopfieldConfig};
+pub use loomlab_detector::CameraFacts;
+use loomlab_detector::{Detector, DetectorError, DetectorParams, Registration, Registry, Signal};
 use loomlab_sim::WorldDesc;
 use serde::{Deserialize, Serialize};
 use toml::{Table, Value};
@@ -50,35 +50,13 @@ use crate::error::ScenarioError;
 use crate::expand::{KeyPath, MAX_EPISODES_PER_SUITE, Variation, merge_defaults, mix_seed};
 use crate::metrics::ScoringConfig;
 
-/// Default alarm thresholds per detector, used when a scenario's `[[detectors]]` entry gives none.
-///
-/// `hopfield`: θ̂ in degrees; the baselines: their output in their own units. The baselines' values
-/// are calibrated on held-out draws of the default suite (`loomlab run --seed 7 --calibrate 0.1`:
-/// the smallest threshold, rounded up to three significant digits, with at most 10 % false alarms
-/// over its 219 non-threat episodes); see `scenarios/README.md`. For `hopfield` the calibration
-/// allows any θ̂ > 0 (θ̂ jumps from 0 to well above 10° within a frame or two when the detector
-/// responds), so the locust's escape angle of 10° (paper discussion) is kept: it gives the same
-/// rates on that calibration run.
-pub const DEFAULT_THRESHOLDS: [(&str, f64); 5] = [
-    ("hopfield", 10.0),
-    ("soc", 270.0),
-    ("keil2004", 0.000095),
-    ("cizek2019", 0.0172),
-    ("fu2020", 2.47),
-];
-
-/// The default threshold of detector `id` ([`DEFAULT_THRESHOLDS`]).
-pub fn default_threshold(id: &str) -> Option<f64> {
-    DEFAULT_THRESHOLDS.iter().find(|(k, _)| *k == id).map(|(_, t)| *t)
-}
-
-/// The detectors that give an angular-size estimate θ̂ (the only ones that can drive the τ
-/// strategy or the course gate).
-pub const ANGULAR_SIZE_IDS: [&str; 1] = ["hopfield"];
-
-/// Whether detector `id` gives θ̂ ([`ANGULAR_SIZE_IDS`]).
-pub fn gives_angular_size(id: &str) -> bool {
-    ANGULAR_SIZE_IDS.contains(&id)
+/// The trigger signal of a registry signal ([`Signal::Output`] → `output`, [`Signal::AngularSize`]
+/// → `angular_size_deg`).
+pub fn trigger_of(signal: Signal) -> TriggerSignal {
+    match signal {
+        Signal::Output => TriggerSignal::Output,
+        Signal::AngularSize => TriggerSignal::AngularSizeDeg,
+    }
 }
 
 /// Half the lateral extent of the robot's body (m): half a box's y size, a cylinder's radius.
@@ -100,15 +78,6 @@ pub fn body_extent_about_camera_m(world: &WorldDesc) -> (f64, f64) {
     };
     let camera_z = f64::from(world.camera.position[2]);
     (half_height - camera_z, half_height + camera_z)
-}
-
-/// The default trigger signal of detector `id`: θ̂ (degrees) for `hopfield`, the output otherwise.
-pub fn default_trigger(id: &str) -> TriggerSignal {
-    if id == "hopfield" {
-        TriggerSignal::AngularSizeDeg
-    } else {
-        TriggerSignal::Output
-    }
 }
 
 fn d_duration() -> f64 {
@@ -239,17 +208,19 @@ impl CruiseDesc {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DetectorDesc {
-    /// Detector id: `hopfield`, `soc`, `keil2004`, `cizek2019` or `fu2020`.
+    /// Detector id: one of the registry's ([`Registry`]: `hopfield`, `soc`, `keil2004`,
+    /// `cizek2019`, `fu2020`, …).
     pub id: String,
     /// Name in reports and CSV (default: the id). Lets one scenario run a detector twice, e.g.
     /// `hopfield` at two thresholds.
     #[serde(default)]
     pub label: Option<String>,
-    /// Alarm threshold (default: [`DEFAULT_THRESHOLDS`]).
+    /// Alarm threshold (default: the detector's [`Registration::default_threshold`]).
     #[serde(default)]
     pub threshold: Option<f64>,
-    /// Which signal is compared with the threshold (default: `angular_size_deg` for hopfield,
-    /// `output` for the baselines; `tau` for the time-to-contact strategy, which needs θ̂).
+    /// Which signal is compared with the threshold (default: the detector's
+    /// [`Registration::default_trigger`], `angular_size_deg` for hopfield, `output` for the
+    /// baselines; `tau` for the time-to-contact strategy, which needs θ̂).
     #[serde(default)]
     pub trigger: Option<TriggerSignal>,
     /// `trigger = "tau"`: alarm when the estimated time to contact is at most this (s; default
@@ -263,8 +234,9 @@ pub struct DetectorDesc {
     /// The collision-course gate: `"off"` (default) or `"image"` (needs θ̂).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub course: Option<Course>,
-    /// Detector parameters: keys of `HopfieldConfig` (except `n` and `fov_deg`, which come from
-    /// `world.camera`) or of the baseline's config (e.g. `SocConfig`).
+    /// Detector parameters: keys of the detector's config type (its
+    /// [`loomlab_detector::DetectorConfig`], e.g. `HopfieldConfig` except `n`, `fov_deg` and
+    /// `frame_rate_hz`, which come from `world.camera`, or `SocConfig`).
     #[serde(default)]
     pub params: Option<Table>,
 }
@@ -322,8 +294,8 @@ struct ScenarioDoc {
 pub struct DetectorSpec {
     /// Name in reports (the id unless the scenario gave a label).
     pub label: String,
-    /// Detector id.
-    pub id: &'static str,
+    /// Detector id (a registry id).
+    pub id: String,
     /// Which signal is compared with the threshold.
     pub trigger: TriggerSignal,
     /// Alarm threshold: an alarm is `signal >= threshold`, the signal being the decision value of
@@ -334,14 +306,15 @@ pub struct DetectorSpec {
     pub min_angular_size_deg: Option<f64>,
     /// The collision-course gate.
     pub course: Course,
-    /// Parameters (the Hopfield `n` and `fov_deg` already match the camera).
-    pub params: DetectorSet,
+    /// Validated parameters (camera keys such as the Hopfield `n` and `fov_deg` already match the
+    /// camera).
+    pub params: DetectorParams,
 }
 
 impl DetectorSpec {
     /// Builds a fresh detector for n×n frames.
     pub fn build(&self, n: usize) -> Result<Box<dyn Detector>, DetectorError> {
-        self.params.build(self.id, n)
+        self.params.build(n)
     }
 
     /// The escape controller's configuration for this detector.
@@ -437,12 +410,18 @@ pub struct LoadOptions {
     /// Frame size n overriding every `world.camera.n`.
     pub size: Option<u32>,
     /// Run exactly these detector ids (the scenario's settings for them when it lists them,
-    /// defaults otherwise); `None`: the scenario's list (default all five). With
+    /// defaults otherwise); `None`: the scenario's list (default every registered detector). With
     /// `detector_entries` it only filters those entries by id.
     pub detectors: Option<Vec<String>>,
     /// Use these `[[detectors]]` entries instead of every scenario's own list (a detectors file,
     /// or the parameter points of a sweep); `detectors` then filters them by id.
     pub detector_entries: Option<Vec<DetectorDesc>>,
+    /// Entries run in addition to the rows chosen above, in every scenario (Python detectors);
+    /// their ids must be in `registry`.
+    pub added_detectors: Vec<DetectorDesc>,
+    /// The detectors that ids resolve to (default: [`Registry::builtin`]; a run adds its own, e.g.
+    /// Python detectors, with [`Registry::with`]).
+    pub registry: Registry,
 }
 
 /// A suite's `[defaults]` table and the file it is written in (errors at keys that come from it
@@ -839,7 +818,7 @@ fn resolve(doc: &ScenarioDoc, opts: &LoadOptions) -> Result<(WorldDesc, Vec<Dete
     };
     let wanted: Vec<(Option<usize>, DetectorDesc)> = match (&opts.detectors, entries) {
         (None, Some(_)) => listed.into_iter().map(|(i, d)| (Some(i), d)).collect(),
-        (None, None) => DETECTOR_IDS.iter().map(|id| (None, bare(id))).collect(),
+        (None, None) => opts.registry.ids().into_iter().map(|id| (None, bare(id))).collect(),
         // a detectors file: --detectors only filters its entries
         (Some(ids), Some(_)) if opts.detector_entries.is_some() => listed
             .into_iter()
@@ -859,6 +838,8 @@ fn resolve(doc: &ScenarioDoc, opts: &LoadOptions) -> Result<(WorldDesc, Vec<Dete
             out
         }
     };
+    let added = opts.added_detectors.iter().map(|d| (None, d.clone()));
+    let wanted: Vec<(Option<usize>, DetectorDesc)> = wanted.into_iter().chain(added).collect();
     if wanted.is_empty() {
         return Err((
             "detectors".into(),
@@ -871,7 +852,7 @@ fn resolve(doc: &ScenarioDoc, opts: &LoadOptions) -> Result<(WorldDesc, Vec<Dete
             Some(i) => format!("detectors[{i}].{k}"),
             None => format!("detectors.{k}"),
         };
-        let spec = resolve_detector(&d, CameraFacts::of(&world)).map_err(|(k, r)| (key(&k), r))?;
+        let spec = resolve_detector_in(&opts.registry, &d, camera_facts(&world)).map_err(|(k, r)| (key(&k), r))?;
         if specs.iter().any(|s| s.label == spec.label) {
             return Err((
                 key("label"),
@@ -886,52 +867,45 @@ fn resolve(doc: &ScenarioDoc, opts: &LoadOptions) -> Result<(WorldDesc, Vec<Dete
     Ok((world, specs))
 }
 
-/// Validates one `[[detectors]]` entry for n×n frames at `fov_deg` and builds its spec.
-/// Errors are `(key, reason)` with the key relative to the entry (`threshold`, `params.alpha`, …).
-/// The camera facts a detector is built for: the Hopfield `n`, `fov_deg` and `frame_rate_hz` come
-/// from the camera and may not be given as detector parameters.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CameraFacts {
-    /// Frame side length (pixels).
-    pub n: usize,
-    /// Field of view (degrees).
-    pub fov_deg: f64,
-    /// Frame rate (Hz).
-    pub frame_rate_hz: f64,
-}
-
-impl CameraFacts {
-    /// The facts of a world's camera.
-    pub fn of(world: &WorldDesc) -> Self {
-        Self {
-            n: world.camera.n as usize,
-            fov_deg: f64::from(world.camera.fov_deg),
-            frame_rate_hz: f64::from(world.camera_hz),
-        }
-    }
-
-    /// The default camera's facts with frame side `n` (for validating detector lists that are not
-    /// tied to a world yet).
-    pub fn default_with_size(n: usize) -> Self {
-        Self {
-            n,
-            ..Self::of(&WorldDesc::default())
-        }
+/// The camera facts of a world's camera (what detectors take from the camera).
+pub fn camera_facts(world: &WorldDesc) -> CameraFacts {
+    CameraFacts {
+        n: world.camera.n as usize,
+        fov_deg: f64::from(world.camera.fov_deg),
+        frame_rate_hz: f64::from(world.camera_hz),
     }
 }
 
-/// Validates one `[[detectors]]` entry for `camera` and builds its spec.
+/// The default camera's facts with frame side `n` (for validating detector lists that are not tied
+/// to a world yet).
+pub fn default_camera(n: usize) -> CameraFacts {
+    CameraFacts {
+        n,
+        ..camera_facts(&WorldDesc::default())
+    }
+}
+
+/// Validates one `[[detectors]]` entry for `camera` against the built-in registry and builds its
+/// spec. Errors are `(key, reason)` with the key relative to the entry (`threshold`,
+/// `params.alpha`, …).
 pub fn resolve_detector(d: &DetectorDesc, camera: CameraFacts) -> Result<DetectorSpec, (String, String)> {
-    let Some(&id) = DETECTOR_IDS.iter().find(|&&k| k == d.id) else {
+    resolve_detector_in(Registry::builtin(), d, camera)
+}
+
+/// [`resolve_detector`] against `registry`.
+pub fn resolve_detector_in(
+    registry: &Registry,
+    d: &DetectorDesc,
+    camera: CameraFacts,
+) -> Result<DetectorSpec, (String, String)> {
+    let Some(reg) = registry.find(&d.id) else {
         return Err((
             "id".into(),
-            format!("unknown detector `{}`; known ids: {}", d.id, DETECTOR_IDS.join(", ")),
+            format!("unknown detector `{}`; known ids: {}", d.id, registry.ids().join(", ")),
         ));
     };
-    let threshold = d
-        .threshold
-        .or_else(|| default_threshold(id))
-        .expect("every id has a default threshold");
+    let id = reg.id.as_str();
+    let threshold = d.threshold.unwrap_or(reg.default_threshold);
     if !threshold.is_finite() {
         return Err(("threshold".into(), format!("{threshold} must be finite")));
     }
@@ -951,21 +925,23 @@ pub fn resolve_detector(d: &DetectorDesc, camera: CameraFacts) -> Result<Detecto
             ),
         ));
     }
-    let trigger = d.trigger.unwrap_or_else(|| default_trigger(id));
+    let trigger = d.trigger.unwrap_or_else(|| trigger_of(reg.default_trigger));
+    let gives_theta = reg.gives(Signal::AngularSize);
+    let with_theta = || angular_size_ids(registry).join(", ");
     // a trigger on θ̂ needs a detector that estimates it: any other detector would never alarm
-    if trigger == TriggerSignal::AngularSizeDeg && !gives_angular_size(id) {
+    if trigger == TriggerSignal::AngularSizeDeg && !gives_theta {
         return Err((
             "trigger".into(),
             format!(
                 "\"angular_size_deg\" needs a detector that estimates the angular size θ̂ ({}); \
                  `{id}` gives none, so it would never alarm: use trigger = \"output\"",
-                ANGULAR_SIZE_IDS.join(", ")
+                with_theta()
             ),
         ));
     }
     let course = d.course.unwrap_or_default();
     let needs_theta = trigger == TriggerSignal::Tau || course != Course::Off;
-    if needs_theta && !gives_angular_size(id) {
+    if needs_theta && !gives_theta {
         let key = if trigger == TriggerSignal::Tau {
             "trigger"
         } else {
@@ -980,7 +956,7 @@ pub fn resolve_detector(d: &DetectorDesc, camera: CameraFacts) -> Result<Detecto
                 } else {
                     "course = \"image\""
                 },
-                ANGULAR_SIZE_IDS.join(", ")
+                with_theta()
             ),
         ));
     }
@@ -1024,10 +1000,12 @@ pub fn resolve_detector(d: &DetectorDesc, camera: CameraFacts) -> Result<Detecto
             format!("{m} must be a finite number >= 0"),
         ));
     }
-    let params = detector_params(id, d.params.as_ref(), camera)?;
+    let params = reg
+        .configure(d.params.as_ref(), &camera)
+        .map_err(|e| (e.key, e.reason))?;
     Ok(DetectorSpec {
         label,
-        id,
+        id: id.to_string(),
         trigger,
         threshold,
         min_angular_size_deg: d.min_angular_size_deg,
@@ -1060,7 +1038,7 @@ pub fn parse_detector_entries(text: &str, path: &Path) -> Result<Vec<DetectorDes
     }
     let mut labels = Vec::new();
     for (i, d) in doc.detectors.iter().enumerate() {
-        let spec = resolve_detector(d, CameraFacts::default_with_size(64))
+        let spec = resolve_detector(d, default_camera(64))
             .map_err(|(k, r)| ScenarioError::key(path, format!("detectors[{i}].{k}"), r))?;
         if labels.contains(&spec.label) {
             return Err(ScenarioError::key(
@@ -1099,41 +1077,16 @@ fn bare(id: &str) -> DetectorDesc {
     }
 }
 
-fn detector_params(id: &str, params: Option<&Table>, camera: CameraFacts) -> Result<DetectorSet, (String, String)> {
-    let mut set = DetectorSet::default();
-    let table = params.cloned().unwrap_or_default();
-    if id == "hopfield" {
-        for k in ["n", "fov_deg", "frame_rate_hz"] {
-            if table.contains_key(k) {
-                return Err((
-                    format!("params.{k}"),
-                    format!("comes from world.camera (`{k}` of the camera); remove it here"),
-                ));
-            }
-        }
-        let cfg: HopfieldConfig = typed(Value::Table(table), "params")?;
-        set.hopfield = HopfieldConfig {
-            n: camera.n,
-            fov_deg: camera.fov_deg,
-            frame_rate_hz: camera.frame_rate_hz,
-            ..cfg
-        };
-        set.hopfield
-            .validate()
-            .map_err(|e| ("params".to_string(), e.to_string()))?;
-    } else {
-        let mut wrapped = Table::new();
-        wrapped.insert(id.to_string(), Value::Table(table));
-        set.baselines = typed::<BaselineConfigs>(Value::Table(wrapped), "").map_err(|(k, r)| {
-            let key = match k.strip_prefix(id) {
-                Some(rest) => format!("params{rest}"),
-                None => format!("params.{k}"),
-            };
-            (key, r)
-        })?;
-        set.baselines
-            .build(id)
-            .map_err(|e| ("params".to_string(), e.to_string()))?;
-    }
-    Ok(set)
+/// The ids of the detectors in `registry` that give θ̂.
+pub fn angular_size_ids(registry: &Registry) -> Vec<&str> {
+    registry
+        .iter()
+        .filter(|r| r.gives(Signal::AngularSize))
+        .map(|r| r.id.as_str())
+        .collect()
+}
+
+/// The registration of a built-in detector id (its default threshold and trigger, …).
+pub fn registration(id: &str) -> Option<&'static Registration> {
+    Registry::builtin().find(id)
 }

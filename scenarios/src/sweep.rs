@@ -51,7 +51,7 @@ use crate::metrics::{DetectorEpisode, DetectorSummary, EpisodeOutcome, ScoringEr
 use crate::reference::is_reference;
 use crate::report::{LOOMLAB_VERSION, Report, ReportMeta};
 use crate::runner::Runner;
-use crate::schema::{CameraFacts, DetectorDesc, EpisodeSpec, LoadOptions, resolve_detector, typed};
+use crate::schema::{DetectorDesc, EpisodeSpec, LoadOptions, default_camera, resolve_detector, typed};
 use crate::suite::load_suite;
 
 /// Most parameter points one sweep may expand to.
@@ -343,16 +343,14 @@ impl SweepFile {
                 let label = format!("{prefix}-{k:03}");
                 desc.label = Some(label.clone());
                 // Check the point (values out of range name the point and its values).
-                resolve_detector(&desc, CameraFacts::default_with_size(doc.size.unwrap_or(64) as usize)).map_err(
-                    |(key, r)| {
-                        let vals = values
-                            .iter()
-                            .map(|(k, v)| format!("{k} = {v}"))
-                            .collect::<Vec<_>>()
-                            .join(", ");
-                        key_err(path, here(&key), format!("point {label} ({vals}): {r}"))
-                    },
-                )?;
+                resolve_detector(&desc, default_camera(doc.size.unwrap_or(64) as usize)).map_err(|(key, r)| {
+                    let vals = values
+                        .iter()
+                        .map(|(k, v)| format!("{k} = {v}"))
+                        .collect::<Vec<_>>()
+                        .join(", ");
+                    key_err(path, here(&key), format!("point {label} ({vals}): {r}"))
+                })?;
                 if points.iter().any(|p| p.label == label) {
                     return Err(key_err(
                         path,
@@ -443,6 +441,7 @@ impl SweepPlan {
             size: file.size,
             detectors: None,
             detector_entries: Some(file.points.iter().map(|p| p.detector.clone()).collect()),
+            ..Default::default()
         };
         let suite = load_suite(&file.suite, &opts)?;
         let episodes: Vec<EpisodeSpec> = suite

@@ -3,9 +3,10 @@
 use std::path::{Path, PathBuf};
 
 use loomlab_agents::TriggerSignal;
+use loomlab_detector::HopfieldConfig;
 use loomlab_scenarios::reference::REFERENCE_LABELS;
 use loomlab_scenarios::schema::{
-    CameraFacts, DEFAULT_THRESHOLDS, DetectorDesc, default_threshold, parse_detector_entries, resolve_detector,
+    DetectorDesc, camera_facts, default_camera, parse_detector_entries, registration, resolve_detector,
 };
 use loomlab_scenarios::{DEFAULT_SUITE, LoadOptions, ScenarioError, load_scenario, load_suite, parse_scenario};
 
@@ -53,14 +54,16 @@ fn a_plain_scenario_is_one_episode_with_all_detectors() {
     let labels: Vec<&str> = ep.detectors.iter().map(|d| d.label.as_str()).collect();
     assert_eq!(labels, ["hopfield", "soc", "keil2004", "cizek2019", "fu2020"]);
     for d in &ep.detectors {
-        assert_eq!(Some(d.threshold), default_threshold(d.id));
+        assert_eq!(Some(d.threshold), registration(&d.id).map(|r| r.default_threshold));
     }
     assert_eq!(ep.detectors[0].trigger, TriggerSignal::AngularSizeDeg);
     assert_eq!(ep.detectors[1].trigger, TriggerSignal::Output);
     // the Hopfield readout uses the camera's size and field of view
-    assert_eq!(ep.detectors[0].params.hopfield.n, 32);
-    assert_eq!(ep.detectors[0].params.hopfield.fov_deg, 60.0);
-    assert_eq!(DEFAULT_THRESHOLDS.len(), 5);
+    assert_eq!(ep.detectors[0].params.config::<HopfieldConfig>().unwrap().n, 32);
+    assert_eq!(ep.detectors[0].params.config::<HopfieldConfig>().unwrap().fov_deg, 60.0);
+    // the calibrated defaults (scenarios/README.md) are a contract of the registry
+    let defaults: Vec<f64> = ep.detectors.iter().map(|d| d.threshold).collect();
+    assert_eq!(defaults, [10.0, 270.0, 0.000095, 0.0172, 2.47]);
 }
 
 #[test]
@@ -285,7 +288,13 @@ fn load_options_override_size_and_detectors() {
     let ep = &s.episode(0).unwrap();
     assert_eq!(ep.world.camera.n, 48);
     let got: Vec<(&str, f64)> = ep.detectors.iter().map(|d| (d.label.as_str(), d.threshold)).collect();
-    assert_eq!(got, [("soc", 3.0), ("fu2020", default_threshold("fu2020").unwrap())]);
+    assert_eq!(
+        got,
+        [
+            ("soc", 3.0),
+            ("fu2020", registration("fu2020").unwrap().default_threshold)
+        ]
+    );
 }
 
 #[test]
@@ -298,7 +307,7 @@ fn labels_let_a_detector_run_twice() {
     let d = &s.episode(0).unwrap().detectors;
     assert_eq!(d[0].label, "hopfield_8");
     assert_eq!(d[1].threshold, 12.0);
-    assert_eq!(d[1].params.hopfield.beta, 300.0);
+    assert_eq!(d[1].params.config::<HopfieldConfig>().unwrap().beta, 300.0);
 }
 
 #[test]
@@ -500,10 +509,10 @@ fn reference_labels_are_reserved_for_detectors() {
         course: None,
         params: None,
     };
-    let (key, reason) = resolve_detector(&desc("oracle"), CameraFacts::default_with_size(32)).unwrap_err();
+    let (key, reason) = resolve_detector(&desc("oracle"), default_camera(32)).unwrap_err();
     assert_eq!(key, "label");
     assert!(reason.contains("reserved"), "{reason}");
-    let ok = resolve_detector(&desc("oracle_2"), CameraFacts::default_with_size(32)).unwrap();
+    let ok = resolve_detector(&desc("oracle_2"), default_camera(32)).unwrap();
     assert_eq!(ok.label, "oracle_2");
     // a near miss of a reserved label is fine, and so is the id as a label
     let s = parse(&format!(
@@ -517,7 +526,7 @@ fn reference_labels_are_reserved_for_detectors() {
 fn detectors_are_built_for_the_camera_facts() {
     let world: loomlab_sim::WorldDesc =
         toml::from_str("camera = { n = 48, fov_deg = 90.0 }\ncamera_hz = 60.0\n").unwrap();
-    let facts = CameraFacts::of(&world);
+    let facts = camera_facts(&world);
     assert_eq!((facts.n, facts.fov_deg, facts.frame_rate_hz), (48, 90.0, 60.0));
     let d = DetectorDesc {
         id: "hopfield".into(),
@@ -530,7 +539,7 @@ fn detectors_are_built_for_the_camera_facts() {
         params: None,
     };
     let spec = resolve_detector(&d, facts).unwrap();
-    let h = &spec.params.hopfield;
+    let h = &spec.params.config::<HopfieldConfig>().unwrap();
     assert_eq!((h.n, h.fov_deg, h.frame_rate_hz), (48, 90.0, 60.0));
     // and a scenario passes its world's camera: the frame rate may not be set per detector
     let e = err(&format!(
@@ -540,7 +549,7 @@ fn detectors_are_built_for_the_camera_facts() {
         e.contains("`detectors[0].params.frame_rate_hz`") && e.contains("world.camera"),
         "{e}"
     );
-    let default = CameraFacts::default_with_size(20);
+    let default = default_camera(20);
     assert_eq!((default.n, default.fov_deg), (20, 60.0));
 }
 

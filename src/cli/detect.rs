@@ -42,7 +42,8 @@ pub struct DetectArgs {
     /// Video: a folder of PNG/JPEG frames (natural filename order) or an animated GIF, read as grayscale.
     #[arg(long, value_name = "DIR|FILE.gif")]
     pub video: Option<PathBuf>,
-    /// Detector ids, comma-separated, or `all`: hopfield, soc, keil2004, cizek2019, fu2020.
+    /// Detector ids, comma-separated, or `all` (every registered detector: hopfield, soc, keil2004,
+    /// cizek2019, fu2020, …).
     #[arg(long, short, default_value = "hopfield", value_name = "ID[,ID...]|all")]
     pub detector: String,
     /// Hopfield implementation.

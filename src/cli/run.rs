@@ -25,6 +25,7 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::Args;
+use loomlab_detector::Registry;
 use loomlab_detector::parse_detector_list;
 use loomlab_scenarios::calibrate::calibrate;
 use loomlab_scenarios::fingerprint::Fingerprint;
@@ -32,7 +33,7 @@ use loomlab_scenarios::metrics::EpisodeOutcome;
 use loomlab_scenarios::reference::REFERENCE_LABELS;
 use loomlab_scenarios::regression::{Tolerances, compare};
 use loomlab_scenarios::report::{LOOMLAB_VERSION, Report, ReportMeta};
-use loomlab_scenarios::schema::{Scenario, load_detector_entries};
+use loomlab_scenarios::schema::{DetectorDesc, Scenario, load_detector_entries};
 use loomlab_scenarios::{DEFAULT_SUITE, EpisodeRun, EpisodeSpec, LoadOptions, Runner, load_suite};
 
 use super::run_dir::{
@@ -97,7 +98,7 @@ pub struct RunArgs {
     /// Print only the pooled table, not one table per scenario.
     #[arg(long)]
     pub brief: bool,
-    /// Also write every episode's open-loop trace to DIR/traces/<scenario>_<episode>.csv (time,
+    /// Also write every episode's open-loop trace to DIR/traces/SCENARIO_EPISODE.csv (time,
     /// true angular size and TTC of the reference object, each detector's trigger signal and output).
     #[arg(long)]
     pub traces: bool,
@@ -136,8 +137,28 @@ const TRACES_DIR: &str = "traces";
 /// at a chunk's end).
 const CHUNK: usize = 1024;
 
+/// What a caller embedding `loomlab run` adds (the Python package: its Python detectors, its own
+/// Ctrl-C handling). The default is the command line's.
+#[derive(Debug, Default)]
+pub struct RunContext {
+    /// The detector registry the suite's ids resolve to (default: the built-in detectors).
+    pub registry: Registry,
+    /// Detector entries run in every scenario next to the suite's (or `--detectors`' /
+    /// `--detectors-file`'s) rows; their ids are in `registry`.
+    pub added_detectors: Vec<DetectorDesc>,
+    /// Set to stop the run as the first Ctrl-C does (`None`: install the Ctrl-C handler).
+    pub stop: Option<Arc<AtomicBool>>,
+    /// The command to print for resuming (`None`: this process's command line).
+    pub command: Option<Vec<String>>,
+}
+
 /// Runs `loomlab run`.
 pub fn run(args: RunArgs) -> anyhow::Result<i32> {
+    run_with(args, RunContext::default())
+}
+
+/// Runs `loomlab run` with what an embedding caller adds ([`RunContext`]); returns the exit code.
+pub fn run_with(args: RunArgs, context: RunContext) -> anyhow::Result<i32> {
     let detectors: Option<Vec<String>> = match &args.detectors {
         Some(spec) => Some(parse_detector_list(spec)?.into_iter().map(String::from).collect()),
         None => None,
@@ -181,6 +202,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
         size: args.size,
         detectors,
         detector_entries,
+        added_detectors: context.added_detectors,
+        registry: context.registry,
     };
     let suite_path = args.suite.clone().unwrap_or_else(default_suite);
     let suite = load_suite(&suite_path, &opts)?;
@@ -280,8 +303,14 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
     };
     let mut manifest = Manifest::new(fingerprint.hex(), &suite_path, total);
     manifest.traces = args.traces;
+    if let Some(command) = context.command {
+        manifest.command = command;
+    }
     // the handler first: an interrupt from the moment the manifest says `running` is handled
-    let stop = interrupt_flag();
+    let stop = match context.stop {
+        Some(stop) => stop,
+        None => interrupt_flag(),
+    };
     let Prepared {
         dir: mut run_dir,
         done,

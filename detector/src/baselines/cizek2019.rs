@@ -27,6 +27,7 @@ use serde::Deserialize;
 use super::common::{FrameStep, PreviousFrame, Range, check, zeroed};
 use super::lowpass::LowPass;
 use super::stencil::{SymKernel, corr3_rows};
+use crate::registry::{DetectorConfig, Registration, Signal};
 use crate::{Detector, DetectorError, Frame, Signals};
 
 /// The 3×3 lateral-inhibition kernel `w_I` (docs/detectors.md, cizek2019 §2; sum 1.5, centre 0).
@@ -217,4 +218,28 @@ impl Detector for Cizek2019 {
         };
         Ok(Self::signals(z, z_hat, t_s, t_l))
     }
+}
+
+impl DetectorConfig for Cizek2019Config {
+    fn validate(&self) -> Result<(), DetectorError> {
+        Cizek2019Config::validate(self)
+    }
+
+    fn build(&self, _n: usize) -> Result<Box<dyn Detector>, DetectorError> {
+        Ok(Box::new(Cizek2019::new(*self)?))
+    }
+}
+
+/// `cizek2019` in the registry. The default threshold (output units) is calibrated on held-out draws
+/// of the default suite (`loomlab run --seed 7 --calibrate 0.1`: the smallest threshold, rounded up
+/// to three significant digits, with at most 10 % false alarms over its non-threat episodes; see
+/// `scenarios/README.md`).
+pub(crate) fn registration() -> Registration {
+    Registration::of::<Cizek2019Config>(
+        "cizek2019",
+        "LGMD of Čížek & Faigl 2019 with Keil's adaptive thresholds",
+        &[Signal::Output],
+        Signal::Output,
+        0.0172,
+    )
 }

@@ -31,6 +31,7 @@ use serde::Deserialize;
 use super::common::{FrameStep, PreviousFrame, Range, check, check3, zeroed};
 use super::lowpass::LowPass;
 use super::stencil::{SymKernel, corr3_classes_rows, corr3_rows, max_abs};
+use crate::registry::{DetectorConfig, Registration, Signal};
 use crate::{Detector, DetectorError, Frame, Signals};
 
 /// Parameters of [`Fu2020`]. Defaults: docs/detectors.md, fu2020 §3 (all from `lgmd2OpenSource.cs`,
@@ -607,4 +608,28 @@ impl Detector for Fu2020 {
         let z = self.output.update(z_on * z_off + k.cfg.epsilon * (z_on + z_off));
         Ok(Self::signals(z, on, off))
     }
+}
+
+impl DetectorConfig for Fu2020Config {
+    fn validate(&self) -> Result<(), DetectorError> {
+        Fu2020Config::validate(self)
+    }
+
+    fn build(&self, _n: usize) -> Result<Box<dyn Detector>, DetectorError> {
+        Ok(Box::new(Fu2020::new(*self)?))
+    }
+}
+
+/// `fu2020` in the registry. The default threshold (output units) is calibrated on held-out draws
+/// of the default suite (`loomlab run --seed 7 --calibrate 0.1`: the smallest threshold, rounded up
+/// to three significant digits, with at most 10 % false alarms over its non-threat episodes; see
+/// `scenarios/README.md`).
+pub(crate) fn registration() -> Registration {
+    Registration::of::<Fu2020Config>(
+        "fu2020",
+        "LGMD2 of Fu et al. 2020, ON/OFF instances combined",
+        &[Signal::Output],
+        Signal::Output,
+        2.47,
+    )
 }

@@ -24,6 +24,7 @@ use serde::Deserialize;
 use super::common::{FrameStep, PreviousFrame, Range, check, zeroed};
 use super::lowpass::LowPass;
 use super::stencil::diffuse_step;
+use crate::registry::{DetectorConfig, Registration, Signal};
 use crate::{Detector, DetectorError, Frame, Signals};
 
 /// Parameters of [`Keil2004`]. Defaults: docs/detectors.md, keil2004 §3.
@@ -228,4 +229,28 @@ impl Detector for Keil2004 {
         let z = self.output.update(z_on * z_off + self.config.epsilon * (z_on + z_off));
         Ok(Self::signals(z, z_on, z_off))
     }
+}
+
+impl DetectorConfig for Keil2004Config {
+    fn validate(&self) -> Result<(), DetectorError> {
+        Keil2004Config::validate(self)
+    }
+
+    fn build(&self, _n: usize) -> Result<Box<dyn Detector>, DetectorError> {
+        Ok(Box::new(Keil2004::new(*self)?))
+    }
+}
+
+/// `keil2004` in the registry. The default threshold (output units) is calibrated on held-out draws
+/// of the default suite (`loomlab run --seed 7 --calibrate 0.1`: the smallest threshold, rounded up
+/// to three significant digits, with at most 10 % false alarms over its non-threat episodes; see
+/// `scenarios/README.md`).
+pub(crate) fn registration() -> Registration {
+    Registration::of::<Keil2004Config>(
+        "keil2004",
+        "\"Advanced\" LGMD model of Keil, Roca-Moreno & Rodríguez-Vázquez 2004",
+        &[Signal::Output],
+        Signal::Output,
+        0.000095,
+    )
 }

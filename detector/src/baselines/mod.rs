@@ -16,13 +16,30 @@
 //! Every model returns its output in [`crate::Signals::output`] and intermediate signals in
 //! `aux` (fixed names, the same on every frame).
 
-mod cizek2019;
 mod common;
-mod fu2020;
-mod keil2004;
 mod lowpass;
-mod soc;
 mod stencil;
+
+/// The registered baseline models, in display order after `hopfield`: one line each. A name
+/// declares the module `<name>.rs` of this folder and registers its `registration()` (see
+/// [`crate::registry`] and docs/adding-a-detector.md).
+macro_rules! models {
+    ($($model:ident),* $(,)?) => {
+        $(mod $model;)*
+
+        /// The registrations of the baseline models, in display order.
+        pub(crate) fn registrations() -> Vec<crate::registry::Registration> {
+            vec![$($model::registration()),*]
+        }
+    };
+}
+
+models! {
+    soc,
+    keil2004,
+    cizek2019,
+    fu2020,
+}
 
 pub use cizek2019::{Cizek2019, Cizek2019Config};
 pub use fu2020::{Fu2020, Fu2020Coefficients, Fu2020Config};
@@ -34,7 +51,8 @@ use serde::Deserialize;
 
 use crate::{Detector, DetectorError};
 
-/// Ids of the baseline detectors, in the order of the paper's comparison.
+/// Ids of the paper's baseline detectors, in the order of its comparison (the members of
+/// [`BaselineConfigs`]; other registered models are not part of this bundle).
 pub const BASELINE_IDS: [&str; 4] = ["soc", "keil2004", "cizek2019", "fu2020"];
 
 /// Parameters of all baselines, e.g. a `[baselines]` table with optional

@@ -8,6 +8,7 @@
 use serde::Deserialize;
 
 use super::common::{FrameStep, PreviousFrame, zeroed};
+use crate::registry::{DetectorConfig, Registration, Signal};
 use crate::{Detector, DetectorError, Frame, Signals};
 
 /// How the absolute temporal contrast is pooled over the frame.
@@ -97,4 +98,28 @@ impl Detector for Soc {
         };
         Ok(Self::signals(output, mean))
     }
+}
+
+impl DetectorConfig for SocConfig {
+    fn validate(&self) -> Result<(), DetectorError> {
+        SocConfig::validate(self)
+    }
+
+    fn build(&self, _n: usize) -> Result<Box<dyn Detector>, DetectorError> {
+        Ok(Box::new(Soc::new(*self)?))
+    }
+}
+
+/// `soc` in the registry. The default threshold (output units) is calibrated on held-out draws
+/// of the default suite (`loomlab run --seed 7 --calibrate 0.1`: the smallest threshold, rounded up
+/// to three significant digits, with at most 10 % false alarms over its non-threat episodes; see
+/// `scenarios/README.md`).
+pub(crate) fn registration() -> Registration {
+    Registration::of::<SocConfig>(
+        "soc",
+        "Sum of absolute temporal contrast (Keil 2025, Fig. FigApproachCurves)",
+        &[Signal::Output],
+        Signal::Output,
+        270.0,
+    )
 }

@@ -105,6 +105,7 @@ pub use fast::FastHopfield;
 pub use reference::ReferenceHopfield;
 pub use templates::TemplateBank;
 
+use crate::registry::{CameraFacts, DetectorConfig, Registration, Signal};
 use crate::{Detector, DetectorError, Frame, Signals};
 
 /// Raw (un-filtered) retrieval result of one frame, from either implementation.
@@ -373,6 +374,41 @@ impl Detector for Hopfield {
             aux: vec![("on", s.z_on), ("off", s.z_off)],
         })
     }
+}
+
+impl DetectorConfig for HopfieldConfig {
+    const CAMERA_KEYS: &'static [&'static str] = &config::CAMERA_KEYS;
+
+    fn for_camera(self, camera: &CameraFacts) -> Self {
+        Self {
+            n: camera.n,
+            fov_deg: camera.fov_deg,
+            frame_rate_hz: camera.frame_rate_hz,
+            ..self
+        }
+    }
+
+    fn validate(&self) -> Result<(), DetectorError> {
+        HopfieldConfig::validate(self)
+    }
+
+    fn build(&self, n: usize) -> Result<Box<dyn Detector>, DetectorError> {
+        Ok(Box::new(Hopfield::new(HopfieldConfig { n, ..*self })?))
+    }
+}
+
+/// `hopfield` in the registry: triggered by θ̂ at the locust's escape angle of 10° (paper
+/// discussion). The calibration of the baselines' thresholds allows any θ̂ > 0 here (θ̂ jumps from
+/// 0 to well above 10° within a frame or two when the detector responds), so 10° is kept: it gives
+/// the same rates on that calibration run.
+pub(crate) fn registration() -> Registration {
+    Registration::of::<HopfieldConfig>(
+        "hopfield",
+        "Keil's modern-Hopfield looming detector (Keil 2025, paper §2.2)",
+        &[Signal::Output, Signal::AngularSize],
+        Signal::AngularSize,
+        10.0,
+    )
 }
 
 #[cfg(test)]

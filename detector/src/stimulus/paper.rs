@@ -4,7 +4,7 @@
 
 use crate::stimulus::{BackgroundKind, CorruptionSection, ForegroundSection, NoiseDistribution, Texture};
 use crate::stimulus::{StimulusFrame, StimulusSpec};
-use crate::{DETECTOR_IDS, DetectorError, DetectorSet};
+use crate::{DetectorError, DetectorSet, detector_ids};
 
 /// One stimulus of a figure.
 pub struct Condition {
@@ -161,7 +161,7 @@ pub fn paper_figures(n: usize, seed: u64) -> Vec<FigureDef> {
     figs.push(FigureDef {
         id: "fig7",
         title: "Fig. 7: dynamic noise floor — (a) uniform disk of luminance 0.5, (b) noise patch; all models",
-        detectors: DETECTOR_IDS.to_vec(),
+        detectors: detector_ids(),
         conditions: vec![
             cond("a uniform disk".into(), uniform),
             cond("b noise patch".into(), patch),

@@ -8,7 +8,9 @@ Importing the package registers the Gymnasium ids
 both with a native vector entry point, so ``gymnasium.make_vec(id, num_envs=N)`` steps N
 environments on Rust threads.
 
-:func:`run_suite` runs a scenario suite in-process; :func:`evaluate` scores a policy on a suite next to
+:func:`run_suite` runs a scenario suite in-process, with detectors written in Python
+(:class:`PythonDetector`) next to the built-in ones (``python -m loomlab run`` is ``loomlab run``
+with ``--detector module:Class``); :func:`evaluate` scores a policy on a suite next to
 its detectors and reference rows, as ``loomlab run`` scores them; ``python -m loomlab.train`` trains
 one (PPO with the optional extra ``loomlab[rl]``, or a pure-numpy CEM); ``python -m loomlab.sweep`` runs detector
 parameter sweeps on Ray and :mod:`loomlab.rllib` registers the environments with RLlib. Ray is an
@@ -19,6 +21,7 @@ from __future__ import annotations
 
 import os as _os
 import tempfile as _tempfile
+from typing import Any, Dict, List, Optional, Sequence, Union
 
 import gymnasium as gym
 
@@ -38,6 +41,7 @@ from ._native import (
     ScenarioError,
     SweepError,
 )
+from .detectors import PythonDetector
 from .env import ActionConfig, EscapeEnv, RewardConfig
 from .vector import EscapeVectorEnv
 
@@ -50,6 +54,7 @@ __all__ = [
     "EscapeEnv",
     "EscapeVectorEnv",
     "LoomlabError",
+    "PythonDetector",
     "RenderError",
     "RewardConfig",
     "ScenarioError",
@@ -73,38 +78,120 @@ def scenario_toml(name: str) -> str:
 
 
 def run_suite(
-    suite,
+    suite: Union[str, "_os.PathLike[str]"],
     *,
     seed: int = 0,
-    size=None,
-    limit=None,
-    detectors=None,
-    detectors_file=None,
-    jobs=None,
-) -> dict:
+    size: Optional[int] = None,
+    limit: Optional[int] = None,
+    detectors: Optional[Sequence[Union[str, Dict[str, Any], PythonDetector]]] = None,
+    detectors_file: Union[str, "_os.PathLike[str]", None] = None,
+    jobs: Optional[int] = None,
+    out: Union[str, "_os.PathLike[str]", None] = None,
+    resume: bool = False,
+) -> Dict[str, Any]:
     """Runs a scenario suite in this process and returns its report (the ``report.json`` dict).
 
     The same as ``loomlab run SUITE --seed SEED --size SIZE --limit LIMIT --detectors IDS
-    --detectors-file FILE --jobs JOBS`` (without the CSV and plots). For many parameter settings
-    use :mod:`loomlab.sweep`.
+    --detectors-file FILE --jobs JOBS``. ``detectors`` mixes
+
+    - ids (``"soc"``): run these of the suite's detectors (``--detectors``),
+    - dicts (``{"id": "soc", "label": "soc_low", "threshold": 100}``): ``[[detectors]]`` entries,
+      run instead of each scenario's own list, next to those of ``detectors_file``,
+    - :class:`PythonDetector` objects: run in every scenario next to the other rows.
+
+    Without ``out`` nothing is written (Ctrl-C: the episodes in flight finish, then
+    KeyboardInterrupt). With ``out`` it writes the run folder ``loomlab run --out OUT`` writes
+    (episodes.csv as episodes finish, report.json, plots, report.html); Ctrl-C stops it as the CLI's
+    does (every finished episode is saved, KeyboardInterrupt is raised) and ``resume=True``
+    continues it. For many parameter settings use :mod:`loomlab.sweep`.
     """
     import json
-    import os
 
+    ids: Optional[List[str]] = None
+    entries: List[Dict[str, Any]] = []
+    python: List[PythonDetector] = []
+    for d in detectors if detectors is not None else []:
+        if isinstance(d, PythonDetector):
+            python.append(d)
+        elif isinstance(d, str):
+            ids = (ids or []) + [d]
+        elif isinstance(d, dict):
+            entries.append(d)
+        else:
+            raise TypeError(
+                f"run_suite: detectors holds {d!r}; give ids (str), [[detectors]] entries (dict) or "
+                "loomlab.PythonDetector objects"
+            )
+    if out is not None:
+        return _run_to_folder(suite, seed, size, limit, ids, entries, python, detectors_file, jobs, out, resume)
     text = _native.run_suite(
-        os.fspath(suite),
+        _os.fspath(suite),
         seed,
         size,
         limit,
-        None if detectors is None else list(detectors),
-        None if detectors_file is None else os.fspath(detectors_file),
+        ids,
+        None if detectors_file is None else _os.fspath(detectors_file),
         jobs,
+        json.dumps(entries) if entries else None,
+        python,
     )
-    return json.loads(text)
+    result: Dict[str, Any] = json.loads(text)
+    return result
 
 
-def detector_ids() -> list:
-    """Every detector id: hopfield, soc, keil2004, cizek2019, fu2020."""
+def _run_to_folder(suite, seed, size, limit, ids, entries, python, detectors_file, jobs, out, resume) -> Dict[str, Any]:
+    import json
+
+    args = [_os.fspath(suite), "--out", _os.fspath(out), "--seed", str(int(seed)), "--quiet"]
+    for flag, value in (("--size", size), ("--limit", limit), ("--jobs", jobs)):
+        if value is not None:
+            args += [flag, str(int(value))]
+    if ids:
+        args += ["--detectors", ",".join(ids)]
+    with _tempfile.TemporaryDirectory() as tmp:
+        if entries:
+            # the dict entries after those of detectors_file (which holds only [[detectors]] tables)
+            listed = ""
+            if detectors_file is not None:
+                with open(detectors_file) as f:
+                    listed = f.read() + "\n"
+            detectors_file = _os.path.join(tmp, "detectors.toml")
+            with open(detectors_file, "w") as f:
+                f.write(listed + _toml_entries(entries))
+        if detectors_file is not None:
+            args += ["--detectors-file", _os.fspath(detectors_file)]
+        if resume:
+            args.append("--resume")
+        code = _native.run_cli(args, python, None)
+    if code == 130:
+        raise KeyboardInterrupt(f"run_suite: interrupted; the finished episodes are saved in {out} (resume=True)")
+    if code != 0:
+        raise LoomlabError(f"run_suite: `loomlab run {' '.join(args)}` exited with {code} (see above)")
+    with open(_os.path.join(_os.fspath(out), "report.json")) as f:
+        report: Dict[str, Any] = json.load(f)
+    return report
+
+
+def _toml_entries(entries: List[Dict[str, Any]]) -> str:
+    """``[[detectors]]`` tables of dict entries (JSON values are valid TOML inline values)."""
+    import json
+
+    def value(v: Any) -> str:
+        if isinstance(v, dict):
+            return "{ " + ", ".join(f"{json.dumps(str(k))} = {value(x)}" for k, x in v.items()) + " }"
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(value(x) for x in v) + "]"
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        return json.dumps(v)
+
+    return "".join(
+        "[[detectors]]\n" + "".join(f"{json.dumps(str(k))} = {value(v)}\n" for k, v in e.items()) for e in entries
+    )
+
+
+def detector_ids() -> List[str]:
+    """Every built-in detector id, in display order (the Rust registry's: hopfield, soc, ...)."""
     return list(_native.detector_ids())
 
 

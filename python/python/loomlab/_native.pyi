@@ -13,6 +13,7 @@ __all__ = [
     "EscapeEnv",
     "EscapeVectorEnv",
     "SweepPlan",
+    "run_cli",
     "run_suite",
     "evaluation_report",
     "calibrate_thresholds",
@@ -20,6 +21,7 @@ __all__ = [
     "scenario_toml",
     "detector_ids",
     "_raise",
+    "_time_python_detector",
     "LoomlabError",
     "ScenarioError",
     "RenderError",
@@ -219,7 +221,11 @@ def run_suite(
     detectors: Optional[List[str]] = None,
     detectors_file: Optional[str] = None,
     jobs: Optional[int] = None,
+    entries: Optional[str] = None,
+    python: List[Any] = [],
 ) -> str: ...
+def run_cli(args: List[str], detectors: List[Any], command: Optional[List[str]] = None) -> int: ...
+def _time_python_detector(detector: Any, n: int, frames: int) -> float: ...
 def evaluation_report(
     suite: Optional[str],
     seeds: List[int],

@@ -1,0 +1,387 @@
+//! Python detectors (`loomlab.PythonDetector`) as detectors of the Rust registry, so that the one
+//! closed loop (`loomlab_scenarios::Runner`: open-loop pass, scoring, escape tails, the escape
+//! controller's percept and decision step) runs them exactly as it runs the built-in detectors.
+//!
+//! - **Frames**: every frame the runner hands its detectors (`loomlab_detector::Frame`, luminance
+//!   in [0, 1]) is copied into a fresh float32 numpy array of shape (n, n), row-major, and passed
+//!   to the object's `step(frame)`. It returns a float (the output) or a dict with `output` and
+//!   optionally `angular_size_deg` (θ̂, degrees; `None`: no estimate this frame), `image_x` and
+//!   `image_y` (the object's image position, recorded as auxiliary signals).
+//! - **Instances**: the runner builds a fresh detector per episode and per closed-loop tail, on
+//!   several worker threads. Each build is an independent instance: the class called with no
+//!   arguments when the wrapped object is a class, else `copy.deepcopy` of the object; then
+//!   `reset()`. So episodes never share state and results do not depend on `jobs`.
+//! - **The GIL**: each `reset`/`step` acquires the GIL for the call; the runner's workers render and
+//!   run the Rust detectors in parallel, and the Python calls take turns (one at a time).
+
+use std::collections::BTreeSet;
+use std::sync::{Arc, Mutex};
+
+use numpy::ToPyArray;
+use numpy::ndarray::ArrayView2;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyTracebackMethods, PyType};
+
+use loomlab_detector::registry::{CameraFacts, Configure, ConfiguredDetector, ParamError, Registration, Signal};
+use loomlab_detector::{Detector, DetectorError, DetectorParams, EfferenceCopy, Frame, Registry, Signals};
+use loomlab_scenarios::schema::{DetectorDesc, trigger_of};
+
+use crate::errors;
+
+/// The keys a Python detector's `step` may return in a dict.
+const STEP_KEYS: [&str; 4] = ["output", "angular_size_deg", "image_x", "image_y"];
+
+/// One `loomlab.PythonDetector`, read from its attributes.
+#[derive(Debug)]
+pub(crate) struct PythonEntry {
+    label: String,
+    object: Arc<Py<PyAny>>,
+    threshold: f64,
+    trigger: Signal,
+    description: String,
+}
+
+impl PythonEntry {
+    /// Reads a `loomlab.PythonDetector` (`label`, `detector`, `threshold`, `trigger`).
+    pub(crate) fn read(wrapper: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let label: String = wrapper.getattr("label")?.extract()?;
+        let object = wrapper.getattr("detector")?;
+        let threshold: f64 = wrapper.getattr("threshold")?.extract()?;
+        let trigger: String = wrapper.getattr("trigger")?.extract()?;
+        let trigger = match trigger.as_str() {
+            "output" => Signal::Output,
+            "angular_size" | "angular_size_deg" => Signal::AngularSize,
+            other => {
+                return Err(errors::DetectorError::new_err(format!(
+                    "PythonDetector `{label}`: trigger = {other:?}; use \"output\" or \"angular_size\""
+                )));
+            }
+        };
+        let class = if object.is_instance_of::<PyType>() {
+            object.clone()
+        } else {
+            object.get_type().into_any()
+        };
+        let description = format!(
+            "Python detector {}.{}",
+            class.getattr("__module__")?.str()?,
+            class.getattr("__qualname__")?.str()?
+        );
+        Ok(Self {
+            label,
+            object: Arc::new(object.unbind()),
+            threshold,
+            trigger,
+            description,
+        })
+    }
+}
+
+/// The built-in registry plus `entries` (each registered under its label), and the detector entry
+/// that runs each at its threshold and trigger.
+pub(crate) fn registry_with(entries: Vec<PythonEntry>) -> PyResult<(Registry, Vec<DetectorDesc>)> {
+    let mut registry = Registry::builtin().clone();
+    let mut descs = Vec::with_capacity(entries.len());
+    for e in entries {
+        let configured = PythonConfigured {
+            id: intern(&e.label),
+            object: Arc::clone(&e.object),
+            description: format!("{} as `{}`", e.description, e.label),
+        };
+        let label = e.label.clone();
+        let configure: Arc<Configure> = Arc::new(move |params, _camera: &CameraFacts| {
+            if params.is_some_and(|p| !p.is_empty()) {
+                return Err(ParamError {
+                    key: "params".into(),
+                    reason: format!("the Python detector `{label}` takes no params; configure its object in Python"),
+                });
+            }
+            Ok(DetectorParams::new(configured.clone()))
+        });
+        let signals = [Signal::Output, e.trigger];
+        let registration =
+            Registration::with_configure(&e.label, &e.description, &signals, e.trigger, e.threshold, configure);
+        registry = registry
+            .with(registration)
+            .map_err(|err| errors::DetectorError::new_err(format!("PythonDetector `{}`: {err}", e.label)))?;
+        descs.push(DetectorDesc {
+            id: e.label.clone(),
+            label: None,
+            threshold: Some(e.threshold),
+            trigger: Some(trigger_of(e.trigger)),
+            tau_threshold_s: None,
+            min_angular_size_deg: None,
+            course: None,
+            params: None,
+        });
+    }
+    Ok((registry, descs))
+}
+
+/// A detector id that lives for the whole process (the `Detector::id` of a Python detector):
+/// each distinct label is stored once.
+fn intern(label: &str) -> &'static str {
+    static IDS: Mutex<BTreeSet<&'static str>> = Mutex::new(BTreeSet::new());
+    let mut ids = IDS.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(id) = ids.get(label) {
+        return id;
+    }
+    let id: &'static str = Box::leak(label.to_string().into_boxed_str());
+    ids.insert(id);
+    id
+}
+
+/// A Python detector's object, ready to build instances from (see the module docs).
+#[derive(Clone)]
+struct PythonConfigured {
+    id: &'static str,
+    object: Arc<Py<PyAny>>,
+    description: String,
+}
+
+impl PythonConfigured {
+    fn failed(&self, py: Python<'_>, what: &str, e: PyErr) -> DetectorError {
+        DetectorError::Failed {
+            detector: self.id.to_string(),
+            reason: format!("{what}: {}", describe_exception(py, &e)),
+        }
+    }
+}
+
+impl ConfiguredDetector for PythonConfigured {
+    fn build(&self, n: usize) -> Result<Box<dyn Detector>, DetectorError> {
+        Python::attach(|py| {
+            let object = self.object.bind(py);
+            let instance = if object.is_instance_of::<PyType>() {
+                object
+                    .call0()
+                    .map_err(|e| self.failed(py, "calling the class with no arguments", e))?
+            } else {
+                py.import("copy")
+                    .and_then(|copy| copy.call_method1("deepcopy", (object,)))
+                    .map_err(|e| {
+                        self.failed(
+                            py,
+                            "copy.deepcopy of the object (each episode gets its own copy; pass the class \
+                             instead if it cannot be copied)",
+                            e,
+                        )
+                    })?
+            };
+            let wants_ego = py
+                .import("loomlab.detectors")
+                .and_then(|m| m.call_method1("_accepts_ego", (&instance,)))
+                .and_then(|v| v.extract::<bool>())
+                .map_err(|e| self.failed(py, "inspecting step()", e))?;
+            instance
+                .call_method0("reset")
+                .map_err(|e| self.failed(py, "reset()", e))?;
+            Ok(Box::new(PythonInstance {
+                id: self.id,
+                instance: instance.unbind(),
+                n,
+                wants_ego,
+                reset_error: None,
+            }) as Box<dyn Detector>)
+        })
+    }
+
+    fn describe(&self) -> String {
+        self.description.clone()
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+}
+
+/// One instance of a Python detector, stepped by the runner.
+struct PythonInstance {
+    id: &'static str,
+    instance: Py<PyAny>,
+    n: usize,
+    /// Whether `step` takes a second argument, the efference copy.
+    wants_ego: bool,
+    /// An exception of `reset()` (the trait's `reset` cannot fail): reported by the next step.
+    reset_error: Option<String>,
+}
+
+impl PythonInstance {
+    fn failed(&self, reason: String) -> DetectorError {
+        DetectorError::Failed {
+            detector: self.id.to_string(),
+            reason,
+        }
+    }
+}
+
+impl Detector for PythonInstance {
+    fn id(&self) -> &'static str {
+        self.id
+    }
+
+    fn reset(&mut self) {
+        Python::attach(|py| {
+            if let Err(e) = self.instance.bind(py).call_method0("reset") {
+                self.reset_error = Some(format!("reset(): {}", describe_exception(py, &e)));
+            }
+        });
+    }
+
+    fn step(&mut self, frame: &Frame) -> Result<Signals, DetectorError> {
+        self.call_step(frame, None)
+    }
+
+    fn step_moving(&mut self, frame: &Frame, ego: &EfferenceCopy) -> Result<Signals, DetectorError> {
+        self.call_step(frame, Some(ego))
+    }
+}
+
+impl PythonInstance {
+    /// `step(frame)`, or `step(frame, ego)` when it takes the efference copy (a dict
+    /// `{forward_mps, yaw_rate_rps, lateral_mps}`; `None` where there is none).
+    fn call_step(&mut self, frame: &Frame, ego: Option<&EfferenceCopy>) -> Result<Signals, DetectorError> {
+        if let Some(reason) = self.reset_error.take() {
+            return Err(self.failed(reason));
+        }
+        let n = frame.n();
+        if n != self.n {
+            return Err(DetectorError::FrameSize {
+                expected: self.n,
+                got: n,
+            });
+        }
+        let view =
+            ArrayView2::from_shape((n, n), frame.data()).map_err(|e| DetectorError::InvalidImage(e.to_string()))?;
+        Python::attach(|py| {
+            let array = view.to_pyarray(py);
+            let step = self.instance.bind(py);
+            let answer = if self.wants_ego {
+                let ego = match ego {
+                    Some(e) => {
+                        let d = PyDict::new(py);
+                        d.set_item("forward_mps", e.forward_mps)
+                            .and_then(|()| d.set_item("yaw_rate_rps", e.yaw_rate_rps))
+                            .and_then(|()| d.set_item("lateral_mps", e.lateral_mps))
+                            .map_err(|e| self.failed(format!("building the efference copy: {e}")))?;
+                        d.into_any()
+                    }
+                    None => py.None().into_bound(py),
+                };
+                step.call_method1("step", (array, ego))
+            } else {
+                step.call_method1("step", (array,))
+            };
+            let answer = answer.map_err(|e| self.failed(format!("step(frame): {}", describe_exception(py, &e))))?;
+            signals_of(&answer).map_err(|why| self.failed(format!("step(frame) returned {why}")))
+        })
+    }
+}
+
+/// The signals of what `step` returned: a number, or a dict of [`STEP_KEYS`].
+fn signals_of(answer: &Bound<'_, PyAny>) -> Result<Signals, String> {
+    let number = |key: &str, v: &Bound<'_, PyAny>| -> Result<f64, String> {
+        v.extract::<f64>().map_err(|_| {
+            let shown = v.repr().map_or_else(|_| "?".to_string(), |r| r.to_string());
+            format!("{key} = {shown}, which is not a number")
+        })
+    };
+    let Ok(dict) = answer.cast::<PyDict>() else {
+        return Ok(Signals {
+            output: number("a value", answer).map_err(|e| {
+                format!(
+                    "{e}; return a float (the output) or a dict with keys {}",
+                    STEP_KEYS.join(", ")
+                )
+            })?,
+            angular_size_deg: None,
+            aux: Vec::new(),
+        });
+    };
+    let mut signals = Signals::default();
+    let mut has_output = false;
+    for (k, v) in dict.iter() {
+        let key: String = k.str().map_or_else(|_| "?".into(), |s| s.to_string());
+        match key.as_str() {
+            "output" => {
+                signals.output = number("output", &v)?;
+                has_output = true;
+            }
+            "angular_size_deg" if v.is_none() => {}
+            "angular_size_deg" => signals.angular_size_deg = Some(number("angular_size_deg", &v)?),
+            "image_x" => signals.aux.push(("image_x", number("image_x", &v)?)),
+            "image_y" => signals.aux.push(("image_y", number("image_y", &v)?)),
+            other => {
+                return Err(format!(
+                    "a dict with the key {other:?}; the keys are {}",
+                    STEP_KEYS.join(", ")
+                ));
+            }
+        }
+    }
+    if !has_output {
+        return Err("a dict without \"output\" (the detector's primary output, a float)".into());
+    }
+    signals.aux.sort_by(|a, b| a.0.cmp(b.0));
+    Ok(signals)
+}
+
+/// `Type: message` of a Python exception and the last line of its traceback (where it was raised).
+fn describe_exception(py: Python<'_>, e: &PyErr) -> String {
+    let mut text = e.to_string();
+    if let Some(where_) = e.traceback(py).and_then(|t| t.format().ok()).and_then(|t| {
+        t.lines()
+            .rev()
+            .find(|l| l.trim_start().starts_with("File "))
+            .map(str::to_string)
+    }) {
+        text = format!("{text} ({})", where_.trim());
+    }
+    text
+}
+
+/// Seconds that `frames` steps of a `loomlab.PythonDetector` take through the runner's glue (a
+/// fresh instance, then `step` on an n×n frame of the runner's `Frame` type, called from a worker
+/// thread with the GIL acquired per step, exactly as an episode calls it), for the overhead
+/// benchmark (`make bench-python`).
+#[pyfunction]
+pub fn _time_python_detector(py: Python<'_>, detector: Bound<'_, PyAny>, n: usize, frames: usize) -> PyResult<f64> {
+    if !(1..=4096).contains(&n) || frames > 10_000_000 {
+        return Err(pyo3::exceptions::PyValueError::new_err(
+            "n must be in 1..=4096 and frames at most 10^7",
+        ));
+    }
+    let (registry, descs) = registry_with(vec![PythonEntry::read(&detector)?])?;
+    let id = &descs[0].id;
+    let camera = CameraFacts {
+        n,
+        fov_deg: 60.0,
+        frame_rate_hz: 120.0,
+    };
+    let params = registry
+        .get(id)
+        .and_then(|r| {
+            r.configure(None, &camera)
+                .map_err(|e| DetectorError::InvalidImage(e.to_string()))
+        })
+        .map_err(|e| errors::DetectorError::new_err(e.to_string()))?;
+    let frame_data: Vec<Frame> = (0..2)
+        .map(|k| Frame::from_f32(n, (0..n * n).map(|i| ((i * 7 + k * 13) % 101) as f32 / 100.0).collect()))
+        .collect::<Result<_, _>>()
+        .map_err(|e| errors::DetectorError::new_err(e.to_string()))?;
+    py.detach(|| {
+        std::thread::scope(|s| {
+            s.spawn(|| -> Result<f64, DetectorError> {
+                let mut d = params.build(n)?;
+                let started = std::time::Instant::now();
+                for k in 0..frames {
+                    d.step(&frame_data[k % 2])?;
+                }
+                Ok(started.elapsed().as_secs_f64())
+            })
+            .join()
+        })
+    })
+    .map_err(|_| errors::DetectorError::new_err("the benchmark thread panicked"))?
+    .map_err(|e| errors::DetectorError::new_err(e.to_string()))
+}
