@@ -444,7 +444,12 @@ fn reference_rows_bound_the_detectors() {
         let d = o.detectors.iter().find(|d| d.detector == IDEAL_COURSE).unwrap();
         if d.evadable() && d.outcome != Outcome::Hit {
             let miss = o.params.get("world.projectiles.0.miss_distance_m").map(String::as_str);
-            assert_eq!(miss, Some("0.3"), "episode {}: only a graze may be gated out", o.episode);
+            assert_eq!(
+                miss,
+                Some("0.3"),
+                "episode {}: only a graze may be gated out",
+                o.episode
+            );
         }
     }
     for o in &outcomes {
