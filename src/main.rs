@@ -3,7 +3,7 @@
 //! same `loomlab run`) and maps errors to exit codes; every capability lives in the library crates
 //! (`loomlab-detector`, `loomlab-sim`, `loomlab-agents`, `loomlab-scenarios`).
 
-use loomlab::{cli, errln};
+use loomlab::cli;
 
 use clap::{Parser, Subcommand};
 
@@ -32,9 +32,6 @@ enum Command {
     Table(cli::table::TableArgs),
 }
 
-/// Exit code of a failure to write an output (disk full, permissions): not the user's input.
-const EXIT_IO: i32 = 3;
-
 fn main() {
     let cli = Cli::parse();
     let result: anyhow::Result<i32> = match cli.command {
@@ -46,30 +43,6 @@ fn main() {
     };
     match result {
         Ok(code) => std::process::exit(code),
-        Err(e) => {
-            // the chain of causes, each once (a message that already quotes its cause, like
-            // "cannot read F: No such file", is not followed by the cause again)
-            let mut text = String::new();
-            for cause in e.chain() {
-                let c = cause.to_string();
-                if !text.contains(&c) {
-                    if !text.is_empty() {
-                        text += ": ";
-                    }
-                    text += &c;
-                }
-            }
-            errln!("error: {text}");
-            if let Some(cmd) = cli::run_dir::RESUME_HINT
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .take()
-            {
-                errln!("the finished episodes are saved; resume with:\n  {cmd}");
-            }
-            // 3: an output could not be written (disk full, permissions), 2: bad input
-            let io = e.downcast_ref::<cli::run_dir::CannotWrite>().is_some();
-            std::process::exit(if io { EXIT_IO } else { 2 });
-        }
+        Err(e) => std::process::exit(cli::report_error(&e)),
     }
 }

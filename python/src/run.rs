@@ -93,31 +93,7 @@ pub fn run_cli(
     Ok(match result {
         _ if interrupt.is_some() => 130,
         Ok(code) => code,
-        Err(e) => {
-            // as the CLI reports it (src/main.rs): the causes, each once; 3 for an unwritable output
-            let mut text = String::new();
-            for cause in e.chain() {
-                let c = cause.to_string();
-                if !text.contains(&c) {
-                    if !text.is_empty() {
-                        text += ": ";
-                    }
-                    text += &c;
-                }
-            }
-            eprintln!("error: {text}");
-            if let Some(cmd) = loomlab::cli::run_dir::RESUME_HINT
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .take()
-            {
-                eprintln!("the finished episodes are saved; resume with:\n  {cmd}");
-            }
-            if e.downcast_ref::<loomlab::cli::run_dir::CannotWrite>().is_some() {
-                3
-            } else {
-                2
-            }
-        }
+        // as the CLI reports it
+        Err(e) => loomlab::cli::report_error(&e),
     })
 }
