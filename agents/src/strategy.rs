@@ -202,6 +202,22 @@ pub const PASS_SIDE_MIN_RADII: f64 = 0.5;
 /// ballistic lob) is judged laterally only.
 pub const STRAIGHT_COURSE_MAX_RADII: f64 = 0.5;
 
+impl Decision {
+    /// A decision with `value` and nothing estimated.
+    fn unestimated(value: f64, gate_open: bool) -> Self {
+        Self {
+            value,
+            tau_s: None,
+            miss_radii: None,
+            vertical_miss_radii: None,
+            pass_side: None,
+            arrival_extent_m: None,
+            tau_rate: None,
+            gate_open,
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy)]
 struct Sample {
     t: f64,
@@ -320,28 +336,10 @@ impl Strategy {
     pub fn update(&mut self, t_s: f64, percept: Percept, ego: Ego) -> Decision {
         let p = self.params;
         if !self.is_stateful() {
-            return Decision {
-                value: percept.value,
-                tau_s: None,
-                miss_radii: None,
-                vertical_miss_radii: None,
-                pass_side: None,
-                arrival_extent_m: None,
-                tau_rate: None,
-                gate_open: true,
-            };
+            return Decision::unestimated(percept.value, true);
         }
         if !t_s.is_finite() {
-            return Decision {
-                value: if p.angle_valued { 0.0 } else { f64::NAN },
-                tau_s: None,
-                miss_radii: None,
-                vertical_miss_radii: None,
-                pass_side: None,
-                arrival_extent_m: None,
-                tau_rate: None,
-                gate_open: false,
-            };
+            return Decision::unestimated(if p.angle_valued { 0.0 } else { f64::NAN }, false);
         }
         let keep_s = p.window_s.max(p.course_window_s);
         while self.window.front().is_some_and(|s| s.t < t_s - keep_s - 1e-9) {

@@ -690,6 +690,7 @@ impl Expansion {
         };
         let doc: ScenarioDoc = typed(Value::Table(t), "").map_err(&err)?;
         let (world, detectors) = resolve(&doc, &self.opts).map_err(&err)?;
+        let (above_camera, below_camera) = body_extent_about_camera_m(&world);
         let scoring = ScoringConfig {
             lead_margin_s: doc.scoring.lead_margin_s,
             ..ScoringConfig::default()
@@ -714,8 +715,8 @@ impl Expansion {
                     controller: EscapeConfig {
                         base: world.robot.base,
                         body_half_width_m: body_half_width_m(&world),
-                        body_above_camera_m: body_extent_about_camera_m(&world).0,
-                        body_below_camera_m: body_extent_about_camera_m(&world).1,
+                        body_above_camera_m: above_camera,
+                        body_below_camera_m: below_camera,
                         camera_fov_deg: f64::from(world.camera.fov_deg),
                         ..doc.controller.clone()
                     },
