@@ -36,8 +36,12 @@
 //! or too central (|x| ≤ `side_deadband`) the controller dodges to `default_side`. The side is
 //! latched at the trigger and kept for the whole manoeuvre. A re-trigger within `side_memory_s` of
 //! the last frame that was an alarm (the same object still looms; the alarm never cleared for
-//! longer; and, when the caller names the object, it is the same object) keeps the previous side: after a dodge the object's image can sit on the other side of
-//! centre or be swamped by background motion, and a fresh estimate would dodge back into it.
+//! longer) or of the controller re-arming after its last manoeuvre and cooldown (the danger it
+//! dodged is still near) keeps the previous side, unless the caller names the objects and they
+//! differ: after a dodge the object's image can sit on the other side of centre or be swamped by
+//! background motion or camera shake, and a fresh estimate would dodge back into it. (In the
+//! default suite, two τ rows under 3° camera shake re-triggered 0.1 s after re-arming on a noisy
+//! side and dodged back into the ball.)
 
 use serde::{Deserialize, Serialize};
 
@@ -155,8 +159,9 @@ pub struct EscapeConfig {
     pub course_closing_speed_mps: f64,
     /// Window over which the course gate estimates the bearing and expansion rates (s, > 0).
     pub course_window_s: f64,
-    /// A re-trigger less than this long (s, ≥ 0) after the last frame that was an alarm keeps the
-    /// previous dodge side: the same object is still looming, and dodging back would run into it.
+    /// A re-trigger less than this long (s, ≥ 0) after the last frame that was an alarm, or after
+    /// the controller re-armed following its last manoeuvre, keeps the previous dodge side: the
+    /// same object is still looming, and dodging back would run into it.
     pub side_memory_s: f64,
     /// The manoeuvre run after a trigger.
     pub manoeuvre: Manoeuvre,
@@ -434,6 +439,8 @@ pub struct EscapeController {
     last_command: Option<VelocityCommand>,
     last_side: Option<DodgeSide>,
     last_alarm_s: Option<f64>,
+    /// When the controller last re-armed after a manoeuvre and its cooldown.
+    rearmed_s: Option<f64>,
     /// The object the current and the last trigger's values come from, when the caller knows it.
     object: Option<usize>,
     last_object: Option<usize>,
@@ -452,6 +459,7 @@ impl EscapeController {
             last_command: None,
             last_side: None,
             last_alarm_s: None,
+            rearmed_s: None,
             object: None,
             last_object: None,
         })
@@ -471,6 +479,7 @@ impl EscapeController {
         self.last_command = None;
         self.last_side = None;
         self.last_alarm_s = None;
+        self.rearmed_s = None;
         self.object = None;
         self.last_object = None;
     }
@@ -556,6 +565,7 @@ impl EscapeController {
                 && t_s >= until_s
             {
                 self.phase = Phase::Armed;
+                self.rearmed_s = Some(until_s);
             }
             let alarm = cfg.is_alarm(Some(signal_value));
             let previous_alarm_s = self.last_alarm_s;
@@ -563,14 +573,15 @@ impl EscapeController {
                 self.last_alarm_s = Some(t_s);
             }
             if self.phase == Phase::Armed && alarm {
-                // The same object still looms (an alarm within side_memory_s of the last one):
-                // keep the side, never dodge back into it.
+                // The same object still looms (an alarm within side_memory_s of the last one, or
+                // of re-arming after the last manoeuvre): keep the side, never dodge back into it.
                 let same_object = match (self.object, self.last_object) {
                     (Some(a), Some(b)) => a == b,
                     _ => true,
                 };
-                let side = match (self.last_side, previous_alarm_s) {
-                    (Some(side), Some(prev)) if same_object && t_s - prev <= cfg.side_memory_s => side,
+                let recent = |s: Option<f64>| s.is_some_and(|s| t_s - s <= cfg.side_memory_s);
+                let side = match self.last_side {
+                    Some(side) if same_object && (recent(previous_alarm_s) || recent(self.rearmed_s)) => side,
                     _ => DodgeSide::away_from(looming_side, cfg.side_deadband, cfg.default_side),
                 };
                 self.last_object = self.object;

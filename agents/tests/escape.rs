@@ -937,4 +937,36 @@ mod strategies {
             }
         );
     }
+
+    #[test]
+    fn a_retrigger_soon_after_rearming_does_not_undo_the_dodge() {
+        let mut c = EscapeController::new(EscapeConfig {
+            duration_s: 0.5,
+            cooldown_s: 0.25,
+            side_memory_s: 0.5,
+            ..EscapeConfig::default()
+        })
+        .unwrap();
+        let cruise = VelocityCommand::forward(1.0);
+        let triggered = |side| loomlab_agents::ControllerEvent::Triggered { side: Some(side) };
+        // a brief alarm, object seen on the right: dodge left; the alarm clears at once
+        assert_eq!(c.step(0.0, 20.0, Some(0.6), cruise).1, triggered(DodgeSide::Left));
+        c.step(0.05, 0.0, Some(0.6), cruise);
+        // re-armed at 0.75 (no alarm since 0.0, longer ago than side_memory_s); an alarm 0.2 s
+        // later with the (noisy) side flipped keeps dodging left instead of undoing the dodge
+        c.step(0.75, 0.0, None, cruise);
+        let (cmd, ev) = c.step(0.95, 20.0, Some(-0.6), cruise);
+        assert_eq!(ev, triggered(DodgeSide::Left));
+        assert!(cmd.lateral_mps > 0.0);
+        // more than side_memory_s after re-arming (at 1.7), a flipped side is taken afresh
+        c.step(1.7, 0.0, None, cruise);
+        c.set_object(Some(3));
+        let (_, ev) = c.step(2.3, 20.0, Some(-0.6), cruise);
+        assert_eq!(ev, triggered(DodgeSide::Right));
+        // a different object (both named by the caller) is dodged afresh right after re-arming
+        c.step(3.05, 0.0, None, cruise);
+        c.set_object(Some(7));
+        let (_, ev) = c.step(3.1, 20.0, Some(0.6), cruise);
+        assert_eq!(ev, triggered(DodgeSide::Left));
+    }
 }
