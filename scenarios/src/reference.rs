@@ -25,6 +25,12 @@
 //!   course of a lobbed ball is curved by gravity, and the gate judges it laterally (see
 //!   [`loomlab_agents::strategy`]).
 //!
+//! Perfect perception has no noise to average, so `ideal_tau` and `ideal_course` estimate τ over
+//! the shortest window the estimator accepts (three frames, [`IDEAL_TAU_WINDOW_FRAMES`]) instead of
+//! the controller's `tau_window_s`, which only adds lag: with it, a ball launched 0.6 s before
+//! contact alarmed five frames after its launch, a frame after its escape deadline. (The course
+//! gate keeps its `course_window_s`: a bearing rate is a small difference.)
+//!
 //! `ideal_tau` and `ideal_course` perceive an object only while its reference point is in view and
 //! its angular size fits in the field of view (`θ ≤ fov`): the image cannot show a larger angular
 //! size (a wall alongside the robot subtends almost 180°, most of it outside the view), and the
@@ -54,6 +60,9 @@ pub const IDEAL_TAU: &str = "ideal_tau";
 pub const IDEAL_COURSE: &str = "ideal_course";
 /// Every reference label, in table order.
 pub const REFERENCE_LABELS: [&str; 5] = [NULL, ORACLE, IDEAL_THETA, IDEAL_TAU, IDEAL_COURSE];
+/// The τ window of the ideal rows in camera frame periods: the least-squares fit over the last
+/// three frames ([`loomlab_agents::strategy::MIN_SAMPLES`]; 2.5 periods hold exactly three).
+pub const IDEAL_TAU_WINDOW_FRAMES: f64 = 2.5;
 /// Alarm threshold of the indicator signals of `null` and `oracle`.
 pub const INDICATOR_THRESHOLD: f64 = 1.0;
 
@@ -99,10 +108,21 @@ pub struct IdealObserver {
 }
 
 impl IdealObserver {
-    /// An observer of `kind` with the controller `base` (its τ threshold, minimum angle, window,
-    /// body and camera; `threshold` is the angle of `ideal_theta`).
-    pub fn new(kind: IdealKind, base: &EscapeConfig, theta_threshold_deg: f64) -> Self {
+    /// An observer of `kind` with the controller `base` (its τ threshold, minimum angle, body and
+    /// camera; `threshold` is the angle of `ideal_theta`) on a camera with frame period
+    /// `frame_period_s`. The τ window is the shortest the estimator accepts
+    /// ([`IDEAL_TAU_WINDOW_FRAMES`] frame periods): see the module docs.
+    pub fn new(kind: IdealKind, base: &EscapeConfig, theta_threshold_deg: f64, frame_period_s: f64) -> Self {
+        let shortest_window_s = IDEAL_TAU_WINDOW_FRAMES * frame_period_s;
         let config = EscapeConfig {
+            tau_window_s: shortest_window_s,
+            // ideal_tau has no gate: its window only serves the side it dodges to (where the object
+            // will arrive), which must be known as soon as τ̂ is
+            course_window_s: if kind == IdealKind::Tau {
+                shortest_window_s
+            } else {
+                base.course_window_s
+            },
             trigger: match kind {
                 IdealKind::Theta => TriggerSignal::AngularSizeDeg,
                 IdealKind::Tau | IdealKind::Course => TriggerSignal::Tau,

@@ -681,7 +681,7 @@ fn ideal_tail(
     let ep = c.ep;
     let mut sim = Sim::new_physics_only(&ep.world, ep.seed).map_err(|e| c.sim(e))?;
     sim.set_ground_truth(false);
-    let mut observer = IdealObserver::new(kind, &ep.controller, ideal_theta_threshold_deg(ep));
+    let mut observer = IdealObserver::new(kind, &ep.controller, ideal_theta_threshold_deg(ep), ep.frame_period_s());
     let mut agent = EscapeAgent::new(Vec::new(), observer.config().clone()).map_err(|source| RunError::Controller {
         scenario: ep.scenario.clone(),
         episode: ep.index,
@@ -796,7 +796,7 @@ fn reference_rows<'a>(
         (IDEAL_TAU, IdealKind::Tau),
         (IDEAL_COURSE, IdealKind::Course),
     ] {
-        let mut observer = IdealObserver::new(kind, &ep.controller, ideal_theta_threshold_deg(ep));
+        let mut observer = IdealObserver::new(kind, &ep.controller, ideal_theta_threshold_deg(ep), ep.frame_period_s());
         let config = observer.config().clone();
         let signal = (0..frames)
             .map(|k| {

@@ -373,6 +373,11 @@ impl EpisodeSpec {
         ((self.duration_s * f64::from(self.world.camera_hz)).round() as usize).max(1)
     }
 
+    /// Time between two camera frames (s).
+    pub fn frame_period_s(&self) -> f64 {
+        1.0 / f64::from(self.world.camera_hz)
+    }
+
     /// `key = value, …` of the episode's parameters (for messages).
     pub fn params_text(&self) -> String {
         params_text(&self.params)

@@ -3,6 +3,7 @@
 mod deadline;
 mod hopfield_rendered;
 mod parser_fuzz;
+mod reference;
 mod registry;
 mod runner;
 mod schema;
