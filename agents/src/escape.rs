@@ -39,7 +39,14 @@
 //! longer) or of the controller re-arming after its last manoeuvre and cooldown (the danger it
 //! dodged is still near) keeps the previous side, unless the caller names the objects and they
 //! differ: after a dodge the object's image can sit on the other side of centre or be swamped by
-//! background motion or camera shake, and a fresh estimate would dodge back into it. (In the
+//! background motion or camera shake, and a fresh estimate would dodge back into it.
+//!
+//! # Several objects
+//! When the caller names the object each value comes from (the ideal reference rows), an alarm
+//! about another object than the one being dodged is not a re-trigger: it ends the manoeuvre or
+//! cooldown at once and is dodged afresh, away from that object (a manoeuvre's cooldown would
+//! otherwise hold the robot on a course into a second ball; without names, every alarm is taken
+//! to be about the same object). (In the
 //! default suite, two τ rows under 3° camera shake re-triggered 0.1 s after re-arming on a noisy
 //! side and dodged back into the ball.)
 
@@ -568,6 +575,12 @@ impl EscapeController {
                 self.rearmed_s = Some(until_s);
             }
             let alarm = cfg.is_alarm(Some(signal_value));
+            // An alarm about another object (both named by the caller) is not a re-trigger for
+            // the one being dodged: it ends the manoeuvre or cooldown and is dodged at once.
+            let other_object = matches!((self.object, self.last_object), (Some(a), Some(b)) if a != b);
+            if alarm && other_object && self.phase != Phase::Armed {
+                self.phase = Phase::Armed;
+            }
             let previous_alarm_s = self.last_alarm_s;
             if alarm {
                 self.last_alarm_s = Some(t_s);

@@ -969,4 +969,43 @@ mod strategies {
         let (_, ev) = c.step(3.1, 20.0, Some(0.6), cruise);
         assert_eq!(ev, triggered(DodgeSide::Left));
     }
+
+    #[test]
+    fn an_alarm_about_another_named_object_preempts_the_manoeuvre_and_its_cooldown() {
+        let mut c = EscapeController::new(EscapeConfig {
+            duration_s: 0.5,
+            cooldown_s: 0.5,
+            ..EscapeConfig::default()
+        })
+        .unwrap();
+        let cruise = VelocityCommand::forward(1.0);
+        let triggered = |side| loomlab_agents::ControllerEvent::Triggered { side: Some(side) };
+        c.set_object(Some(1));
+        assert_eq!(c.step(0.0, 20.0, Some(0.6), cruise).1, triggered(DodgeSide::Left));
+        // the same object alarming during the manoeuvre and the cooldown: no re-trigger
+        assert!(matches!(
+            c.step(0.2, 20.0, Some(0.6), cruise).1,
+            loomlab_agents::ControllerEvent::Manoeuvring { .. }
+        ));
+        assert_eq!(
+            c.step(0.7, 20.0, Some(0.6), cruise).1,
+            loomlab_agents::ControllerEvent::Cooldown
+        );
+        // another object, seen on the left, alarming in the cooldown: dodged at once, to the right
+        c.set_object(Some(2));
+        assert_eq!(c.step(0.8, 20.0, Some(-0.6), cruise).1, triggered(DodgeSide::Right));
+        assert_eq!(c.triggers(), 2);
+        // unnamed values are all taken to be about one object: no pre-emption
+        let mut c = EscapeController::new(EscapeConfig {
+            duration_s: 0.5,
+            cooldown_s: 0.5,
+            ..EscapeConfig::default()
+        })
+        .unwrap();
+        c.step(0.0, 20.0, Some(0.6), cruise);
+        assert_eq!(
+            c.step(0.8, 20.0, Some(-0.6), cruise).1,
+            loomlab_agents::ControllerEvent::Cooldown
+        );
+    }
 }

@@ -31,6 +31,10 @@
 //! contact alarmed five frames after its launch, a frame after its escape deadline. (The course
 //! gate keeps its `course_window_s`: a bearing rate is a small difference.)
 //!
+//! Each ideal row names to the escape controller the object its value comes from: a re-trigger
+//! keeps the dodge side only for the same object, and an alarm about another object ends a
+//! manoeuvre or its cooldown at once ([`loomlab_agents::escape`], "Several objects").
+//!
 //! `ideal_tau` and `ideal_course` perceive an object only while its reference point is in view and
 //! its angular size fits in the field of view (`θ ≤ fov`): the image cannot show a larger angular
 //! size (a wall alongside the robot subtends almost 180°, most of it outside the view), and the
@@ -77,14 +81,16 @@ pub fn ideal_theta_deg(truth: &[ObjectTruth]) -> f64 {
     ideal_percept(truth).0
 }
 
-/// The ideal θ̂ and the image side (bearing, −1 left … +1 right) of the object it comes from
-/// (`None` when no moving object is looming).
-pub fn ideal_percept(truth: &[ObjectTruth]) -> (f64, Option<f32>) {
+/// The ideal θ̂, the image side (bearing, −1 left … +1 right) of the object it comes from and that
+/// object's id (`None`s when no moving object is looming).
+pub fn ideal_percept(truth: &[ObjectTruth]) -> (f64, Option<f32>, Option<usize>) {
     truth
         .iter()
         .filter(|o| o.angular_rate_deg_s > 0.0 && o.kind != ObjectKind::Scenery)
         .max_by(|a, b| a.angular_size_deg.total_cmp(&b.angular_size_deg))
-        .map_or((0.0, None), |o| (f64::from(o.angular_size_deg), Some(o.bearing)))
+        .map_or((0.0, None, None), |o| {
+            (f64::from(o.angular_size_deg), Some(o.bearing), Some(o.id))
+        })
 }
 
 /// Which ideal observer a reference row runs.
@@ -151,8 +157,7 @@ impl IdealObserver {
     /// object's id, with `ego` the robot's own motion during the last camera period.
     pub fn update(&mut self, t_s: f64, truth: &[ObjectTruth], ego: Ego) -> (f64, Option<f32>, Option<usize>) {
         if self.kind == IdealKind::Theta {
-            let (v, side) = ideal_percept(truth);
-            return (v, side, None);
+            return ideal_percept(truth);
         }
         let mut best: (f64, Option<f32>, Option<usize>) = (0.0, None, None);
         let fov = self.config.camera_fov_deg;
