@@ -150,7 +150,7 @@ pub fn evaluation_report(
         }
         let mut meta = meta.expect("seeds is not empty");
         meta.wall_time_s = started.elapsed().as_secs_f64();
-        Ok(Report::from_episodes(&meta, &outcomes).to_json())
+        Ok(Report::from_tiered_episodes(&meta, &outcomes, &tiers).to_json())
     })
 }
 

@@ -8,3 +8,4 @@ mod runner;
 mod schema;
 mod scoring;
 mod sweep;
+mod tiers;
