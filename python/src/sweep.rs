@@ -232,6 +232,7 @@ pub fn run_suite(
             registry: registry.clone(),
         };
         let s = load_suite(&suite, &opts)?;
+        let tiers = s.tiers();
         let specs: Vec<EpisodeSpec> = s
             .episodes()
             .take(limit.unwrap_or(usize::MAX))

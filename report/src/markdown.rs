@@ -378,41 +378,26 @@ pub fn worst_tier(report: &Report) -> Option<(u8, f64)> {
         .min_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
 }
 
-/// `results-tiers`: the tiers' counts, then every row's evasion and false-alarm rate per tier,
-/// then a sentence naming the worst tier.
+/// `results-tiers`: one column per difficulty tier: first its counts, then every row's evasion and
+/// false-alarm rate over that tier's episodes; then a sentence naming the worst tier.
 fn tiers_table(report: &Report) -> String {
-    use loomlab_scenarios::tier::{TIER_DESCRIPTIONS, tier_name};
+    use loomlab_scenarios::tier::tier_name;
     if report.tiers.is_empty() {
         return "The report has no difficulty tiers (no scenario states `tier`).\n".into();
     }
-    let counts_body: Vec<Vec<String>> = report
-        .tier_summaries()
-        .map(|(t, s)| {
-            vec![
-                format!("{t} ({})", tier_name(t)),
-                TIER_DESCRIPTIONS
-                    .get(t as usize)
-                    .copied()
-                    .unwrap_or_default()
-                    .to_string(),
-                s.episodes.to_string(),
-                format!("{} ({})", s.threats, s.evadable_threats),
-                s.non_threats.to_string(),
-            ]
-        })
-        .collect();
-    let mut out = table(
-        &["tier", "conditions", "episodes", "threats (evadable)", "non-threats"],
-        &counts_body,
-    );
-    out.push('\n');
     let tiers: Vec<(u8, &loomlab_scenarios::report::TierSummary)> = report.tier_summaries().collect();
     let header: Vec<String> = std::iter::once("row".to_string())
-        .chain(tiers.iter().map(|(t, _)| format!("tier {t}: evasion / false alarms")))
+        .chain(tiers.iter().map(|(t, _)| format!("tier {t}: {}", tier_name(*t))))
         .collect();
-    let body: Vec<Vec<String>> = rows(report)
-        .into_iter()
-        .map(|(label, _, reference)| {
+    let counts = std::iter::once("threats (evadable) / non-threats".to_string())
+        .chain(
+            tiers
+                .iter()
+                .map(|(_, s)| format!("{} ({}) / {}", s.threats, s.evadable_threats, s.non_threats)),
+        )
+        .collect();
+    let body: Vec<Vec<String>> = std::iter::once(counts)
+        .chain(rows(report).into_iter().map(|(label, _, reference)| {
             std::iter::once(label_cell(label, reference))
                 .chain(tiers.iter().map(|(_, ts)| {
                     ts.detectors.get(label).map_or_else(
@@ -421,20 +406,21 @@ fn tiers_table(report: &Report) -> String {
                     )
                 }))
                 .collect()
-        })
+        }))
         .collect();
     let header: Vec<&str> = header.iter().map(String::as_str).collect();
-    out += &table(&header, &body);
-    out += "\n`*` reference row computed from ground truth; evasion rate: evaded / evadable threats; false-alarm \
-            rate: alarms on non-threats.\n";
+    let mut out = table(&header, &body);
+    out += "\nCells: evasion rate (evaded / evadable threats) / false-alarm rate (alarms on non-threats) \
+            over the tier's episodes; `*` reference row computed from ground truth.";
     if let Some((t, mean)) = worst_tier(report) {
-        let _ = writeln!(
+        let _ = write!(
             out,
-            "\n**Worst tier: {t} ({})**: there the detector rows evade {:.0} % of the evadable threats on average.",
+            " **Worst tier: {t} ({})**, where the detector rows evade {:.0} % of the evadable threats on average.",
             tier_name(t),
             100.0 * mean
         );
     }
+    out.push('\n');
     out
 }
 
