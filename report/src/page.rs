@@ -1,7 +1,9 @@
 //! The run page, `report.html`: what `loomlab run` (and each point of a sweep) shows a person.
 //!
 //! Sections: the run's facts, the summary table (every detector pooled over the suite, with 95 %
-//! Wilson intervals, reference rows after the detectors), the comparison with a baseline report
+//! Wilson intervals, reference rows after the detectors), the per-tier section when the suite's
+//! scenarios state difficulty tiers (the tiers' counts, then one such table per tier; the per-tier
+//! evasion and false-alarm plots are among the plots), the comparison with a baseline report
 //! (`--baseline`: what got worse beyond the regression tolerances, what improved beyond them, and
 //! the pooled rates side by side), the plots (inline SVG), then per scenario its table and its
 //! exemplary episodes (GIF of the robot's view with the alarms marked, trace plot, every

@@ -8,7 +8,8 @@
 //! - `roc.png` (ROC curve per detector), `rates.png` (share of correct decisions per scenario and
 //!   detector), `collisions.png` (collision rate per scenario and detector), `trace.png` (a sample
 //!   threat episode: θ̂ and the true angular size over time, and every detector's response against
-//!   the true angular size);
+//!   the true angular size); with difficulty tiers, `tier_evasion.png` and `tier_false_alarms.png`
+//!   (evasion and false-alarm rate per tier and row);
 //! - `report.html` (unless `--no-html`): the page a person reads, with every table and plot and,
 //!   per scenario, a few exemplary episodes (GIFs of the robot's view in `exemplars/`, traces);
 //!   see `loomlab_report`.
