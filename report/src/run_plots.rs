@@ -419,7 +419,7 @@ pub fn run_figures(report: &Report, outcomes: &[EpisodeOutcome], samples: Option
                 })
                 .collect()
         };
-        let width = (160 + 60 * (rows.len() * tiers.len()) as u32).max(640);
+        let width = (160 + 22 * (rows.len() * tiers.len()) as u32).max(640);
         figures.push(Figure {
             name: "tier_evasion",
             caption: "Evasion rate (evaded / evadable threats) per difficulty tier and row, reference rows included."
