@@ -7,3 +7,4 @@ mod render_cli;
 mod report_html;
 mod run_cli;
 mod run_resume;
+mod tiers;

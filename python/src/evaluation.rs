@@ -149,9 +149,21 @@ pub fn evaluation_report(
             )));
         }
         let mut meta = meta.expect("seeds is not empty");
+        let tiers = suite_tiers(suite.as_deref());
         meta.wall_time_s = started.elapsed().as_secs_f64();
-        Ok(Report::from_episodes(&meta, &outcomes).to_json())
+        Ok(Report::from_tiered_episodes(&meta, &outcomes, &tiers).to_json())
     })
+}
+
+/// The difficulty tier of each scenario of a suite folder or file (empty for a shipped scenario or
+/// a suite whose files state no `tier`), so that the report pools each tier as `loomlab run` does.
+fn suite_tiers(suite: Option<&str>) -> std::collections::BTreeMap<String, u8> {
+    match suite {
+        Some(s) if scenarios::builtin(s).is_err() => load_suite(std::path::Path::new(s), &LoadOptions::default())
+            .map(|suite| suite.tiers())
+            .unwrap_or_default(),
+        _ => Default::default(),
+    }
 }
 
 /// The policy's row must come from the same episode as the runner's (same ground truth).

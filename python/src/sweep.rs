@@ -232,6 +232,7 @@ pub fn run_suite(
             registry: registry.clone(),
         };
         let s = load_suite(&suite, &opts)?;
+        let tiers = s.tiers();
         let specs: Vec<EpisodeSpec> = s
             .episodes()
             .take(limit.unwrap_or(usize::MAX))
@@ -246,7 +247,7 @@ pub fn run_suite(
             wall_time_s: started.elapsed().as_secs_f64(),
             lead_margin_s: episodes.first().map_or(0.0, |e| e.scoring.lead_margin_s),
         };
-        Ok(Report::from_episodes(&meta, &outcomes).to_json())
+        Ok(Report::from_tiered_episodes(&meta, &outcomes, &tiers).to_json())
     };
     let (result, interrupt) = interruptible(py, &stop, work);
     if let Some(e) = interrupt {

@@ -29,7 +29,7 @@ use loomlab_scenarios::stats::Interval;
 pub const REGENERATE: &str = "make readme-table";
 
 /// The generated blocks: name and what it holds.
-pub const BLOCKS: [(&str, &str); 5] = [
+pub const BLOCKS: [(&str, &str); 6] = [
     (
         "results-table",
         "pooled rates of every row, with 95 % intervals (README)",
@@ -47,6 +47,10 @@ pub const BLOCKS: [(&str, &str); 5] = [
         "per scenario: threats, non-threats, required angular size, reference and best detector rows",
     ),
     ("results-suite", "one line: suite, seed, episodes, threats"),
+    (
+        "results-tiers",
+        "per difficulty tier: counts, every row's evasion and false-alarm rate, the worst tier",
+    ),
 ];
 
 /// The Markdown of block `name` for `report` (`None`: no such block).
@@ -57,6 +61,7 @@ pub fn render_block(name: &str, report: &Report) -> Option<String> {
         "results-full" => full_table(report),
         "results-per-scenario" => per_scenario_table(report),
         "results-suite" => suite_line(report),
+        "results-tiers" => tiers_table(report),
         _ => return None,
     })
 }
@@ -353,6 +358,70 @@ fn per_scenario_table(report: &Report) -> String {
         .collect();
     let header: Vec<&str> = header.iter().map(String::as_str).collect();
     table(&header, &body)
+}
+
+/// The tier whose detector rows (not the reference rows) evade the smallest share of its evadable
+/// threats on average: `(tier, mean evasion rate)`; ties go to the higher tier. `None`: no tier
+/// with evadable threats and detector rows.
+pub fn worst_tier(report: &Report) -> Option<(u8, f64)> {
+    report
+        .tier_summaries()
+        .filter_map(|(t, s)| {
+            let rates: Vec<f64> = s
+                .detectors
+                .iter()
+                .filter(|(label, _)| !report.references.contains(label))
+                .filter_map(|(_, d)| d.evasion_rate)
+                .collect();
+            (!rates.is_empty()).then(|| (t, rates.iter().sum::<f64>() / rates.len() as f64))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
+}
+
+/// `results-tiers`: one column per difficulty tier: first its counts, then every row's evasion and
+/// false-alarm rate over that tier's episodes; then a sentence naming the worst tier.
+fn tiers_table(report: &Report) -> String {
+    use loomlab_scenarios::tier::tier_name;
+    if report.tiers.is_empty() {
+        return "The report has no difficulty tiers (no scenario states `tier`).\n".into();
+    }
+    let tiers: Vec<(u8, &loomlab_scenarios::report::TierSummary)> = report.tier_summaries().collect();
+    let header: Vec<String> = std::iter::once("row".to_string())
+        .chain(tiers.iter().map(|(t, _)| format!("tier {t}: {}", tier_name(*t))))
+        .collect();
+    let counts = std::iter::once("threats (evadable) / non-threats".to_string())
+        .chain(
+            tiers
+                .iter()
+                .map(|(_, s)| format!("{} ({}) / {}", s.threats, s.evadable_threats, s.non_threats)),
+        )
+        .collect();
+    let body: Vec<Vec<String>> = std::iter::once(counts)
+        .chain(rows(report).into_iter().map(|(label, _, reference)| {
+            std::iter::once(label_cell(label, reference))
+                .chain(tiers.iter().map(|(_, ts)| {
+                    ts.detectors.get(label).map_or_else(
+                        || "–".into(),
+                        |s| format!("{} / {}", num(s.evasion_rate, 2), num(s.false_alarm_rate, 2)),
+                    )
+                }))
+                .collect()
+        }))
+        .collect();
+    let header: Vec<&str> = header.iter().map(String::as_str).collect();
+    let mut out = table(&header, &body);
+    out += "\nCells: evasion rate (evaded / evadable threats) / false-alarm rate (alarms on non-threats) \
+            over the tier's episodes; `*` reference row computed from ground truth.";
+    if let Some((t, mean)) = worst_tier(report) {
+        let _ = write!(
+            out,
+            " **Worst tier: {t} ({})**, where the detector rows evade {:.0} % of the evadable threats on average.",
+            tier_name(t),
+            100.0 * mean
+        );
+    }
+    out.push('\n');
+    out
 }
 
 /// `results-takeaways`: three sentences, each with the numbers it rests on; which rows they name

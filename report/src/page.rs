@@ -1,7 +1,9 @@
 //! The run page, `report.html`: what `loomlab run` (and each point of a sweep) shows a person.
 //!
 //! Sections: the run's facts, the summary table (every detector pooled over the suite, with 95 %
-//! Wilson intervals, reference rows after the detectors), the comparison with a baseline report
+//! Wilson intervals, reference rows after the detectors), the per-tier section when the suite's
+//! scenarios state difficulty tiers (the tiers' counts, then one such table per tier; the per-tier
+//! evasion and false-alarm plots are among the plots), the comparison with a baseline report
 //! (`--baseline`: what got worse beyond the regression tolerances, what improved beyond them, and
 //! the pooled rates side by side), the plots (inline SVG), then per scenario its table and its
 //! exemplary episodes (GIF of the robot's view with the alarms marked, trace plot, every
@@ -57,6 +59,9 @@ impl RunPage<'_> {
             let _ = write!(b, "<br>{}: <code>{}</code>", escape(k), escape(v));
         }
         b.push_str("</p>\n<nav><a href=\"#summary\">summary</a>");
+        if !r.tiers.is_empty() {
+            b.push_str("<a href=\"#tiers\">per tier</a>");
+        }
         if self.baseline.is_some() {
             b.push_str("<a href=\"#baseline\">against the baseline</a>");
         }
@@ -72,6 +77,10 @@ impl RunPage<'_> {
              time to contact estimated from each object's true angular size, <code>ideal_course</code> \
              on the same behind the collision-course gate fed the true bearings.</p>\n",
         );
+
+        if !r.tiers.is_empty() {
+            b.push_str(&tier_section(r));
+        }
 
         if let Some((path, base)) = &self.baseline {
             b.push_str(&baseline_section(path, r, base));
@@ -192,16 +201,80 @@ fn exemplar_html(e: &Exemplar) -> Result<String, ReportError> {
     Ok(b)
 }
 
+/// The per-tier section: the tiers' counts, then one table per tier (every row of the summary
+/// table, pooled over that tier's episodes).
+fn tier_section(r: &Report) -> String {
+    let mut b = String::from(
+        "<h2 id=\"tiers\">Per difficulty tier</h2>\n<p class=\"meta\">Each scenario file states its tier \
+         (<code>tier = 0..3</code>); a row of a tier pools every episode of that tier's scenarios. The plots \
+         <a href=\"#plot-tier_evasion\">evasion rate</a> and <a href=\"#plot-tier_false_alarms\">false-alarm \
+         rate</a> per tier are under Plots.</p>\n",
+    );
+    let rows: Vec<(String, Vec<String>)> = r
+        .tier_summaries()
+        .map(|(t, s)| {
+            (
+                String::new(),
+                vec![
+                    text_cell(&format!("tier {t} ({})", loomlab_scenarios::tier::tier_name(t))),
+                    text_cell(
+                        loomlab_scenarios::tier::TIER_DESCRIPTIONS
+                            .get(t as usize)
+                            .copied()
+                            .unwrap_or_default(),
+                    ),
+                    cell(&s.episodes.to_string(), Some(s.episodes as f64)),
+                    cell(&s.threats.to_string(), Some(s.threats as f64)),
+                    cell(&s.evadable_threats.to_string(), Some(s.evadable_threats as f64)),
+                    cell(&s.non_threats.to_string(), Some(s.non_threats as f64)),
+                ],
+            )
+        })
+        .collect();
+    b.push_str(&table(
+        "tier-counts",
+        &[
+            "tier",
+            "conditions",
+            "episodes",
+            "threats",
+            "evadable threats",
+            "non-threats",
+        ],
+        &rows,
+    ));
+    for (t, s) in r.tier_summaries() {
+        let _ = writeln!(
+            b,
+            "<h3 id=\"tier-{t}\">Tier {t}: {} <small class=\"meta\">({} episodes)</small></h3>",
+            escape(loomlab_scenarios::tier::tier_name(t)),
+            s.episodes
+        );
+        b.push_str(&table("per-tier", &SUMMARY_HEADERS, &summary_rows(s.detectors.iter())));
+    }
+    b
+}
+
 /// The regressions of `from` against `to`, as rows (`better`: `from` is the baseline, `to` this
 /// run, so a "regression" of the baseline is an improvement of the run).
 fn change_rows(list: &[Regression], better: bool) -> Vec<(String, Vec<String>)> {
     list.iter()
         .map(|r| {
-            let scope = r.scenario.clone().unwrap_or_else(|| "all scenarios".into());
+            let scope = match (&r.scenario, r.tier) {
+                (Some(s), _) => s.clone(),
+                (None, Some(t)) => format!("tier {t}"),
+                (None, None) => "all scenarios".into(),
+            };
             let det = r.detector.clone().unwrap_or_default();
             let (metric, base, cur, tol) = match &r.kind {
                 RegressionKind::MissingScenario => (
                     if better { "new scenario" } else { "missing scenario" }.to_string(),
+                    None,
+                    None,
+                    None,
+                ),
+                RegressionKind::MissingTier => (
+                    if better { "new tier" } else { "missing tier" }.to_string(),
                     None,
                     None,
                     None,

@@ -13,7 +13,7 @@ use std::path::Path;
 
 use loomlab_agents::TriggerSignal;
 use loomlab_scenarios::EpisodeRun;
-use loomlab_scenarios::metrics::{EpisodeOutcome, Outcome};
+use loomlab_scenarios::metrics::{DetectorSummary, EpisodeOutcome, Outcome};
 use loomlab_scenarios::report::Report;
 
 use crate::plot::{LineChart, PlotError, Series, line_chart_grid, line_chart_grid_svg, rate_bars, rate_bars_svg};
@@ -390,6 +390,59 @@ pub fn run_figures(report: &Report, outcomes: &[EpisodeOutcome], samples: Option
             size: (width, 520),
         },
     });
+
+    // Per difficulty tier: evasion and false-alarm rate of every row, reference rows included.
+    if !report.tiers.is_empty() {
+        let tiers: Vec<(String, &loomlab_scenarios::report::TierSummary)> = report
+            .tier_summaries()
+            .map(|(t, s)| (format!("tier {t} ({})", loomlab_scenarios::tier::tier_name(t)), s))
+            .collect();
+        let categories: Vec<String> = tiers.iter().map(|(n, _)| n.clone()).collect();
+        let rows: Vec<&String> = report
+            .detectors
+            .keys()
+            .filter(|id| !loomlab_scenarios::reference::is_reference(id))
+            .chain(
+                loomlab_scenarios::reference::REFERENCE_LABELS
+                    .iter()
+                    .filter_map(|r| report.detectors.get_key_value(*r).map(|(k, _)| k)),
+            )
+            .collect();
+        let per_tier = |f: &dyn Fn(&DetectorSummary) -> Option<f64>| -> Vec<(String, Vec<f64>)> {
+            rows.iter()
+                .map(|id| {
+                    let v = tiers
+                        .iter()
+                        .map(|(_, t)| t.detectors.get(*id).and_then(f).unwrap_or(f64::NAN))
+                        .collect();
+                    ((*id).clone(), v)
+                })
+                .collect()
+        };
+        let width = (160 + 22 * (rows.len() * tiers.len()) as u32).max(640);
+        figures.push(Figure {
+            name: "tier_evasion",
+            caption: "Evasion rate (evaded / evadable threats) per difficulty tier and row, reference rows included."
+                .into(),
+            kind: FigureKind::Bars {
+                title: "evasion rate per difficulty tier".into(),
+                categories: categories.clone(),
+                series: per_tier(&|s| s.evasion_rate),
+                size: (width, 520),
+            },
+        });
+        figures.push(Figure {
+            name: "tier_false_alarms",
+            caption: "False-alarm rate (alarms on non-threats) per difficulty tier and row, reference rows included."
+                .into(),
+            kind: FigureKind::Bars {
+                title: "false-alarm rate per difficulty tier".into(),
+                categories,
+                series: per_tier(&|s| s.false_alarm_rate),
+                size: (width, 520),
+            },
+        });
+    }
 
     // The l/|v| analysis: alarm time to collision against half-size / closing speed, with the fit.
     let lv: Vec<Series> = report

@@ -30,6 +30,8 @@ struct Point {
     detector: String,
     values: Vec<(String, String)>,
     score: Option<f64>,
+    /// The objective per difficulty tier (`tier_scores`; empty for an untiered suite).
+    tier_scores: Vec<(String, Option<f64>)>,
     within_budget: bool,
     hit_rate: Option<f64>,
     false_alarm_rate: Option<f64>,
@@ -79,6 +81,11 @@ fn read_points(path: &Path, summary: &Value) -> Result<Vec<Point>, ReportError> 
                 .to_string(),
             values,
             score: p.get("score").and_then(Value::as_f64),
+            tier_scores: p
+                .get("tier_scores")
+                .and_then(Value::as_object)
+                .map(|m| m.iter().map(|(t, v)| (t.clone(), v.as_f64())).collect())
+                .unwrap_or_default(),
             within_budget: p.get("within_budget").and_then(Value::as_bool).unwrap_or(false),
             hit_rate: f("hit_rate"),
             false_alarm_rate: f("false_alarm_rate"),
@@ -169,6 +176,15 @@ pub fn write_sweep_pages(root: &Path) -> Result<PathBuf, ReportError> {
         k.dedup();
         k
     };
+    let tiers: Vec<String> = {
+        let mut t: Vec<String> = points
+            .iter()
+            .flat_map(|p| p.tier_scores.iter().map(|(t, _)| t.clone()))
+            .collect();
+        t.sort();
+        t.dedup();
+        t
+    };
     let mut headers: Vec<String> = vec!["rank".into(), "point".into(), "detector".into()];
     headers.extend(keys.iter().map(|k| escape(k)));
     headers.extend(
@@ -182,6 +198,7 @@ pub fn write_sweep_pages(root: &Path) -> Result<PathBuf, ReportError> {
         ]
         .map(String::from),
     );
+    headers.extend(tiers.iter().map(|t| format!("score, tier {}", escape(t))));
     let rows: Vec<(String, Vec<String>)> = points
         .iter()
         .map(|p| {
@@ -206,6 +223,10 @@ pub fn write_sweep_pages(root: &Path) -> Result<PathBuf, ReportError> {
                 cell(&pct(p.collision_rate), p.collision_rate),
                 cell(&num(p.auc, 3), p.auc),
             ]);
+            for t in &tiers {
+                let v = p.tier_scores.iter().find(|(pt, _)| pt == t).and_then(|(_, v)| *v);
+                cells.push(cell(&num(v, 4), v));
+            }
             (String::new(), cells)
         })
         .collect();

@@ -16,6 +16,7 @@ pub mod schema;
 pub mod stats;
 pub mod suite;
 pub mod sweep;
+pub mod tier;
 pub mod truth;
 
 pub use error::{RunError, ScenarioError};

@@ -1,7 +1,8 @@
 //! Regression mode: compare a run's report with a baseline report.
 //!
 //! # What counts as a regression
-//! For each detector of the baseline — pooled (`detectors.<id>`) and, if
+//! For each detector of the baseline — pooled (`detectors.<id>`), per difficulty tier
+//! (`tiers.<tier>.detectors.<id>`, a tier of the baseline missing now is a regression) and, if
 //! [`Tolerances::per_scenario`], per scenario (`scenarios.<name>.detectors.<id>`):
 //! - the detector (or scenario) is missing from the current report;
 //! - `hit_rate` dropped, `false_alarm_rate` rose or `collision_rate` rose by more than the allowed
@@ -107,6 +108,8 @@ impl Tolerances {
 pub enum RegressionKind {
     /// The scenario is in the baseline but not in the current report.
     MissingScenario,
+    /// The difficulty tier is in the baseline but not in the current report.
+    MissingTier,
     /// The detector is in the baseline but not in the current report (or scenario).
     MissingDetector,
     /// A metric got worse than allowed, or is no longer measured (`current: None`).
@@ -125,8 +128,10 @@ pub enum RegressionKind {
 /// One regression against the baseline.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Regression {
-    /// Scenario name; `None` for the pooled (suite-wide) summaries.
+    /// Scenario name; `None` for the pooled (suite-wide or per-tier) summaries.
     pub scenario: Option<String>,
+    /// Difficulty tier of a per-tier summary; `None` otherwise.
+    pub tier: Option<u8>,
     /// Detector id; `None` for a missing scenario.
     pub detector: Option<String>,
     /// What regressed.
@@ -135,13 +140,16 @@ pub struct Regression {
 
 impl fmt::Display for Regression {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let scope = match &self.scenario {
-            Some(s) => format!("scenario `{s}`"),
-            None => "all scenarios".to_string(),
+        let scope = match (&self.scenario, self.tier) {
+            (Some(s), _) => format!("scenario `{s}`"),
+            (None, Some(t)) => format!("tier {t}"),
+            (None, None) => "all scenarios".to_string(),
         };
         let det = self.detector.as_deref().unwrap_or("?");
         match &self.kind {
-            RegressionKind::MissingScenario => write!(f, "{scope}: missing from the current report"),
+            RegressionKind::MissingScenario | RegressionKind::MissingTier => {
+                write!(f, "{scope}: missing from the current report")
+            }
             RegressionKind::MissingDetector => write!(f, "{scope} / detector `{det}`: missing from the current report"),
             RegressionKind::Metric {
                 metric,
@@ -177,16 +185,29 @@ impl fmt::Display for Regression {
 /// Compare `current` with `baseline`; an empty result means no regression (see the module docs).
 pub fn compare(current: &Report, baseline: &Report, tol: &Tolerances) -> Vec<Regression> {
     let mut out = Vec::new();
-    compare_detectors(None, &current.detectors, &baseline.detectors, tol, &mut out);
+    compare_detectors(None, None, &current.detectors, &baseline.detectors, tol, &mut out);
+    for (key, base) in &baseline.tiers {
+        let tier = key.parse::<u8>().ok();
+        match current.tiers.get(key) {
+            None => out.push(Regression {
+                scenario: None,
+                tier,
+                detector: None,
+                kind: RegressionKind::MissingTier,
+            }),
+            Some(cur) => compare_detectors(None, tier, &cur.detectors, &base.detectors, tol, &mut out),
+        }
+    }
     if tol.per_scenario {
         for (name, base) in &baseline.scenarios {
             match current.scenarios.get(name) {
                 None => out.push(Regression {
                     scenario: Some(name.clone()),
+                    tier: None,
                     detector: None,
                     kind: RegressionKind::MissingScenario,
                 }),
-                Some(cur) => compare_detectors(Some(name), &cur.detectors, &base.detectors, tol, &mut out),
+                Some(cur) => compare_detectors(Some(name), None, &cur.detectors, &base.detectors, tol, &mut out),
             }
         }
     }
@@ -195,6 +216,7 @@ pub fn compare(current: &Report, baseline: &Report, tol: &Tolerances) -> Vec<Reg
 
 fn compare_detectors(
     scenario: Option<&String>,
+    tier: Option<u8>,
     current: &std::collections::BTreeMap<String, DetectorSummary>,
     baseline: &std::collections::BTreeMap<String, DetectorSummary>,
     tol: &Tolerances,
@@ -204,6 +226,7 @@ fn compare_detectors(
     for (id, base) in baseline.iter().filter(|(id, _)| !crate::reference::is_reference(id)) {
         let reg = |kind| Regression {
             scenario: scenario.cloned(),
+            tier,
             detector: Some(id.clone()),
             kind,
         };

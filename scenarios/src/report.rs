@@ -13,6 +13,9 @@
 //!                              "theta_required_deg": { "count": 9, "min": …, "p10": …, "p25": …,
 //!                                                      "median": …, "p75": …, "p90": …, "max": … } } } }
 //! ```
+//! `tiers` pools the episodes of each difficulty tier ([`crate::tier`]; `{}` when no scenario
+//! states one): `"tiers": { "0": { "episodes": 90, "threats": 40, "non_threats": 50,
+//! "evadable_threats": 38, "detectors": { "<id>": { …same keys as detectors.<id>… } } }, … }`.
 //! `detectors.<id>` pools every episode of the suite; `scenarios.<name>.detectors.<id>` only that
 //! scenario's. The reference rows (`null`, `oracle`, `ideal_theta`, `ideal_tau`, `ideal_course`, see [`crate::reference`]) sit
 //! beside the detectors and are listed in `references`. Every summary also carries the escape
@@ -57,6 +60,42 @@ pub struct ScenarioSummary {
     /// escape deadline) over this scenario's episodes (`None`: no evadable threat).
     #[serde(default)]
     pub theta_required_deg: Option<Distribution>,
+}
+
+/// Scores of one difficulty tier (every episode of the scenarios with that `tier`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TierSummary {
+    /// Number of episodes of this tier.
+    pub episodes: u64,
+    /// Threats among them (evadable and unavoidable).
+    pub threats: u64,
+    /// Non-threats among them.
+    pub non_threats: u64,
+    /// Threats that some trigger time evades.
+    pub evadable_threats: u64,
+    /// Per-detector (and reference-row) summaries over this tier's episodes.
+    pub detectors: BTreeMap<String, DetectorSummary>,
+}
+
+impl TierSummary {
+    /// Pools `episodes` (all of one tier).
+    pub fn of(episodes: &[EpisodeOutcome]) -> Self {
+        let detectors = summarize_by_detector(episodes);
+        let (threats, non_threats, evadable_threats) = detectors.values().next().map_or((0, 0, 0), |s| {
+            (
+                s.hits + s.misses + s.unavoidable_threats,
+                s.false_alarms + s.correct_rejections,
+                s.evadable_threats,
+            )
+        });
+        Self {
+            episodes: episodes.len() as u64,
+            threats,
+            non_threats,
+            evadable_threats,
+            detectors,
+        }
+    }
 }
 
 /// Quantiles of a sample (linear interpolation between order statistics).
@@ -135,6 +174,9 @@ pub struct Report {
     pub detectors: BTreeMap<String, DetectorSummary>,
     /// Per-scenario, per-detector summaries.
     pub scenarios: BTreeMap<String, ScenarioSummary>,
+    /// Per-tier summaries, keyed by the tier (`"0"` … `"3"`); empty when no scenario states one.
+    #[serde(default)]
+    pub tiers: BTreeMap<String, TierSummary>,
 }
 
 /// The reference labels that occur in `episodes`, in table order.
@@ -151,8 +193,26 @@ fn finite_or_zero(x: f64) -> f64 {
 }
 
 impl Report {
-    /// Aggregate scored episodes into a report (non-finite metadata times are written as 0).
+    /// Aggregate scored episodes into a report (non-finite metadata times are written as 0),
+    /// without tiers (`tiers` is empty; see [`Report::from_tiered_episodes`]).
     pub fn from_episodes(meta: &ReportMeta, episodes: &[EpisodeOutcome]) -> Self {
+        Self::from_tiered_episodes(meta, episodes, &BTreeMap::new())
+    }
+
+    /// Aggregate scored episodes into a report with per-tier summaries: `tiers` maps a scenario
+    /// name to its difficulty tier (e.g. [`crate::Suite::tiers`]); episodes of scenarios not in it
+    /// count in the pooled and per-scenario summaries only.
+    pub fn from_tiered_episodes(meta: &ReportMeta, episodes: &[EpisodeOutcome], tiers: &BTreeMap<String, u8>) -> Self {
+        let mut by_tier: BTreeMap<u8, Vec<EpisodeOutcome>> = BTreeMap::new();
+        for e in episodes {
+            if let Some(t) = tiers.get(&e.scenario) {
+                by_tier.entry(*t).or_default().push(e.clone());
+            }
+        }
+        let tiers = by_tier
+            .into_iter()
+            .map(|(t, eps)| (t.to_string(), TierSummary::of(&eps)))
+            .collect();
         let mut by_scenario: BTreeMap<&str, Vec<EpisodeOutcome>> = BTreeMap::new();
         for e in episodes {
             by_scenario.entry(&e.scenario).or_default().push(e.clone());
@@ -178,7 +238,13 @@ impl Report {
             references: present_references(episodes),
             detectors: summarize_by_detector(episodes),
             scenarios,
+            tiers,
         }
+    }
+
+    /// The tiers of the report as numbers with their summaries, in tier order.
+    pub fn tier_summaries(&self) -> impl Iterator<Item = (u8, &TierSummary)> {
+        self.tiers.iter().filter_map(|(k, v)| Some((k.parse().ok()?, v)))
     }
 
     /// Pretty JSON text of the report.
@@ -218,6 +284,19 @@ impl Report {
             self.suite, self.episodes, self.wall_time_s
         );
         out += &format_summary_table(&self.detectors);
+        for (t, s) in self.tier_summaries() {
+            let _ = write!(
+                out,
+                "\ntier {t} ({}; {} episodes): {}\n",
+                crate::tier::tier_name(t),
+                s.episodes,
+                crate::tier::TIER_DESCRIPTIONS
+                    .get(t as usize)
+                    .copied()
+                    .unwrap_or_default()
+            );
+            out += &format_summary_table(&s.detectors);
+        }
         if per_scenario {
             for (name, s) in &self.scenarios {
                 let _ = write!(out, "\nscenario {name} ({} episodes)\n", s.episodes);

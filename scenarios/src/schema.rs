@@ -404,6 +404,8 @@ pub struct Scenario {
     pub description: String,
     /// The file it came from.
     pub file: PathBuf,
+    /// Its difficulty tier (top-level `tier`, 0 ..= [`crate::tier::MAX_TIER`]; `None`: not stated).
+    pub tier: Option<u8>,
     expansion: Arc<Expansion>,
 }
 
@@ -563,7 +565,33 @@ pub fn parse_scenario(
             ));
         }
     };
+    if defaults.is_some_and(|d| d.table.contains_key("tier")) {
+        let file = &defaults.expect("checked").file;
+        return Err(ScenarioError::key(
+            file,
+            "defaults.tier",
+            "a difficulty tier belongs to each scenario file, not to the suite's [defaults]: remove it here and \
+             write `tier = N` at the top of every scenario file",
+        ));
+    }
+    let tier = match tree.remove("tier") {
+        None => None,
+        Some(v) => Some(crate::tier::parse_tier_value(&v).map_err(|reason| ScenarioError::key(path, "tier", reason))?),
+    };
     let variation = Variation::take_from(&mut tree).map_err(kerr)?;
+    if variation
+        .sweep
+        .iter()
+        .flat_map(|(_, ps, _)| ps.iter().map(KeyPath::canonical))
+        .chain(variation.random.iter().map(|(_, p, _)| p.canonical()))
+        .any(|k| k == "tier")
+    {
+        return Err(ScenarioError::key(
+            path,
+            "sweep.tier",
+            "the tier is one per scenario file and cannot be swept or sampled: split the file into one file per tier",
+        ));
+    }
     let episode: EpisodeDesc = typed(
         tree.get("episode").cloned().unwrap_or(Value::Table(Table::new())),
         "episode",
@@ -622,6 +650,7 @@ pub fn parse_scenario(
         name: expansion.name.clone(),
         description,
         file: path.into(),
+        tier,
         expansion: Arc::new(expansion),
     })
 }

@@ -13,10 +13,15 @@
 //!   ```
 //! - a single **scenario file** (a TOML file without a `scenarios` key).
 //!
+//! `require_tier = true` in `suite.toml` or a list file makes the top-level `tier` key (the
+//! difficulty tier, 0 to 3: [`crate::tier`]) required in every scenario of the suite; elsewhere it
+//! is optional.
+//!
 //! `[defaults]` is deep-merged under each scenario file before its sweeps are expanded (tables
 //! merge key by key, arrays and other values are replaced by the scenario's). Scenario names must
 //! be unique within a suite (reports are keyed by them).
 
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
@@ -41,6 +46,8 @@ struct SuiteDoc {
     scenarios: Option<Vec<String>>,
     #[serde(default)]
     defaults: Option<Table>,
+    #[serde(default)]
+    require_tier: bool,
 }
 
 /// A loaded suite.
@@ -54,11 +61,46 @@ pub struct Suite {
     pub scenarios: Vec<Scenario>,
 }
 
+/// Every scenario's tier, by scenario name (scenarios without one are left out).
+pub fn scenario_tiers(scenarios: &[Scenario]) -> BTreeMap<String, u8> {
+    scenarios
+        .iter()
+        .filter_map(|s| Some((s.name.clone(), s.tier?)))
+        .collect()
+}
+
 impl Suite {
     /// Every episode, scenario by scenario, expanded as the iterator advances (memory does not
     /// grow with the suite; `take(n)` expands n episodes).
     pub fn episodes(&self) -> impl Iterator<Item = Result<EpisodeSpec, ScenarioError>> + '_ {
         self.scenarios.iter().flat_map(Scenario::episodes)
+    }
+
+    /// Every scenario's difficulty tier, by scenario name (scenarios without one are left out).
+    pub fn tiers(&self) -> BTreeMap<String, u8> {
+        scenario_tiers(&self.scenarios)
+    }
+
+    /// Keeps only the scenarios of these tiers (`loomlab run --tier`); an error when none is left.
+    pub fn retain_tiers(&mut self, tiers: &BTreeSet<u8>) -> Result<(), ScenarioError> {
+        let have: BTreeSet<u8> = self.scenarios.iter().filter_map(|s| s.tier).collect();
+        self.scenarios.retain(|s| s.tier.is_some_and(|t| tiers.contains(&t)));
+        if self.scenarios.is_empty() {
+            let list = |set: &BTreeSet<u8>| set.iter().map(u8::to_string).collect::<Vec<_>>().join(",");
+            return Err(ScenarioError::Suite {
+                path: self.path.clone(),
+                reason: format!(
+                    "--tier {}: no scenario of the suite has that tier (its scenarios' tiers: {}); pick one of those",
+                    list(tiers),
+                    if have.is_empty() {
+                        "none: no file sets `tier`".to_string()
+                    } else {
+                        list(&have)
+                    }
+                ),
+            });
+        }
+        Ok(())
     }
 
     /// Number of episodes.
@@ -183,17 +225,31 @@ pub fn load_suite(path: &Path, opts: &LoadOptions) -> Result<Suite, ScenarioErro
             return finish(path, String::new(), vec![scenario]);
         }
     };
+    let suite_file: PathBuf = if meta.is_dir() {
+        path.join(SUITE_FILE)
+    } else {
+        path.into()
+    };
     let defaults = doc.defaults.map(|table| SuiteDefaults {
         table,
-        file: if meta.is_dir() {
-            path.join(SUITE_FILE)
-        } else {
-            path.into()
-        },
+        file: suite_file.clone(),
     });
     let mut scenarios = Vec::with_capacity(files.len());
     for f in &files {
-        scenarios.push(load_scenario(f, defaults.as_ref(), opts)?);
+        let scenario = load_scenario(f, defaults.as_ref(), opts)?;
+        if doc.require_tier && scenario.tier.is_none() {
+            return Err(ScenarioError::key(
+                f,
+                "tier",
+                format!(
+                    "missing: {} sets `require_tier = true`, so every scenario file states its difficulty tier; \
+                     add `tier = N` at the top of the file, N {}",
+                    suite_file.display(),
+                    crate::tier::TIER_HELP.trim_start_matches("an integer ")
+                ),
+            ));
+        }
+        scenarios.push(scenario);
     }
     finish(path, doc.description, scenarios)
 }

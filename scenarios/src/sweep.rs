@@ -431,6 +431,9 @@ pub struct SweepPlan {
     /// Hex fingerprint of everything that determines the results (loomlab version, points,
     /// episodes, shards): a resumed sweep must have the same.
     pub fingerprint: String,
+    /// The difficulty tier of each scenario of the suite that states one (by scenario name): each
+    /// point's report pools them (`tiers`) and its objective is also scored per tier.
+    pub tiers: BTreeMap<String, u8>,
 }
 
 impl SweepPlan {
@@ -471,11 +474,13 @@ impl SweepPlan {
         }
         fingerprint.add(serde_json::to_string(&shards).unwrap_or_default().as_bytes());
         let fingerprint = fingerprint.hex();
+        let tiers = suite.tiers();
         Ok(Self {
             file,
             episodes,
             shards,
             fingerprint,
+            tiers,
         })
     }
 
@@ -596,9 +601,20 @@ impl SweepPlan {
             .iter()
             .zip(per_point)
             .map(|(point, outcomes)| {
-                let report = Report::from_episodes(&meta, &outcomes);
+                let report = Report::from_tiered_episodes(&meta, &outcomes, &self.tiers);
                 let summary = report.detectors.get(&point.label);
                 let score = summary.and_then(|s| metric.value(s, false_alarm_budget));
+                let tier_scores = report
+                    .tiers
+                    .iter()
+                    .map(|(t, ts)| {
+                        let v = ts
+                            .detectors
+                            .get(&point.label)
+                            .and_then(|s| metric.value(s, false_alarm_budget));
+                        (t.clone(), v)
+                    })
+                    .collect();
                 let feasible = match (metric, false_alarm_budget, summary) {
                     (Metric::RocHitRate, _, _) | (_, None, _) => true,
                     (_, Some(b), Some(s)) => s.false_alarm_rate.is_none_or(|f| f <= b + 1e-12),
@@ -609,6 +625,7 @@ impl SweepPlan {
                     report,
                     outcomes,
                     score,
+                    tier_scores,
                     feasible,
                 }
             })
@@ -627,6 +644,10 @@ pub struct PointResult {
     pub outcomes: Vec<EpisodeOutcome>,
     /// The objective's value.
     pub score: Option<f64>,
+    /// The objective's value over each difficulty tier's episodes (key `"0"` … `"3"`; empty when
+    /// the suite states no tiers). The ranking uses [`PointResult::score`]; these show where a
+    /// point wins or loses.
+    pub tier_scores: BTreeMap<String, Option<f64>>,
     /// Whether it keeps the false-alarm budget (always true for the threshold-free metrics).
     pub feasible: bool,
 }
@@ -805,6 +826,7 @@ impl SweepDir {
                 "detector": r.point.detector,
                 "values": r.point.values,
                 "score": r.score,
+                "tier_scores": r.tier_scores,
                 "within_budget": r.feasible,
                 "summary": s,
             }));
@@ -856,9 +878,15 @@ pub fn format_ranking(plan: &SweepPlan, results: &[PointResult], order: &[usize]
             .map(|(k, v)| format!("{k}={v}"))
             .collect::<Vec<_>>()
             .join(" ");
+        let tiers = if r.tier_scores.is_empty() {
+            String::new()
+        } else {
+            let per: Vec<String> = r.tier_scores.iter().map(|(t, v)| format!("{t}:{}", f(*v))).collect();
+            format!("  [{metric_name} per tier {}]", per.join(" "))
+        };
         let _ = writeln!(
             out,
-            "{:<4} {:<16} {:>12} {:>6} {:>6} {:>6} {:>6}  {vals}{}",
+            "{:<4} {:<16} {:>12} {:>6} {:>6} {:>6} {:>6}  {vals}{tiers}{}",
             rank + 1,
             r.point.label,
             f(r.score),

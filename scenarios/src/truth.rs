@@ -69,12 +69,27 @@ pub struct EpisodeTruth {
     /// episode is a threat cut short by `episode.duration_s`, not a non-threat: an alarm on it is
     /// right. The default suite has none (tested); lengthen the episode when a scenario does.
     pub cut_short: Option<(String, f64)>,
+    /// The reference object's smallest distance from the camera to its surface over the open-loop
+    /// pass (m; `None` without a reference object). A non-threat with `closest_m` at most
+    /// [`NEAR_MISS_M`] is a **near miss**.
+    pub closest_m: Option<f64>,
 }
+
+/// A non-threat is a **near miss** when its reference object's surface comes within this distance
+/// of the camera (m): close enough that its image expands like a threat's, so only the
+/// collision-course gate (the looming's position and drift) tells it apart.
+pub const NEAR_MISS_M: f64 = 1.5;
 
 impl EpisodeTruth {
     /// Whether the episode is a threat.
     pub fn threat(&self) -> bool {
         self.contact.is_some()
+    }
+
+    /// Whether the episode is a near miss: a non-threat whose reference object comes within
+    /// [`NEAR_MISS_M`] of the camera.
+    pub fn near_miss(&self) -> bool {
+        !self.threat() && self.closest_m.is_some_and(|d| d <= NEAR_MISS_M)
     }
 
     /// The contact time of a threat (s).
@@ -167,10 +182,12 @@ impl TruthRecorder {
             }
             _ => None,
         };
+        let closest_m = reference.and_then(|r| self.min_distance_m.get(r).copied().filter(|d| d.is_finite()));
         EpisodeTruth {
             contact: self.contact,
             reference,
             cut_short,
+            closest_m,
         }
     }
 }

@@ -9,3 +9,4 @@ mod runner;
 mod schema;
 mod scoring;
 mod sweep;
+mod tiers;

@@ -1758,3 +1758,98 @@ fn csv_round_trip_keeps_the_deadline_and_lv_columns() {
         "{e}"
     );
 }
+
+// ---------------------------------------------------------------- difficulty tiers
+
+fn tiered(eps: &[EpisodeOutcome], tiers: &[(&str, u8)]) -> Report {
+    let map: std::collections::BTreeMap<String, u8> = tiers.iter().map(|(s, t)| (s.to_string(), *t)).collect();
+    Report::from_tiered_episodes(&meta(), eps, &map)
+}
+
+#[test]
+fn tiers_pool_their_scenarios_with_the_pooled_summary_keys() {
+    let mut eps = block("easy", 10, 9, 1, 1);
+    eps.extend(block("easy_too", 5, 5, 0, 0));
+    eps.extend(block("hard", 8, 2, 6, 6));
+    eps.extend(block("untiered", 3, 3, 0, 0));
+    let r = tiered(&eps, &[("easy", 0), ("easy_too", 0), ("hard", 3)]);
+    assert_eq!(r.tiers.keys().collect::<Vec<_>>(), ["0", "3"]);
+    let t0 = &r.tiers["0"];
+    assert_eq!(
+        (t0.episodes, t0.threats, t0.non_threats, t0.evadable_threats),
+        (30, 15, 15, 15)
+    );
+    assert_eq!(t0.detectors["hopfield"].hits, 14);
+    assert_eq!(t0.detectors["hopfield"].false_alarms, 1);
+    let t3 = &r.tiers["3"];
+    assert_eq!((t3.episodes, t3.threats, t3.non_threats), (16, 8, 8));
+    assert_eq!(t3.detectors["hopfield"].hit_rate, Some(0.25));
+    // the pooled summary still holds every episode, the untiered scenario's too
+    assert_eq!(r.detectors["hopfield"].episodes, 52);
+
+    // report.json: `tiers.<t>` has exactly the documented keys, and each row the pooled keys
+    let json: serde_json::Value = serde_json::from_str(&r.to_json()).unwrap();
+    let tier = json["tiers"]["0"].as_object().unwrap();
+    let mut keys: Vec<&str> = tier.keys().map(String::as_str).collect();
+    keys.sort_unstable();
+    assert_eq!(
+        keys,
+        ["detectors", "episodes", "evadable_threats", "non_threats", "threats"]
+    );
+    let pooled: Vec<&String> = json["detectors"]["hopfield"].as_object().unwrap().keys().collect();
+    let per_tier: Vec<&String> = tier["detectors"]["hopfield"].as_object().unwrap().keys().collect();
+    assert_eq!(pooled, per_tier);
+    // it reads back, and a report of an older loomlab (no `tiers`) reads as untiered
+    assert_eq!(Report::from_json(&r.to_json(), Path::new("r.json")).unwrap(), r);
+    let mut old = json.clone();
+    old.as_object_mut().unwrap().remove("tiers");
+    assert!(
+        Report::from_json(&old.to_string(), Path::new("old.json"))
+            .unwrap()
+            .tiers
+            .is_empty()
+    );
+    // the terminal table has a pooled table per tier
+    let table = r.format_table(false);
+    assert!(table.contains("\ntier 0 (paper; 30 episodes)"), "{table}");
+    assert!(table.contains("\ntier 3 (hard; 16 episodes)"), "{table}");
+    assert!(!table.contains("tier 1"), "{table}");
+    // without tiers the report has an empty `tiers` object
+    let json: serde_json::Value = serde_json::from_str(&report_of(&eps).to_json()).unwrap();
+    assert_eq!(json["tiers"], serde_json::json!({}));
+}
+
+#[test]
+fn regressions_are_checked_per_tier() {
+    // a tier that gets worse while the pooled rates stay within tolerance is flagged per tier
+    let mut base_eps = block("a", 40, 36, 2, 2);
+    base_eps.extend(block("b", 10, 9, 0, 0));
+    let mut cur_eps = block("a", 40, 36, 2, 2);
+    cur_eps.extend(block("b", 10, 3, 0, 0));
+    let tiers = [("a", 1), ("b", 2)];
+    let tol = Tolerances {
+        per_scenario: false,
+        ..Tolerances::default()
+    };
+    let regs = regression::compare(&tiered(&cur_eps, &tiers), &tiered(&base_eps, &tiers), &tol);
+    assert!(
+        regs.iter().any(|r| r.tier == Some(2)
+            && r.scenario.is_none()
+            && matches!(r.kind, RegressionKind::Metric { metric: "hit_rate", .. })),
+        "{regs:?}"
+    );
+    assert!(regs.iter().all(|r| r.tier != Some(1)), "{regs:?}");
+    let line = regs.iter().find(|r| r.tier == Some(2)).unwrap().to_string();
+    assert!(
+        line.starts_with("tier 2 / detector `hopfield` / hit_rate: 0.900 → 0.300"),
+        "{line}"
+    );
+    // a tier of the baseline missing now is a regression
+    let regs = regression::compare(&tiered(&base_eps, &[("a", 1)]), &tiered(&base_eps, &tiers), &tol);
+    assert!(
+        regs.iter()
+            .any(|r| r.tier == Some(2) && r.kind == RegressionKind::MissingTier),
+        "{regs:?}"
+    );
+    assert!(regression::compare(&tiered(&base_eps, &tiers), &tiered(&base_eps, &tiers), &tol).is_empty());
+}

@@ -36,8 +36,13 @@ texture = { kind = "uniform", luminance = 0.0 }
 fn suite_dir() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir(dir.path().join("suite")).unwrap();
-    for name in ["a_ball", "b_ball"] {
-        std::fs::write(dir.path().join("suite").join(format!("{name}.toml")), SCENARIO).unwrap();
+    // two difficulty tiers, so that every point is also scored per tier
+    for (name, tier) in [("a_ball", 0), ("b_ball", 2)] {
+        std::fs::write(
+            dir.path().join("suite").join(format!("{name}.toml")),
+            format!("tier = {tier}\n{SCENARIO}"),
+        )
+        .unwrap();
     }
     dir
 }
@@ -261,8 +266,18 @@ fn merged_reports_equal_a_direct_run_of_each_point() {
             wall_time_s: 0.0,
             lead_margin_s: episodes[0].scoring.lead_margin_s,
         };
-        let direct = Report::from_episodes(&meta, &outcomes);
+        let direct = Report::from_tiered_episodes(&meta, &outcomes, &suite.tiers());
         assert_eq!(r.report, direct, "{}", r.point.label);
+        // the objective per tier: the metric over each tier's summary of the point
+        assert_eq!(direct.tiers.keys().collect::<Vec<_>>(), ["0", "2"]);
+        for (t, ts) in &direct.tiers {
+            let objective = &plan.file.objective;
+            let want = ts
+                .detectors
+                .get(&r.point.label)
+                .and_then(|s| objective.metric.value(s, objective.false_alarm_budget));
+            assert_eq!(r.tier_scores.get(t), Some(&want), "{} tier {t}", r.point.label);
+        }
         // every point's report carries the reference rows, and only its own detector beside them
         assert_eq!(r.report.references, REFERENCE_LABELS);
         let mut labels: Vec<&str> = r.report.detectors.keys().map(String::as_str).collect();
@@ -283,6 +298,12 @@ fn merged_reports_equal_a_direct_run_of_each_point() {
         "{ranking}"
     );
     assert_eq!(ranking.lines().count(), 6);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    for p in summary["ranking"].as_array().unwrap() {
+        let tiers: Vec<&String> = p["tier_scores"].as_object().unwrap().keys().collect();
+        assert_eq!(tiers, ["0", "2"], "{p}");
+    }
 }
 
 #[test]

@@ -8,7 +8,8 @@
 //! - `roc.png` (ROC curve per detector), `rates.png` (share of correct decisions per scenario and
 //!   detector), `collisions.png` (collision rate per scenario and detector), `trace.png` (a sample
 //!   threat episode: θ̂ and the true angular size over time, and every detector's response against
-//!   the true angular size);
+//!   the true angular size); with difficulty tiers, `tier_evasion.png` and `tier_false_alarms.png`
+//!   (evasion and false-alarm rate per tier and row);
 //! - `report.html` (unless `--no-html`): the page a person reads, with every table and plot and,
 //!   per scenario, a few exemplary episodes (GIFs of the robot's view in `exemplars/`, traces);
 //!   see `loomlab_report`.
@@ -82,6 +83,11 @@ pub struct RunArgs {
     /// Frame size n for every episode (overrides world.camera.n).
     #[arg(long, value_name = "N")]
     pub size: Option<u32>,
+    /// Run only the scenarios of these difficulty tiers (comma-separated, 0 to 3: 0 the paper's
+    /// conditions, 1 static clutter, 2 ego-motion, 3 hard; a file's top-level `tier`). Scenarios
+    /// without a tier are left out. Applied before --limit.
+    #[arg(long, value_name = "N[,M...]")]
+    pub tier: Option<String>,
     /// Run only the first N episodes of the suite (quick checks).
     #[arg(long, value_name = "N")]
     pub limit: Option<usize>,
@@ -206,7 +212,12 @@ pub fn run_with(args: RunArgs, context: RunContext) -> anyhow::Result<i32> {
         registry: context.registry,
     };
     let suite_path = args.suite.clone().unwrap_or_else(default_suite);
-    let suite = load_suite(&suite_path, &opts)?;
+    let mut suite = load_suite(&suite_path, &opts)?;
+    if let Some(spec) = &args.tier {
+        let tiers = loomlab_scenarios::tier::parse_tier_list(spec).map_err(anyhow::Error::msg)?;
+        suite.retain_tiers(&tiers)?;
+    }
+    let tiers = suite.tiers();
     // Read the baseline before spending time on the run (a missing file is bad input).
     let baseline = match (&args.baseline, args.bless) {
         (Some(p), false) => Some(Report::read_json(p)?),
@@ -452,7 +463,7 @@ pub fn run_with(args: RunArgs, context: RunContext) -> anyhow::Result<i32> {
     if outcomes.len() < total {
         // interrupted: keep what is done, say how to go on
         if !outcomes.is_empty() {
-            let partial = Report::from_episodes(&meta, &outcomes);
+            let partial = Report::from_tiered_episodes(&meta, &outcomes, &tiers);
             run_dir.record(PARTIAL_REPORT)?;
             write_atomic(&out.join(PARTIAL_REPORT), (partial.to_json() + "\n").as_bytes())?;
         }
@@ -472,7 +483,7 @@ pub fn run_with(args: RunArgs, context: RunContext) -> anyhow::Result<i32> {
         return Ok(130);
     }
 
-    let report = Report::from_episodes(&meta, &outcomes);
+    let report = Report::from_tiered_episodes(&meta, &outcomes, &tiers);
     let report_path = out.join(REPORT);
     run_dir.record(REPORT)?;
     write_atomic(&report_path, (report.to_json() + "\n").as_bytes())?;

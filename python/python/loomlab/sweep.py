@@ -92,7 +92,8 @@ class SweepResult:
     complete: bool
     #: The ranking (best first, first ``top`` rows) as a text table; empty when incomplete.
     ranking_table: str = ""
-    #: ``summary.json`` (objective, ranking with every point's summary); empty when incomplete.
+    #: ``summary.json`` (objective, ranking with every point's summary and its objective per
+    #: difficulty tier, ``tier_scores``); empty when incomplete.
     summary: dict = field(default_factory=dict)
 
     @property
