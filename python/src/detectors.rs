@@ -296,6 +296,7 @@ fn signals_of(answer: &Bound<'_, PyAny>) -> Result<Signals, String> {
             })?,
             angular_size_deg: None,
             aux: Vec::new(),
+            region: None,
         });
     };
     let mut signals = Signals::default();

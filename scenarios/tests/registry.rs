@@ -73,6 +73,7 @@ impl Detector for MeanChange {
             output,
             angular_size_deg: None,
             aux: Vec::new(),
+            region: None,
         })
     }
 }

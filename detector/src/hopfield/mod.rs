@@ -372,6 +372,7 @@ impl Detector for Hopfield {
             output: s.z,
             angular_size_deg: Some(s.angular_size_deg),
             aux: vec![("on", s.z_on), ("off", s.z_off)],
+            region: None,
         })
     }
 }
