@@ -16,9 +16,14 @@
 //! `R` and displacement `T` between the two frames, composed from the per-frame increments of the
 //! efference copies) and projected; the earlier frame is sampled there bilinearly. The **residual**
 //! of a pixel is the current luminance minus this prediction; pixels whose prediction falls outside
-//! the earlier frame have none (0). Pure rotation of a static scene leaves no residual (up to the
-//! bilinear interpolation); a translation over the textured ground leaves the interpolation error
-//! of its texture edges only (tests: `detector/tests/compensation.rs`).
+//! the earlier frame have none (0). Pure rotation of a static scene leaves no residual up to the
+//! bilinear interpolation; a translation over the textured ground leaves the interpolation error
+//! of its texture only. The documented bounds, on the analytic scenes of the tests
+//! (`detector/tests/compensation.rs`: 96² frames, 60°, a smooth ground and sky texture of
+//! luminance contrast ±0.15–0.3, compared with the frame 8 frames = 67 ms earlier): after
+//! 0.5 rad/s of yaw and 0.2 rad/s of pitch the mean |residual| is below 2·10⁻³ and the largest
+//! below 0.04 (uncompensated: 0.024 and 0.1); after 2 m/s forward at 0.35 m above the ground, below
+//! 4·10⁻³ and 0.06.
 
 use crate::EfferenceCopy;
 

@@ -52,7 +52,10 @@ fn a_plain_scenario_is_one_episode_with_all_detectors() {
     assert_eq!(ep.frames(), 120);
     assert_eq!(ep.cruise.command_at(0.5).forward_mps, 1.0);
     let labels: Vec<&str> = ep.detectors.iter().map(|d| d.label.as_str()).collect();
-    assert_eq!(labels, ["hopfield", "soc", "keil2004", "cizek2019", "fu2020"]);
+    assert_eq!(
+        labels,
+        ["hopfield", "soc", "keil2004", "cizek2019", "fu2020", "tracker"]
+    );
     for d in &ep.detectors {
         assert_eq!(Some(d.threshold), registration(&d.id).map(|r| r.default_threshold));
     }
