@@ -12,14 +12,16 @@
 //!    (`|∇F|`: the current frame's central-difference gradient per pixel — a sub-pixel error of the
 //!    prediction at an edge of the static texture leaves a residual proportional to it). Changed
 //!    pixels closer than `link_px` (Chebyshev distance) form one region; regions of fewer than
-//!    `min_pixels` pixels are noise.
+//!    `min_pixels` pixels are noise, and regions more than [`MAX_BAND_ASPECT`] times wider than
+//!    high are the aliased far ground along the horizon.
 //! 3. **Tracking**: while an object is tracked, the region overlapping its last bounding box
 //!    (grown by a quarter of its size, at least `link_px`) with the largest summed |residual| is
 //!    the object, joined by every other region that touches it; with none, the largest region
 //!    starts a new track. A track without a region keeps its last box for `hold_frames` frames,
-//!    then ends.
-//! 4. **Outputs**: θ̂ = the larger of the box's angular width and height (degrees; 0 while nothing
-//!    is tracked) as `output` and `angular_size_deg`; the box and the residual-weighted centroid as
+//!    then ends. A track is reported once it has lasted `confirm_frames` frames.
+//! 4. **Outputs**: each edge of the box is smoothed by an α-β filter ([`EDGE_ALPHA`],
+//!    [`EDGE_BETA`]: sub-pixel positions, no lag at a constant edge velocity); θ̂ = the larger of
+//!    the smoothed box's angular width and height (degrees; 0 while nothing is tracked) as `output` and `angular_size_deg`; the box and the residual-weighted centroid as
 //!    [`Signals::region`](crate::Signals::region) (what the collision-course gate needs); `aux`:
 //!    `pixels` (changed pixels of the object), `x`, `y` (centroid).
 //!
@@ -33,6 +35,19 @@ use super::common::{Range, check};
 use crate::compensation::CompensatedDifference;
 use crate::registry::{CameraFacts, DetectorConfig, Registration, Signal};
 use crate::{Detector, DetectorError, EfferenceCopy, Frame, ImageRegion, Signals};
+
+/// Gain of the α-β filter that smooths each edge of the tracked box (position correction per
+/// frame): a box measured in whole pixels jumps by a pixel at a time, which a τ estimate from a few
+/// frames would read as motion.
+pub const EDGE_ALPHA: f64 = 0.35;
+
+/// Velocity gain of the edges' α-β filter (per frame).
+pub const EDGE_BETA: f64 = 0.05;
+
+/// A region more than this many times wider than high is ignored: a thin horizontal band is the
+/// far ground at the horizon, whose texture is finer than a pixel there and changes unpredictably
+/// from frame to frame (aliasing), not an object.
+pub const MAX_BAND_ASPECT: usize = 4;
 
 /// Parameters of [`Tracker`].
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -55,6 +70,10 @@ pub struct TrackerConfig {
     pub min_pixels: usize,
     /// Frames a track survives without a region (frames). Default 6.
     pub hold_frames: usize,
+    /// Frames a new track must last before it is reported (frames, ≥ 1): a box of a few pixels
+    /// that appears and vanishes again is noise, and a decision strategy fitting the first frames
+    /// of a track would read its jitter as motion. Default 12 (0.1 s at 120 Hz).
+    pub confirm_frames: usize,
 }
 
 impl Default for TrackerConfig {
@@ -67,6 +86,7 @@ impl Default for TrackerConfig {
             link_px: 2,
             min_pixels: 4,
             hold_frames: 6,
+            confirm_frames: 12,
         }
     }
 }
@@ -94,6 +114,7 @@ impl TrackerConfig {
             ("tracker.link_px", self.link_px, 1, 8, 2),
             ("tracker.min_pixels", self.min_pixels, 1, 10_000, 4),
             ("tracker.hold_frames", self.hold_frames, 0, 1_000, 6),
+            ("tracker.confirm_frames", self.confirm_frames, 1, 1_000, 12),
         ] {
             if !(lo..=hi).contains(&value) {
                 return Err(DetectorError::InvalidParameter {
@@ -153,6 +174,11 @@ pub struct Tracker {
     blobs: Vec<Blob>,
     track: Option<Blob>,
     missed: usize,
+    /// Frames the current track has lasted.
+    age: usize,
+    /// The box's smoothed edges `[top, bottom + 1, left, right + 1]` (pixel borders) and their
+    /// velocities (pixels per frame), per α-β filter.
+    edges: [(f64, f64); 4],
 }
 
 impl Tracker {
@@ -170,6 +196,8 @@ impl Tracker {
             blobs: Vec::new(),
             track: None,
             missed: 0,
+            age: 0,
+            edges: [(0.0, 0.0); 4],
         })
     }
 
@@ -247,7 +275,8 @@ impl Tracker {
                     }
                 }
             }
-            if blob.pixels >= self.config.min_pixels {
+            let (height, width) = (blob.bbox[1] - blob.bbox[0] + 1, blob.bbox[3] - blob.bbox[2] + 1);
+            if blob.pixels >= self.config.min_pixels && width <= MAX_BAND_ASPECT * height {
                 self.blobs.push(blob);
             }
         }
@@ -279,7 +308,8 @@ impl Tracker {
     }
 
     fn signals(&self, n: usize) -> Signals {
-        let Some(t) = &self.track else {
+        let confirmed = self.track.as_ref().filter(|_| self.age >= self.config.confirm_frames);
+        let Some(t) = confirmed else {
             return Signals {
                 output: 0.0,
                 angular_size_deg: Some(0.0),
@@ -291,6 +321,7 @@ impl Tracker {
         let x_of = |j: f64| 2.0 * j / nf - 1.0;
         let y_of = |i: f64| 1.0 - 2.0 * i / nf;
         let [i0, i1, j0, j1] = t.bbox;
+        let [top, bottom, left, right] = self.edges.map(|(p, _)| p);
         let (ci, cj) = if t.mass > 0.0 {
             (t.sum_i / t.mass + 0.5, t.sum_j / t.mass + 0.5)
         } else {
@@ -298,8 +329,8 @@ impl Tracker {
         };
         let region = ImageRegion {
             centroid: [x_of(cj), y_of(ci)],
-            x: [x_of(j0 as f64), x_of(j1 as f64 + 1.0)],
-            y: [y_of(i1 as f64 + 1.0), y_of(i0 as f64)],
+            x: [x_of(left), x_of(right.max(left))],
+            y: [y_of(bottom.max(top)), y_of(top)],
         };
         let [w, h] = region.angular_size_deg(self.config.fov_deg);
         let theta = w.max(h);
@@ -327,6 +358,7 @@ impl Detector for Tracker {
         }
         self.track = None;
         self.missed = 0;
+        self.age = 0;
     }
 
     fn step(&mut self, frame: &Frame) -> Result<Signals, DetectorError> {
@@ -354,13 +386,28 @@ impl Detector for Tracker {
         self.group(n);
         match self.choose() {
             Some(b) => {
+                let [i0, i1, j0, j1] = b.bbox;
+                let measured = [i0 as f64, i1 as f64 + 1.0, j0 as f64, j1 as f64 + 1.0];
+                if self.track.is_none() {
+                    self.edges = measured.map(|m| (m, 0.0));
+                } else {
+                    for ((p, v), m) in self.edges.iter_mut().zip(measured) {
+                        let predicted = *p + *v;
+                        let r = m - predicted;
+                        *p = predicted + EDGE_ALPHA * r;
+                        *v += EDGE_BETA * r;
+                    }
+                }
                 self.track = Some(b);
                 self.missed = 0;
+                self.age += 1;
             }
             None if self.track.is_some() => {
                 self.missed += 1;
+                self.age += 1;
                 if self.missed > self.config.hold_frames {
                     self.track = None;
+                    self.age = 0;
                 }
             }
             None => {}
