@@ -214,6 +214,11 @@ impl Tracker {
             let (iu, id) = (i.saturating_sub(1), (i + 1).min(n - 1));
             for j in 0..n {
                 let r = self.residual[i * n + j].abs();
+                if r <= thr {
+                    // below the threshold whatever the gradient
+                    self.mask[i * n + j] = 0.0;
+                    continue;
+                }
                 let (jl, jr) = (j.saturating_sub(1), (j + 1).min(n - 1));
                 let gx = (frame[i * n + jr] - frame[i * n + jl]) / (jr - jl).max(1) as f32;
                 let gy = (frame[id * n + j] - frame[iu * n + j]) / (id - iu).max(1) as f32;
