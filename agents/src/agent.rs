@@ -3,10 +3,13 @@
 //! One camera frame goes through exactly this path, in the scenario runner's closed-loop tails,
 //! in its escape-deadline replays and in every Gymnasium step:
 //!
-//! 1. every detector of the agent steps on the frame ([`Detector::step_moving`], with the command
-//!    the agent returned for the period that ended with it as the efference copy);
+//! 1. every detector of the agent steps on the frame ([`Detector::step_moving`], with the efference
+//!    copy of the period that ended with it: the command the agent returned for it and, when the
+//!    caller gives the camera's pose ([`EscapeAgent::step_posed`]), the camera's motion and pose
+//!    above the ground, from [`EgoSensor`]);
 //! 2. the looming side is estimated from this frame and the previous one
-//!    ([`LoomingSideEstimator`], the x centroid of the temporal contrast);
+//!    ([`LoomingSideEstimator`], the x centroid of the temporal contrast) — or, when the driving
+//!    detector localises the object ([`Signals::region`]), it is the middle of its image extent;
 //! 3. the escape controller reads the **driving** detector's trigger signal (the first detector;
 //!    θ̂ or the output, per [`EscapeConfig::trigger`]), runs its decision strategy on it
 //!    ([`crate::strategy`]: θ̂ itself, or the urgency 1/τ̂, optionally gated by the collision-course
@@ -22,9 +25,12 @@
 //! the controller is the same.
 
 use loomlab_detector::{Detector, DetectorError, Frame, Signals};
+use loomlab_sim::trajectory::Pose64;
 
 use crate::strategy::Percept;
-use crate::{AgentError, ControllerEvent, EscapeConfig, EscapeController, LoomingSideEstimator, VelocityCommand};
+use crate::{
+    AgentError, ControllerEvent, EgoSensor, EscapeConfig, EscapeController, LoomingSideEstimator, VelocityCommand,
+};
 
 /// What one [`EscapeAgent::step`] produced.
 #[derive(Debug, Clone, PartialEq)]
@@ -53,6 +59,7 @@ pub struct EscapeAgent {
     /// frame, the detectors' efference copy (`None`: no step since the last reset; then the cruise
     /// command).
     applied: Option<VelocityCommand>,
+    ego: EgoSensor,
 }
 
 impl std::fmt::Debug for EscapeAgent {
@@ -73,6 +80,7 @@ impl EscapeAgent {
             side: LoomingSideEstimator::default(),
             controller: EscapeController::new(controller)?,
             applied: None,
+            ego: EgoSensor::default(),
         })
     }
 
@@ -84,6 +92,7 @@ impl EscapeAgent {
             side: LoomingSideEstimator::default(),
             controller,
             applied: None,
+            ego: EgoSensor::default(),
         }
     }
 
@@ -95,6 +104,7 @@ impl EscapeAgent {
         self.side.reset();
         self.controller.reset();
         self.applied = None;
+        self.ego.reset();
     }
 
     /// Replaces the detector at `index` (e.g. rebuilt with other parameters).
@@ -122,14 +132,33 @@ impl EscapeAgent {
     }
 
     /// One closed-loop decision at episode time `t_s` on `frame`, with `cruise` the command the
-    /// robot follows when nothing threatens it.
+    /// robot follows when nothing threatens it. The detectors' efference copy holds the applied
+    /// command only ([`Self::step_posed`] adds the camera's motion).
     pub fn step(&mut self, t_s: f64, frame: &Frame, cruise: VelocityCommand) -> Result<AgentStep, DetectorError> {
+        self.step_posed(t_s, frame, cruise, None)
+    }
+
+    /// [`Self::step`] with the camera's world pose at `t_s` (`camera`, as the robot's odometry and
+    /// inertial sensor know it): the detectors' efference copy then also holds the camera's motion
+    /// since the previous step and its pose above the ground ([`EgoSensor`]).
+    pub fn step_posed(
+        &mut self,
+        t_s: f64,
+        frame: &Frame,
+        cruise: VelocityCommand,
+        camera: Option<&Pose64>,
+    ) -> Result<AgentStep, DetectorError> {
         let mut signals = Vec::with_capacity(self.detectors.len());
-        let ego = self.applied.unwrap_or(cruise).efference_copy();
+        let applied = self.applied.unwrap_or(cruise);
+        let ego = match camera {
+            Some(pose) => self.ego.sense(applied, t_s, pose),
+            None => applied.efference_copy(),
+        };
         for d in &mut self.detectors {
             signals.push(d.step_moving(frame, &ego)?);
         }
-        let looming_side = self.side.update(frame);
+        let contrast_side = self.side.update(frame);
+        let looming_side = signals.first().and_then(region_side).or(contrast_side);
         let percept = match signals.first() {
             Some(s) => self.controller.percept(s, looming_side),
             None => Percept {
@@ -192,4 +221,13 @@ impl EscapeAgent {
             event,
         }
     }
+}
+
+/// The looming side (image x in [−1, 1]) of a detector that localises the object: the middle of
+/// its image extent (`None` without a region).
+pub fn region_side(signals: &Signals) -> Option<f32> {
+    signals
+        .region
+        .map(|r| ((r.x[0] + r.x[1]) / 2.0) as f32)
+        .filter(|x| x.is_finite())
 }

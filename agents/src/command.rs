@@ -24,6 +24,7 @@ impl VelocityCommand {
             forward_mps: self.forward_mps,
             yaw_rate_rps: self.yaw_rate_rps,
             lateral_mps: self.lateral_mps,
+            ..loomlab_detector::EfferenceCopy::default()
         }
     }
 

@@ -54,11 +54,11 @@ use serde::{Deserialize, Serialize};
 
 use loomlab_sim::RobotBase;
 
-use crate::strategy::{Course, Decision, Ego, Percept, Strategy, StrategyParams};
+use crate::strategy::{Course, Decision, Ego, ImageExtent, Percept, Strategy, StrategyParams};
 use crate::{AgentError, VelocityCommand};
 
 #[allow(unused_imports)] // for doc links
-use loomlab_detector::Signals;
+use loomlab_detector::{ImageRegion, Signals};
 
 /// Which detector signal the controller compares against its threshold.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -377,6 +377,44 @@ impl EscapeConfig {
         }
     }
 
+    /// The elevation (degrees, positive up) of image y in [−1, 1] for this camera.
+    pub fn elevation_deg(&self, image_y: f64) -> f64 {
+        (image_y * (self.camera_fov_deg / 2.0).to_radians().tan())
+            .atan()
+            .to_degrees()
+    }
+
+    /// The percept of a real detector that localises the object ([`Signals::region`], e.g.
+    /// `tracker`): the middle of its image extent as azimuth and elevation, and the extent as
+    /// angles, converted with the camera's field of view. Without a region (or with a non-finite
+    /// one), [`Self::percept`] from the looming side.
+    pub fn percept_of(&self, value: f64, looming_side: Option<f32>, region: Option<&ImageRegion>) -> Percept {
+        let finite = |r: &&ImageRegion| r.x.iter().chain(&r.y).all(|v| v.is_finite());
+        match region.filter(finite) {
+            None => self.percept(value, looming_side),
+            Some(r) => {
+                let azimuth_deg = [self.azimuth_deg_f64(r.x[0]), self.azimuth_deg_f64(r.x[1])];
+                let elevation_deg = [self.elevation_deg(r.y[0]), self.elevation_deg(r.y[1])];
+                Percept {
+                    value,
+                    azimuth_deg: Some(self.azimuth_deg_f64((r.x[0] + r.x[1]) / 2.0)),
+                    elevation_deg: Some(self.elevation_deg((r.y[0] + r.y[1]) / 2.0)),
+                    extent: Some(ImageExtent {
+                        azimuth_deg,
+                        elevation_deg,
+                    }),
+                }
+            }
+        }
+    }
+
+    /// [`Self::azimuth_deg`] of an image x given in f64.
+    fn azimuth_deg_f64(&self, image_x: f64) -> f64 {
+        (image_x * (self.camera_fov_deg / 2.0).to_radians().tan())
+            .atan()
+            .to_degrees()
+    }
+
     /// The command of the manoeuvre towards `side` given the cruise command.
     pub fn manoeuvre_command(&self, side: DodgeSide, cruise: VelocityCommand) -> VelocityCommand {
         match self.manoeuvre {
@@ -541,10 +579,14 @@ impl EscapeController {
         self.step(t_s, value, looming_side, cruise)
     }
 
-    /// The percept of a real detector: its trigger signal and the looming side as an azimuth.
+    /// The percept of a real detector: its trigger signal, and its image region when it gives one
+    /// ([`EscapeConfig::percept_of`]), else the looming side as an azimuth.
     pub fn percept(&self, signals: &Signals, looming_side: Option<f32>) -> Percept {
-        self.config
-            .percept(self.config.trigger.value(signals).unwrap_or(f64::NAN), looming_side)
+        self.config.percept_of(
+            self.config.trigger.value(signals).unwrap_or(f64::NAN),
+            looming_side,
+            signals.region.as_ref(),
+        )
     }
 
     /// Advance to time `t_s` with this frame's trigger-signal value (see [`TriggerSignal`]), the

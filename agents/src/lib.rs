@@ -16,6 +16,7 @@
 pub mod action;
 pub mod agent;
 pub mod command;
+pub mod ego;
 pub mod error;
 pub mod escape;
 pub mod looming_side;
@@ -24,6 +25,7 @@ pub mod strategy;
 pub use action::{ActionConfig, ContinuousAction, DiscreteAction};
 pub use agent::{AgentStep, EscapeAgent};
 pub use command::VelocityCommand;
+pub use ego::EgoSensor;
 pub use error::AgentError;
 pub use escape::{ControllerEvent, DodgeSide, EscapeConfig, EscapeController, Manoeuvre, TriggerSignal};
 pub use looming_side::LoomingSideEstimator;

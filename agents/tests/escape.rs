@@ -55,6 +55,7 @@ fn nan_signal_never_triggers() {
         output: 1e9,
         angular_size_deg: None,
         aux: vec![],
+        region: None,
     };
     let (_, ev) = c.step_signals(0.1, &s, None, CRUISE);
     assert_eq!(ev, ControllerEvent::Cruise, "a missing angular size must not trigger");
@@ -66,6 +67,7 @@ fn trigger_signal_selects_the_right_field() {
         output: 50.0,
         angular_size_deg: Some(3.0),
         aux: vec![],
+        region: None,
     };
     let mut hop = controller(Manoeuvre::Stop);
     assert!(!hop.step_signals(0.0, &s, None, CRUISE).1.is_trigger(), "θ̂ = 3° < 10°");

@@ -8,6 +8,7 @@
 //! - the paper's artificial approach videos ([`stimulus`]) and video input ([`video`]).
 
 pub mod baselines;
+pub mod compensation;
 pub mod error;
 pub mod frame;
 pub mod hopfield;
@@ -35,4 +36,4 @@ pub use registry::{
     CameraFacts, ConfiguredDetector, DetectorConfig, DetectorParams, DetectorSet, Registration, Registry, Signal,
     detector_ids, parse_detector_list,
 };
-pub use signals::{Detector, EfferenceCopy, Signals};
+pub use signals::{Detector, EfferenceCopy, ImageRegion, Signals};

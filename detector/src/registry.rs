@@ -495,7 +495,10 @@ mod tests {
 
     #[test]
     fn the_builtin_ids_are_the_contract() {
-        assert_eq!(detector_ids(), ["hopfield", "soc", "keil2004", "cizek2019", "fu2020"]);
+        assert_eq!(
+            detector_ids(),
+            ["hopfield", "soc", "keil2004", "cizek2019", "fu2020", "tracker"]
+        );
     }
 
     #[test]

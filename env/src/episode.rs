@@ -698,6 +698,9 @@ impl EscapeEnv {
         let ttc_s = reference.and_then(|t| t.ttc_s).map(f64::from);
         let angular_size_deg = reference.map(|t| f64::from(t.angular_size_deg));
         let cruise_now = r.spec.cruise.command_at(out.t_s);
+        // the camera's pose as the robot's odometry and inertial sensor know it (the detectors'
+        // efference copy, as in the scenario runner)
+        let camera_pose = r.sim.camera_pose();
         let nd = self.detectors.len();
         let mut signals = Vec::with_capacity(nd);
         let mut alarm = Vec::with_capacity(nd);
@@ -721,13 +724,13 @@ impl EscapeEnv {
                 forward_mps: last.forward_mps,
                 ..Ego::default()
             };
-            let step = self.agent.step(out.t_s, &frame, cruise_now)?;
+            let step = self.agent.step_posed(out.t_s, &frame, cruise_now, Some(&camera_pose))?;
             for (d, s) in self.detectors.iter_mut().zip(&step.signals) {
                 let raw = d.trigger.value(s).unwrap_or(f64::NAN);
                 // a stateful row's value is its strategy's decision value, as the agent computes it
                 let value = match &mut d.strategy {
                     Some(strategy) => {
-                        let percept = d.controller.percept(raw, step.looming_side);
+                        let percept = d.controller.percept_of(raw, step.looming_side, s.region.as_ref());
                         strategy.update(out.t_s, percept, ego).value
                     }
                     None => raw,

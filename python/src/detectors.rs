@@ -239,7 +239,8 @@ impl Detector for PythonInstance {
 
 impl PythonInstance {
     /// `step(frame)`, or `step(frame, ego)` when it takes the efference copy (a dict
-    /// `{forward_mps, yaw_rate_rps, lateral_mps}`; `None` where there is none).
+    /// `{forward_mps, yaw_rate_rps, lateral_mps, dt_s, rotation_rad, translation_m, height_m,
+    /// pitch_rad, roll_rad}`, the fields of [`EfferenceCopy`]; `None` where there is none).
     fn call_step(&mut self, frame: &Frame, ego: Option<&EfferenceCopy>) -> Result<Signals, DetectorError> {
         if let Some(reason) = self.reset_error.take() {
             return Err(self.failed(reason));
@@ -263,6 +264,12 @@ impl PythonInstance {
                         d.set_item("forward_mps", e.forward_mps)
                             .and_then(|()| d.set_item("yaw_rate_rps", e.yaw_rate_rps))
                             .and_then(|()| d.set_item("lateral_mps", e.lateral_mps))
+                            .and_then(|()| d.set_item("dt_s", e.dt_s))
+                            .and_then(|()| d.set_item("rotation_rad", e.rotation_rad.to_vec()))
+                            .and_then(|()| d.set_item("translation_m", e.translation_m.to_vec()))
+                            .and_then(|()| d.set_item("height_m", e.height_m))
+                            .and_then(|()| d.set_item("pitch_rad", e.pitch_rad))
+                            .and_then(|()| d.set_item("roll_rad", e.roll_rad))
                             .map_err(|e| self.failed(format!("building the efference copy: {e}")))?;
                         d.into_any()
                     }
@@ -296,6 +303,7 @@ fn signals_of(answer: &Bound<'_, PyAny>) -> Result<Signals, String> {
             })?,
             angular_size_deg: None,
             aux: Vec::new(),
+            region: None,
         });
     };
     let mut signals = Signals::default();

@@ -47,9 +47,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
 use loomlab_agents::{
-    Ego, EscapeAgent, EscapeConfig, EscapeController, LoomingSideEstimator, TriggerSignal, VelocityCommand,
+    Ego, EgoSensor, EscapeAgent, EscapeConfig, EscapeController, LoomingSideEstimator, TriggerSignal, VelocityCommand,
 };
-use loomlab_detector::{Detector, Frame};
+use loomlab_detector::{Detector, Frame, ImageRegion};
 use loomlab_sim::{Camera, GpuContext, ObjectTruth, Renderer, Sim, SimError};
 use rayon::prelude::*;
 
@@ -340,6 +340,8 @@ impl Runner {
         let mut t_s = Vec::with_capacity(total);
         let mut signal = vec![Vec::with_capacity(total); nd];
         let mut output = vec![Vec::with_capacity(total); nd];
+        let mut regions: Vec<Vec<Option<ImageRegion>>> = vec![Vec::with_capacity(total); nd];
+        let mut ego_sensor = EgoSensor::default();
         let mut truth: Vec<Vec<ObjectTruth>> = Vec::with_capacity(total);
         let mut recorder = TruthRecorder::new(&sim);
         let open = (|| -> Result<(), RunError> {
@@ -350,13 +352,15 @@ impl Runner {
                 let cmd = ep.cruise.command_at(sim.time());
                 let mut out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
                 let frame = Frame::from_f32(nn, std::mem::take(&mut out.frame)).map_err(|e| c.det(e))?;
-                // the efference copy: the command applied during this period, as the escape
-                // agent passes it in the closed loop (the same up to the first alarm)
-                let ego = cmd.efference_copy();
+                // the efference copy: the command applied during this period and the camera's
+                // motion and pose, as the escape agent passes it in the closed loop (the same up to
+                // the first alarm)
+                let ego = ego_sensor.sense(cmd, out.t_s, &sim.camera_pose());
                 for (i, (d, spec)) in detectors.iter_mut().zip(&ep.detectors).enumerate() {
                     let s = d.step_moving(&frame, &ego).map_err(|e| c.det(e))?;
                     signal[i].push(spec.trigger.value(&s).unwrap_or(f64::NAN));
                     output[i].push(s.output);
+                    regions[i].push(s.region);
                 }
                 t_s.push(out.t_s);
                 frames.push(frame);
@@ -391,7 +395,14 @@ impl Runner {
         let mut raw_theta: Vec<Option<Vec<f64>>> = vec![None; nd];
         for (i, spec) in ep.detectors.iter().enumerate() {
             if spec.is_strategy() {
-                let decided = strategy_signal(&spec.controller(&ep.controller), ep, &t_s, &signal[i], &sides);
+                let decided = strategy_signal(
+                    &spec.controller(&ep.controller),
+                    ep,
+                    &t_s,
+                    &signal[i],
+                    &sides,
+                    &regions[i],
+                );
                 raw_theta[i] = Some(std::mem::replace(&mut signal[i], decided));
             }
         }
@@ -581,7 +592,7 @@ impl Runner {
         for frame in &frames[..=ka] {
             let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
             cmd = agent
-                .step(out.t_s, frame, ep.cruise.command_at(out.t_s))
+                .step_posed(out.t_s, frame, ep.cruise.command_at(out.t_s), Some(&sim.camera_pose()))
                 .map_err(|e| c.det(e))?
                 .command;
         }
@@ -605,7 +616,7 @@ impl Runner {
                 }
                 let frame = Frame::from_f32(nn, std::mem::take(&mut out.frame)).map_err(|e| c.det(e))?;
                 cmd = agent
-                    .step(out.t_s, &frame, ep.cruise.command_at(out.t_s))
+                    .step_posed(out.t_s, &frame, ep.cruise.command_at(out.t_s), Some(&sim.camera_pose()))
                     .map_err(|e| c.det(e))?
                     .command;
             }
@@ -649,21 +660,22 @@ fn with_camera_rotation(ego: Ego, camera: Option<&Camera>, t_s: f64) -> Ego {
 }
 
 /// The decision value of a detector row with a stateful strategy over the open-loop frames: the
-/// raw trigger signal `raw` (θ̂) and the looming sides through the controller's strategy, as
-/// [`EscapeAgent::step`] computes it.
+/// raw trigger signal `raw` (θ̂), the looming sides and the detector's image regions (`tracker`)
+/// through the controller's strategy, as [`EscapeAgent::step`] computes it.
 fn strategy_signal(
     config: &EscapeConfig,
     ep: &EpisodeSpec,
     t_s: &[f64],
     raw: &[f64],
     sides: &[Option<f32>],
+    regions: &[Option<ImageRegion>],
 ) -> Vec<f64> {
     let mut strategy = config.strategy();
     (0..raw.len())
         .map(|k| {
-            strategy
-                .update(t_s[k], config.percept(raw[k], sides[k]), open_loop_ego(ep, t_s, k))
-                .value
+            let region = regions.get(k).copied().flatten();
+            let percept = config.percept_of(raw[k], sides[k], region.as_ref());
+            strategy.update(t_s[k], percept, open_loop_ego(ep, t_s, k)).value
         })
         .collect()
 }

@@ -1,6 +1,7 @@
 //! Integration tests of the scenario layer: one test binary, one module per concern.
 
 mod deadline;
+mod efference;
 mod hopfield_rendered;
 mod parser_fuzz;
 mod reference;

@@ -73,6 +73,7 @@ impl Detector for MeanChange {
             output,
             angular_size_deg: None,
             aux: Vec::new(),
+            region: None,
         })
     }
 }
@@ -140,7 +141,15 @@ fn a_registered_detector_is_a_detector_everywhere() {
     let labels: Vec<&str> = ep.detectors.iter().map(|d| d.label.as_str()).collect();
     assert_eq!(
         labels,
-        ["hopfield", "soc", "keil2004", "cizek2019", "fu2020", "mean_change"]
+        [
+            "hopfield",
+            "soc",
+            "keil2004",
+            "cizek2019",
+            "fu2020",
+            "tracker",
+            "mean_change"
+        ]
     );
     let row = ep.detectors.last().unwrap();
     assert_eq!((row.threshold, row.trigger), (0.05, TriggerSignal::Output));

@@ -52,7 +52,10 @@ fn a_plain_scenario_is_one_episode_with_all_detectors() {
     assert_eq!(ep.frames(), 120);
     assert_eq!(ep.cruise.command_at(0.5).forward_mps, 1.0);
     let labels: Vec<&str> = ep.detectors.iter().map(|d| d.label.as_str()).collect();
-    assert_eq!(labels, ["hopfield", "soc", "keil2004", "cizek2019", "fu2020"]);
+    assert_eq!(
+        labels,
+        ["hopfield", "soc", "keil2004", "cizek2019", "fu2020", "tracker"]
+    );
     for d in &ep.detectors {
         assert_eq!(Some(d.threshold), registration(&d.id).map(|r| r.default_threshold));
     }
@@ -63,7 +66,7 @@ fn a_plain_scenario_is_one_episode_with_all_detectors() {
     assert_eq!(ep.detectors[0].params.config::<HopfieldConfig>().unwrap().fov_deg, 60.0);
     // the calibrated defaults (scenarios/README.md) are a contract of the registry
     let defaults: Vec<f64> = ep.detectors.iter().map(|d| d.threshold).collect();
-    assert_eq!(defaults, [10.0, 270.0, 0.000095, 0.0172, 2.47]);
+    assert_eq!(defaults, [10.0, 270.0, 0.000095, 0.0172, 2.47, 10.0]);
 }
 
 #[test]

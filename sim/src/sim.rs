@@ -837,6 +837,12 @@ impl Sim {
         self.world.camera.n
     }
 
+    /// The camera's world pose now (x = optical axis, z = up; shake included): where the last frame
+    /// was taken from. What the robot's odometry and inertial sensor know about its camera.
+    pub fn camera_pose(&self) -> crate::trajectory::Pose64 {
+        self.world.camera.pose(&self.robot_pose, self.t)
+    }
+
     /// The camera (focal length, projections).
     pub fn camera(&self) -> &Camera {
         &self.world.camera

@@ -567,6 +567,7 @@ impl Fu2020 {
                 ("sfa_off", off.sfa),
                 ("collision", f64::from(u8::from(on.collision || off.collision))),
             ],
+            region: None,
         }
     }
 }

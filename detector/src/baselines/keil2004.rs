@@ -158,6 +158,7 @@ impl Keil2004 {
             output: z,
             angular_size_deg: None,
             aux: vec![("z_on", z_on), ("z_off", z_off)],
+            region: None,
         }
     }
 

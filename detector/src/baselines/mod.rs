@@ -8,6 +8,7 @@
 //! | `keil2004` | [`Keil2004`]: "Advanced", Keil, Roca-Moreno & Rodríguez-Vázquez 2004 | output stage exact, **front end reconstructed** (docs/detectors.md, keil2004 §1) |
 //! | `cizek2019` | [`Cizek2019`]: "CizFai19", Čížek & Faigl 2019 + Keil's adaptive thresholds | thresholds exact, presynaptic chain in standard LGMD1 form, `W_I` assumed (docs/detectors.md, cizek2019 §1) |
 //! | `fu2020` | [`Fu2020`]: "FuHuPe20", LGMD2 of Fu et al. 2020, ON/OFF instances combined | from the authors' reference code (docs/detectors.md, fu2020 §1) |
+//! | `tracker` | [`Tracker`]: ego-motion-compensated change segmentation and bounding-box tracking | an engineering reference, not an insect model and not in the paper's comparison |
 //!
 //! Common conventions (docs/detectors.md#common): frames in [0, 1], computations in f64; the first
 //! frame after construction or [`Detector::reset`] fixes the frame size n and only stores the
@@ -39,6 +40,7 @@ models! {
     keil2004,
     cizek2019,
     fu2020,
+    tracker,
 }
 
 pub use cizek2019::{Cizek2019, Cizek2019Config};
@@ -46,6 +48,7 @@ pub use fu2020::{Fu2020, Fu2020Coefficients, Fu2020Config};
 pub use keil2004::{KEIL2004_MAX_ITERATIONS, Keil2004, Keil2004Config};
 pub use lowpass::LowPass;
 pub use soc::{Soc, SocConfig, SocPooling};
+pub use tracker::{Tracker, TrackerConfig};
 
 use serde::Deserialize;
 

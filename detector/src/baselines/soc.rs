@@ -69,6 +69,7 @@ impl Soc {
             output,
             angular_size_deg: None,
             aux: vec![("mean", mean)],
+            region: None,
         }
     }
 }

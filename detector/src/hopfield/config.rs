@@ -44,6 +44,18 @@
 //!   the same time constant at any frame rate. Static structure (ground texture, backdrops)
 //!   fades from the query within about τ, and what moves or grows stays. See
 //!   [`super::processing`] for start-up and blank frames.
+//! - `front_end = "compensated"`: the adapted high-pass, taken on the camera image after the
+//!   static world's image motion is removed. The per-pixel running mean M̃ of the camera
+//!   images is, every frame, first warped to the current view by the camera's motion since the
+//!   previous frame (the efference copy handed to [`crate::Detector::step_moving`]:
+//!   rotation exactly, translation through the ground-plane homography below the horizon,
+//!   points at infinity elsewhere — [`crate::compensation`]), then G̃ = F̃ − warp(M̃) and
+//!   M̃ ← warp(M̃) + w·G̃ (the same w). Pixels whose warped mean falls outside the view restart
+//!   from the current image (G̃ = 0 there). The paper's edge filter, mask, memory and retrieval
+//!   then run on G̃ unchanged, in both implementations (which therefore agree as on the paper
+//!   front end). Without an efference copy (`step`, or an unknown motion) the mean is not
+//!   warped: the adapted high-pass on the camera image. A uniform camera frame (dropped) is
+//!   skipped (no evidence; M̃ unchanged).
 //!
 //! # Angular-size readouts
 //! - `readout = "paper"` (default): θ̂ from √(z_on·z_off) read as a template index.
@@ -329,6 +341,10 @@ pub enum FrontEnd {
     /// The processed frame minus its per-pixel running mean (temporal high-pass with time
     /// constant `adaptation_tau_s`): static clutter fades out of the query.
     Adapted,
+    /// The adapted high-pass with the robot's own motion removed first: the running mean of the
+    /// camera images is warped by the static world's predicted image motion (from the efference
+    /// copy) before it is subtracted (see the module docs).
+    Compensated,
 }
 
 /// How θ̂ (`angular_size_deg`) is read out (see [`super`]).

@@ -98,7 +98,9 @@ impl FastHopfield {
             head: 0,
             filled: 0,
             adaptation: match cfg.front_end {
-                FrontEnd::Paper => None,
+                // the compensated front end's high-pass runs before the engine (`Hopfield`), which
+                // then sees its output as the camera frame
+                FrontEnd::Paper | FrontEnd::Compensated => None,
                 FrontEnd::Adapted => Some(Adaptation::new(cfg.adaptation_weight())),
             },
             last_blank: false,

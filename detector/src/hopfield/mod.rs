@@ -106,7 +106,7 @@ pub use reference::ReferenceHopfield;
 pub use templates::TemplateBank;
 
 use crate::registry::{CameraFacts, DetectorConfig, Registration, Signal};
-use crate::{Detector, DetectorError, Frame, Signals};
+use crate::{Detector, DetectorError, EfferenceCopy, Frame, Signals};
 
 /// Raw (un-filtered) retrieval result of one frame, from either implementation.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -249,6 +249,8 @@ enum Engine {
 pub struct Hopfield {
     config: HopfieldConfig,
     engine: Engine,
+    /// The compensated front end's high-pass (`None` for the other front ends).
+    ego_high_pass: Option<processing::EgoHighPass>,
     z_on: f64,
     z_off: f64,
     /// The winner readout's (low-passed) scale.
@@ -263,9 +265,12 @@ impl Hopfield {
             Implementation::Reference => Engine::Reference(Box::new(ReferenceHopfield::new(&config)?)),
             Implementation::Fast => Engine::Fast(Box::new(FastHopfield::new(&config)?)),
         };
+        let ego_high_pass = (config.front_end == FrontEnd::Compensated)
+            .then(|| processing::EgoHighPass::new(config.n, config.fov_deg, config.adaptation_weight()));
         Ok(Self {
             config,
             engine,
+            ego_high_pass,
             z_on: 1.0,
             z_off: 1.0,
             readout_scale: 0.0,
@@ -303,17 +308,32 @@ impl Hopfield {
         }
     }
 
-    /// Processes the next frame and returns all signals.
+    /// Processes the next frame and returns all signals (the compensated front end without an
+    /// efference copy: no motion known).
     pub fn step_hopfield(&mut self, frame: &Frame) -> Result<HopfieldSignals, DetectorError> {
+        self.step_hopfield_moving(frame, &EfferenceCopy::default())
+    }
+
+    /// [`Self::step_hopfield`] with the efference copy of the camera period that ended with
+    /// `frame` (only the compensated front end reads it).
+    pub fn step_hopfield_moving(
+        &mut self,
+        frame: &Frame,
+        ego: &EfferenceCopy,
+    ) -> Result<HopfieldSignals, DetectorError> {
         if frame.n() != self.config.n {
             return Err(DetectorError::FrameSize {
                 expected: self.config.n,
                 got: frame.n(),
             });
         }
+        let input = match &mut self.ego_high_pass {
+            Some(hp) => hp.high_pass(frame.data(), ego),
+            None => frame.data(),
+        };
         let r = match &mut self.engine {
-            Engine::Reference(e) => e.retrieve(frame.data()),
-            Engine::Fast(e) => e.retrieve(frame.data()),
+            Engine::Reference(e) => e.retrieve(input),
+            Engine::Fast(e) => e.retrieve(input),
         };
         let alpha = self.config.alpha;
         let top = self.memory_columns() as f64;
@@ -360,6 +380,9 @@ impl Detector for Hopfield {
         self.z_on = 1.0;
         self.z_off = 1.0;
         self.readout_scale = 0.0;
+        if let Some(hp) = &mut self.ego_high_pass {
+            hp.reset();
+        }
         match &mut self.engine {
             Engine::Reference(e) => e.reset(),
             Engine::Fast(e) => e.reset(),
@@ -367,11 +390,16 @@ impl Detector for Hopfield {
     }
 
     fn step(&mut self, frame: &Frame) -> Result<Signals, DetectorError> {
-        let s = self.step_hopfield(frame)?;
+        self.step_moving(frame, &EfferenceCopy::default())
+    }
+
+    fn step_moving(&mut self, frame: &Frame, ego: &EfferenceCopy) -> Result<Signals, DetectorError> {
+        let s = self.step_hopfield_moving(frame, ego)?;
         Ok(Signals {
             output: s.z,
             angular_size_deg: Some(s.angular_size_deg),
             aux: vec![("on", s.z_on), ("off", s.z_off)],
+            region: None,
         })
     }
 }

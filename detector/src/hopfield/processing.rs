@@ -631,3 +631,64 @@ mod tests {
         );
     }
 }
+
+/// The compensated front end's high-pass on the camera image (`front_end = "compensated"`, see
+/// [`super::config`]): a per-pixel running mean of the camera images, warped every frame by the
+/// static world's predicted image motion before it is subtracted. Shared by both implementations
+/// (it runs before them).
+#[derive(Debug, Clone)]
+pub struct EgoHighPass {
+    warper: crate::compensation::Warper,
+    weight: f64,
+    mean: Vec<f32>,
+    warped: Vec<f32>,
+    out: Vec<f32>,
+}
+
+impl EgoHighPass {
+    /// For n×n frames of a camera of `fov_deg`, with the running mean's per-frame weight `weight`.
+    pub fn new(n: usize, fov_deg: f64, weight: f64) -> Self {
+        Self {
+            warper: crate::compensation::Warper::new(n, fov_deg),
+            weight,
+            mean: Vec::new(),
+            warped: vec![0.0; n * n],
+            out: vec![0.0; n * n],
+        }
+    }
+
+    /// Forgets the running mean.
+    pub fn reset(&mut self) {
+        self.mean.clear();
+    }
+
+    /// G̃ = F̃ − warp(M̃) of the camera frame `frame` (n·n) with its efference copy, updating M̃
+    /// (all zero on the first frame and on a uniform, dropped frame, which leaves M̃ unchanged).
+    pub fn high_pass(&mut self, frame: &[f32], ego: &crate::EfferenceCopy) -> &[f32] {
+        let (lo, hi) = frame
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+        if self.mean.is_empty() || lo >= hi {
+            if self.mean.is_empty() && lo < hi {
+                self.mean = frame.to_vec();
+            }
+            self.out.fill(0.0);
+            return &self.out;
+        }
+        if ego.knows_motion() {
+            let r = crate::compensation::rotation_matrix(ego.rotation_rad);
+            self.warper
+                .predict(&self.mean, &r, ego.translation_m, ego, &mut self.warped);
+        } else {
+            self.warped.copy_from_slice(&self.mean);
+        }
+        let w = self.weight as f32;
+        for (((o, m), &p), &f) in self.out.iter_mut().zip(&mut self.mean).zip(&self.warped).zip(frame) {
+            let prior = if p.is_nan() { f } else { p };
+            let g = f - prior;
+            *o = g;
+            *m = prior + w * g;
+        }
+        &self.out
+    }
+}

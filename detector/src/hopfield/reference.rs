@@ -61,7 +61,9 @@ impl ReferenceHopfield {
             history: Default::default(),
             last_query: vec![0.0; d],
             adaptation: match cfg.front_end {
-                FrontEnd::Paper => None,
+                // the compensated front end's high-pass runs before the engine (`Hopfield`), which
+                // then sees its output as the camera frame
+                FrontEnd::Paper | FrontEnd::Compensated => None,
                 FrontEnd::Adapted => Some(Adaptation::new(cfg.adaptation_weight())),
             },
         })

@@ -400,7 +400,7 @@ fn edgeless_templates_are_rejected_by_both_implementations() {
 /// The adapted front end and the winner readout, in every combination with the paper ones.
 fn front_end_readout_variants(n: usize) -> Vec<HopfieldConfig> {
     let mut out = Vec::new();
-    for front_end in [FrontEnd::Paper, FrontEnd::Adapted] {
+    for front_end in [FrontEnd::Paper, FrontEnd::Adapted, FrontEnd::Compensated] {
         for (readout, readout_alpha) in [(Readout::Paper, 0.0), (Readout::Winner, 0.0), (Readout::Winner, 0.5)] {
             out.push(HopfieldConfig {
                 front_end,
@@ -449,6 +449,49 @@ fn fast_equals_reference_for_both_front_ends_and_readouts() {
                 assert_same(&fast, &reference, &ctx);
             }
         }
+    }
+}
+
+#[test]
+fn fast_equals_reference_compensated_with_camera_motion() {
+    // the compensated front end warps its running mean by the efference copy before both
+    // implementations: they must agree as on the paper front end, with a camera that turns,
+    // pitches and drives over the ground
+    let n = 40;
+    let frames: Vec<Frame> = videos(n).into_iter().flat_map(|(_, v)| v).collect();
+    let ego = |t: usize| EfferenceCopy {
+        dt_s: 1.0 / 30.0,
+        rotation_rad: [0.001, 0.004 * (t as f64 * 0.7).sin(), 0.01],
+        translation_m: [0.05, 0.002, 0.0],
+        height_m: 0.3,
+        pitch_rad: -0.05,
+        ..EfferenceCopy::default()
+    };
+    for (readout, readout_alpha) in [(Readout::Paper, 0.0), (Readout::Winner, 0.5)] {
+        let cfg = HopfieldConfig {
+            front_end: FrontEnd::Compensated,
+            readout,
+            readout_alpha,
+            frame_rate_hz: 30.0,
+            ..HopfieldConfig::for_size(n)
+        };
+        let run_moving = |cfg: HopfieldConfig| -> Vec<HopfieldSignals> {
+            let mut det = Hopfield::new(cfg).unwrap();
+            frames
+                .iter()
+                .enumerate()
+                .map(|(t, f)| det.step_hopfield_moving(f, &ego(t)).unwrap())
+                .collect()
+        };
+        let fast = run_moving(cfg);
+        let reference = run_moving(cfg.with_implementation(Implementation::Reference));
+        assert_same(&fast, &reference, &format!("compensated {readout:?} a={readout_alpha}"));
+        // the motion matters: without it the responses differ
+        assert_ne!(
+            fast,
+            run(cfg, &frames),
+            "the efference copy changes the compensated front end"
+        );
     }
 }
 

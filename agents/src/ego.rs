@@ -1,0 +1,49 @@
+//! [`EgoSensor`]: the efference copy a detector gets, from the command the robot applied and the
+//! camera's pose as the robot's odometry and inertial sensor measure it.
+//!
+//! The runner's open-loop pass, its closed-loop tails, the escape-deadline replays and the
+//! Gymnasium env all build a detector's [`EfferenceCopy`] with this one type, so a detector sees
+//! the same self-knowledge wherever it runs. Only the robot's own camera enters it: never anything
+//! about other objects.
+
+use loomlab_detector::EfferenceCopy;
+use loomlab_sim::glam::DVec3;
+use loomlab_sim::trajectory::Pose64;
+
+use crate::VelocityCommand;
+
+/// Turns successive camera poses into efference copies (see the module docs).
+#[derive(Debug, Clone, Default)]
+pub struct EgoSensor {
+    previous: Option<(f64, Pose64)>,
+}
+
+impl EgoSensor {
+    /// Forgets the previous pose (a new episode: the next copy has no motion).
+    pub fn reset(&mut self) {
+        self.previous = None;
+    }
+
+    /// The efference copy of the camera period ending at time `t_s`, during which `command` was
+    /// applied, with `camera` the camera's world pose at `t_s` (x = optical axis, z = up, the
+    /// ground plane z = 0). The first call after a reset knows the pose but no motion (`dt_s = 0`).
+    pub fn sense(&mut self, command: VelocityCommand, t_s: f64, camera: &Pose64) -> EfferenceCopy {
+        let mut ego = command.efference_copy();
+        let up = camera.rotation.inverse() * DVec3::Z;
+        ego.height_m = camera.position.z;
+        ego.pitch_rad = up.x.clamp(-1.0, 1.0).asin();
+        ego.roll_rad = up.y.atan2(up.z);
+        if let Some((t0, previous)) = &self.previous
+            && t_s > *t0
+        {
+            let inverse = previous.rotation.inverse();
+            let rotation = (inverse * camera.rotation).normalize().to_scaled_axis();
+            let translation = inverse * (camera.position - previous.position);
+            ego.dt_s = t_s - t0;
+            ego.rotation_rad = rotation.to_array();
+            ego.translation_m = translation.to_array();
+        }
+        self.previous = Some((t_s, *camera));
+        ego
+    }
+}
