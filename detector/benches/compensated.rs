@@ -113,22 +113,18 @@ fn run(
 fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("compensated");
     group.throughput(Throughput::Elements(1));
-    let tracker = Registry::builtin()
-        .get("tracker")
-        .expect("registered")
-        .default_params(96)
-        .expect("defaults")
-        .build(96)
-        .expect("builds");
-    run(&mut group, "tracker", tracker, 96);
-    {
-        let mut det = Registry::builtin()
+    let tracker = || {
+        Registry::builtin()
             .get("tracker")
             .expect("registered")
             .default_params(96)
             .expect("defaults")
             .build(96)
-            .expect("builds");
+            .expect("builds")
+    };
+    run(&mut group, "tracker", tracker(), 96);
+    {
+        let mut det = tracker();
         let frames: Vec<Frame> = (0..32).map(|k| cruise_frame(96, k)).collect();
         let e = EfferenceCopy {
             yaw_rate_rps: 0.0,
