@@ -12,6 +12,9 @@ use super::{EnvError, ObsMode, RewardConfig};
 /// Largest frame size the environment accepts.
 pub const MAX_FRAME_SIZE: u32 = 1024;
 
+/// Largest [`EnvOptions::action_repeat`].
+pub const MAX_ACTION_REPEAT: u32 = 120;
+
 /// The agent's action space.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -59,8 +62,15 @@ pub struct EnvOptions {
     pub clip_actions: bool,
     /// Reward weights.
     pub reward: RewardConfig,
-    /// Truncate episodes after this many steps (`None`: only the scenario's duration ends them).
+    /// Truncate episodes after this many camera periods (`None`: only the scenario's duration
+    /// ends them).
     pub max_episode_steps: Option<u64>,
+    /// Camera periods each action is held for (default 1: one decision per frame). One
+    /// [`EscapeEnv::step`](crate::EscapeEnv::step) then renders and steps the detectors on every
+    /// one of these frames (the detectors see every frame) and returns the last observation and
+    /// the summed reward: a decision rate below the camera rate, which shortens the credit
+    /// assignment from a decision to its outcome by this factor.
+    pub action_repeat: u32,
 }
 
 impl Default for EnvOptions {
@@ -76,6 +86,7 @@ impl Default for EnvOptions {
             clip_actions: false,
             reward: RewardConfig::default(),
             max_episode_steps: None,
+            action_repeat: 1,
         }
     }
 }
@@ -130,6 +141,15 @@ impl EnvOptions {
             if !t.is_finite() {
                 return Err(EnvError::option(format!("thresholds.{id}"), t, "must be finite"));
             }
+        }
+        if !(1..=MAX_ACTION_REPEAT).contains(&self.action_repeat) {
+            return Err(EnvError::option(
+                "action_repeat",
+                self.action_repeat,
+                format!(
+                    "must be in 1..={MAX_ACTION_REPEAT} camera periods (1: one decision per frame; 8: 15 Hz at 120 Hz)"
+                ),
+            ));
         }
         if self.max_episode_steps == Some(0) {
             return Err(EnvError::option("max_episode_steps", 0, "must be >= 1"));
