@@ -594,16 +594,24 @@ impl EscapeEnv {
         self.process(&first, false, RewardTerms::default())
     }
 
-    /// Applies an agent action for [`EnvOptions::action_repeat`] camera periods (fewer when the
-    /// episode ends first): the detectors see every frame, the result holds the last observation
-    /// and info, the summed reward and reward terms.
+    /// Applies an agent action for [`EnvOptions::action_repeat`] camera periods (a discrete dodge
+    /// or stop for [`EnvOptions::dodge_hold_s`] when set; fewer when the episode ends first): the
+    /// detectors see every frame, the result holds the last observation and info, the summed
+    /// reward and reward terms.
     pub fn step(&mut self, action: Action) -> Result<StepResult, EnvError> {
         let command = self.command_for(action)?;
         let mut r = self.step_command(command)?;
         if let Some(run) = self.running.as_mut() {
             run.actions.push(action);
         }
-        for _ in 1..self.options.action_repeat {
+        let hold = match action {
+            Action::Discrete(i) if i != 0 && self.options.dodge_hold_s > 0.0 => {
+                let dt = self.dt();
+                ((self.options.dodge_hold_s / dt).round() as u32).max(self.options.action_repeat)
+            }
+            _ => self.options.action_repeat,
+        };
+        for _ in 1..hold {
             if r.terminated || r.truncated {
                 break;
             }

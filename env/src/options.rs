@@ -71,6 +71,12 @@ pub struct EnvOptions {
     /// the summed reward: a decision rate below the camera rate, which shortens the credit
     /// assignment from a decision to its outcome by this factor.
     pub action_repeat: u32,
+    /// Discrete actions only: a dodge or stop is held for this long in one step (s; rounded to
+    /// whole camera periods, at least `action_repeat` of them; default 0: `action_repeat` periods
+    /// like every action). A dodge is then one decision with one outcome, as the escape
+    /// controller's manoeuvre is (`[controller] duration_s`), instead of several decisions that
+    /// must all choose it: random exploration rarely holds a dodge long enough to evade.
+    pub dodge_hold_s: f64,
 }
 
 impl Default for EnvOptions {
@@ -87,6 +93,7 @@ impl Default for EnvOptions {
             reward: RewardConfig::default(),
             max_episode_steps: None,
             action_repeat: 1,
+            dodge_hold_s: 0.0,
         }
     }
 }
@@ -149,6 +156,13 @@ impl EnvOptions {
                 format!(
                     "must be in 1..={MAX_ACTION_REPEAT} camera periods (1: one decision per frame; 8: 15 Hz at 120 Hz)"
                 ),
+            ));
+        }
+        if !(self.dodge_hold_s.is_finite() && (0.0..=10.0).contains(&self.dodge_hold_s)) {
+            return Err(EnvError::option(
+                "dodge_hold_s",
+                self.dodge_hold_s,
+                "must be in 0..=10 seconds (0: a dodge is held for action_repeat periods like every action; 0.6: the default escape manoeuvre)",
             ));
         }
         if self.max_episode_steps == Some(0) {

@@ -637,6 +637,22 @@ fn action_repeat_equals_that_many_single_steps() {
     }
     let outcome = repeats.last().unwrap().info.outcome.as_ref().unwrap();
     assert!(outcome.threat && outcome.evaded, "{outcome:?}");
+    // a held dodge: one step of 0.1 s (12 periods) for a dodge, 4 periods for cruising
+    let mut held = EscapeEnv::new(
+        scenario(),
+        EnvOptions {
+            action_repeat: 4,
+            dodge_hold_s: 0.1,
+            obs_mode: ObsMode::Normalized,
+            ..options(ActionKind::Discrete)
+        },
+    )
+    .unwrap();
+    held.reset(Some(11)).unwrap();
+    assert_eq!(held.step(Action::Discrete(0)).unwrap().info.step, 4);
+    let dodge = held.step(Action::Discrete(1)).unwrap();
+    assert_eq!(dodge.info.step, 16);
+    assert_eq!(dodge.obs, singles[15].obs, "the same frames as 12 single dodging steps");
     let e = EnvOptions {
         action_repeat: 0,
         ..Default::default()
@@ -726,7 +742,7 @@ fn the_timely_dodge_bonus_is_paid_for_a_dodge_in_time_only() {
         early.last().unwrap().info.outcome.as_ref().unwrap().agent.outcome,
         Outcome::Hit
     );
-    // the same dodge long before the deadline, outside a short window: a hit, but no bonus
+    // a short dodge long before the deadline, outside a short window: no bonus
     let mut short = EscapeEnv::new(
         scenario(),
         EnvOptions {
@@ -739,7 +755,9 @@ fn the_timely_dodge_bonus_is_paid_for_a_dodge_in_time_only() {
         },
     )
     .unwrap();
-    let too_early = run(&mut short, 7, |i| Action::Discrete(if i >= 2 { 1 } else { 0 }));
+    let too_early = run(&mut short, 7, |i| {
+        Action::Discrete(if (2..5).contains(&i) { 1 } else { 0 })
+    });
     assert!(too_early.iter().all(|s| s.info.reward_terms.timely_dodge == 0.0));
     // a dodge one frame before contact is past the deadline: no bonus
     let cruise = run(&mut env, 7, |_| Action::Discrete(0));

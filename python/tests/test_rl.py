@@ -186,6 +186,8 @@ def _train(out, *extra):
             "cem",
             "--action-repeat",
             "1",
+            "--dodge-hold-s",
+            "0",
             "--n-envs",
             "2",
             "--frame-size",
@@ -314,7 +316,7 @@ def test_training_on_the_privileged_percept_with_a_curriculum_repeats_under_a_se
 
     def cem(out):
         train_main(
-            ["--algo", "cem", "--obs", "privileged", "--n-envs", "2", "--frame-size", "32"]
+            ["--algo", "cem", "--obs", "privileged", "--dodge-hold-s", "0", "--n-envs", "2", "--frame-size", "32"]
             + ["--max-episode-steps", "24", "--eval-every", "12", "--eval-seeds", "1000", "--eval-limit", "2"]
             + ["--curriculum-steps", "12", "--seed", "6", "--timesteps", "24", "--out", str(out)]
         )
@@ -331,3 +333,13 @@ def test_training_on_the_privileged_percept_with_a_curriculum_repeats_under_a_se
     assert za["mean"].shape == (17 * 4,), "16 privileged features + bias, 4 actions"
     config = json.loads((a / "config.json").read_text())
     assert (config["obs"], config["action_repeat"]) == ("privileged", 8)
+
+
+def test_a_held_dodge_is_one_decision(short_kwargs):
+    env = loomlab.EscapeEnv(action_type="discrete", action_repeat=4, dodge_hold_s=0.1, **short_kwargs)
+    env.reset(seed=1)
+    assert env.step(0)[4]["step"] == 4
+    assert env.step(1)[4]["step"] == 16, "a dodge: 0.1 s = 12 camera periods in one step"
+    with pytest.raises(loomlab.ScenarioError, match="dodge_hold_s"):
+        loomlab.EscapeEnv(dodge_hold_s=-1.0, **short_kwargs)
+    env.close()

@@ -139,6 +139,7 @@ def build_options(
     max_episode_steps: Optional[int] = None,
     obs_mode: str = "raw",
     action_repeat: int = 1,
+    dodge_hold_s: float = 0.0,
 ) -> Dict[str, Any]:
     """The options dict passed (as JSON, :func:`options_json`) to the native environment.
 
@@ -166,6 +167,7 @@ def build_options(
         "max_episode_steps": _json_option("max_episode_steps", max_episode_steps),
         "obs_mode": obs_mode,
         "action_repeat": _json_option("action_repeat", action_repeat),
+        "dodge_hold_s": _json_option("dodge_hold_s", dodge_hold_s),
     }
     if action_config is not None:
         opts["action"] = _json_option("action_config", _as_dict(action_config))
@@ -222,6 +224,7 @@ _OPTION_KEYS = (
     "max_episode_steps",
     "obs_mode",
     "action_repeat",
+    "dodge_hold_s",
 )
 
 
@@ -276,8 +279,8 @@ class EscapeEnv(gym.Env):
     ## Description
 
     One step is ``action_repeat`` camera periods (default 1; a camera period is 1/120 s by
-    default): the action is held that long while the detectors see every frame, and the step
-    returns the last observation and the summed reward. The world, the rendering, the detectors and
+    default; a discrete dodge or stop ``dodge_hold_s`` when set): the action is held that long while
+    the detectors see every frame, and the step returns the last observation and the summed reward. The world, the rendering, the detectors and
     the ground truth run in Rust (``loomlab_env::EscapeEnv``). At every reset an open-loop pass
     finds whether the episode is a *threat* (an object touches the robot if it keeps cruising), its
     contact time and its escape deadline.
@@ -383,6 +386,9 @@ class EscapeEnv(gym.Env):
         action_repeat: camera periods each action is held for (default 1: one decision per frame;
             ``python -m loomlab.train`` uses 8, 15 Hz: a dodge of 0.6 s is ~5 decisions, an episode
             ~40 instead of ~300).
+        dodge_hold_s: discrete actions: a dodge or stop is held this long in one step (s; default 0:
+            ``action_repeat`` periods like every action; ``python -m loomlab.train`` uses 0.6, the
+            escape controller's manoeuvre): a dodge is one decision with one outcome.
         render_mode: ``"rgb_array"`` or ``None``.
     """
 
@@ -404,6 +410,7 @@ class EscapeEnv(gym.Env):
         max_episode_steps: Optional[int] = None,
         obs_mode: str = "raw",
         action_repeat: int = 1,
+        dodge_hold_s: float = 0.0,
         render_mode: Optional[str] = None,
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -422,6 +429,7 @@ class EscapeEnv(gym.Env):
             max_episode_steps=max_episode_steps,
             obs_mode=obs_mode,
             action_repeat=action_repeat,
+            dodge_hold_s=dodge_hold_s,
             render_mode=render_mode,
         )
         self._native = _native.EscapeEnv(self._kwargs["scenario"], scenario_toml, _native_options(self._kwargs))

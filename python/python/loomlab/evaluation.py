@@ -61,6 +61,7 @@ def evaluate(
     observe_frames: bool = False,
     thresholds: Optional[Dict[str, float]] = None,
     action_repeat: int = 1,
+    dodge_hold_s: float = 0.0,
 ) -> Dict[str, Any]:
     """Runs ``policy`` on every episode of ``suite`` for each seed and returns the report.
 
@@ -73,8 +74,8 @@ def evaluate(
         label: the policy's row in the report (not a detector or reference label).
         jobs: runner worker threads (``None``: one per CPU).
         progress: print one line per seed.
-        detectors, frame_size, action_type, obs_mode, observe_frames, thresholds, action_repeat: the
-            environment the policy was trained in (:class:`loomlab.EscapeEnv`'s arguments); ``frame_size`` and
+        detectors, frame_size, action_type, obs_mode, observe_frames, thresholds, action_repeat,
+            dodge_hold_s: the environment the policy was trained in (:class:`loomlab.EscapeEnv`'s arguments); ``frame_size`` and
             ``detectors`` are applied to the suite as ``loomlab run --size --detectors`` does.
 
     Returns:
@@ -94,6 +95,7 @@ def evaluate(
             action_type=action_type,
             obs_mode=obs_mode,
             action_repeat=action_repeat,
+            dodge_hold_s=dodge_hold_s,
         )
     )
     rows = []
@@ -209,6 +211,7 @@ def main(argv: Optional[Sequence[str]] = None) -> None:
         help="what the policy observes (python -m loomlab.train --obs; default detectors)",
     )
     p.add_argument("--action-repeat", type=int, default=8, help="camera frames per decision (as trained; default 8)")
+    p.add_argument("--dodge-hold-s", type=float, default=0.6, help="a dodge's duration (as trained; default 0.6 s)")
     p.add_argument("--frame-size", type=int, default=64, help="frame size n (default 64)")
     p.add_argument(
         "--calibrate-seeds",
@@ -243,6 +246,7 @@ def main(argv: Optional[Sequence[str]] = None) -> None:
         obs_mode="privileged" if args.obs == "privileged" else "normalized",
         thresholds=thresholds,
         action_repeat=args.action_repeat,
+        dodge_hold_s=args.dodge_hold_s,
     )
     report["thresholds"] = thresholds
     report["policy_label"] = args.label

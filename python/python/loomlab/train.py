@@ -16,7 +16,10 @@ learnability check, the percept of the ``ideal_course`` reference row).
 The defaults are chosen to learn within ~30 minutes on 2 CPU cores (``make rl-result``):
 
 - ``--action-repeat 8``: one decision per 8 camera frames (15 Hz at 120 Hz; the detectors still
-  see every frame): ~40 decisions per episode instead of ~300, a 0.6 s dodge is ~5 decisions;
+  see every frame): ~40 decisions per episode instead of ~300;
+- ``--dodge-hold-s 0.6``: a dodge (or stop) is one decision held for 0.6 s, the escape controller's
+  manoeuvre: one decision, one outcome (random exploration almost never holds a dodge for the ~5
+  decisions an evasion needs);
 - ``--timely-dodge-bonus 5`` with ``--timely-dodge-window-s 0.5``: the reward credits a dodge that
   comes in time (in the last 0.5 s before the threat's escape deadline) at the decision, not only
   ~1 s later through the avoided collision;
@@ -34,7 +37,7 @@ drawing fresh random expansions from its own seed stream, does not use) and a ch
 Everything goes to ``--out``:
 
 - ``config.json``: the arguments; ``progress.csv``: one row per evaluation (steps, wall time, the
-  policy's collision, unnecessary-dodge and hit rates, training decisions/s and camera frames/s);
+  policy's collision, unnecessary-dodge and hit rates, training decisions (environment steps) per second);
 - ``checkpoints/step_<N>.zip`` (PPO) or ``.npz`` (CEM) and ``checkpoints/latest.json``;
 - ``sb3/``: Stable-Baselines3's CSV and TensorBoard logs (``tensorboard --logdir OUT/sb3``).
 
@@ -66,7 +69,6 @@ PROGRESS_FIELDS = [
     "unnecessary_dodge_rate",
     "hit_rate",
     "train_steps_per_s",
-    "train_frames_per_s",
 ]
 
 
@@ -163,6 +165,7 @@ def make_vec_env(args: argparse.Namespace, curriculum: bool = False):
         action_type=args.env,
         obs_mode=OBS_MODES[args.obs],
         action_repeat=args.action_repeat,
+        dodge_hold_s=args.dodge_hold_s,
         max_episode_steps=args.max_episode_steps,
         reward=_reward(args),
     )
@@ -180,6 +183,7 @@ def quick_eval(policy: Any, args: argparse.Namespace) -> Dict[str, float]:
             action_type=args.env,
             obs_mode=OBS_MODES[args.obs],
             action_repeat=args.action_repeat,
+            dodge_hold_s=args.dodge_hold_s,
             max_episode_steps=args.max_episode_steps,
         )
     )
@@ -478,7 +482,7 @@ def train(args: argparse.Namespace) -> Dict[str, Any]:
             )
         with open(config_path) as f:
             saved = json.load(f)
-        for key in ("env", "algo", "seed", "n_envs", "frame_size", "scenario", "obs", "action_repeat"):
+        for key in ("env", "algo", "seed", "n_envs", "frame_size", "scenario", "obs", "action_repeat", "dodge_hold_s"):
             if saved.get(key) != getattr(args, key):
                 raise SystemExit(
                     f"--resume: --{key.replace('_', '-')} {getattr(args, key)!r} differs from the run's "
@@ -549,7 +553,6 @@ def _eval_row(learner: Any, args: argparse.Namespace, steps: int, wall: float, r
         "unnecessary_dodge_rate": r["unnecessary_dodge_rate"],
         "hit_rate": r["hit_rate"],
         "train_steps_per_s": round(rate, 1),
-        "train_frames_per_s": round(rate * args.action_repeat, 1),
     }
 
 
@@ -615,6 +618,13 @@ def parser() -> argparse.ArgumentParser:
         type=int,
         default=8,
         help="camera frames per decision (default 8: 15 Hz at 120 Hz; 1: every frame)",
+    )
+    p.add_argument(
+        "--dodge-hold-s",
+        type=float,
+        default=0.6,
+        help="a discrete dodge or stop is one decision held this long (s; default 0.6, the escape manoeuvre; "
+        "0: --action-repeat frames like every action)",
     )
     p.add_argument(
         "--timely-dodge-bonus",

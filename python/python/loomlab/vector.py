@@ -66,6 +66,7 @@ class EscapeVectorEnv(VectorEnv):
         max_episode_steps: Optional[int] = None,
         obs_mode: str = "raw",
         action_repeat: int = 1,
+        dodge_hold_s: float = 0.0,
         render_mode: Optional[str] = None,
     ) -> None:
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
@@ -88,6 +89,7 @@ class EscapeVectorEnv(VectorEnv):
                 max_episode_steps=max_episode_steps,
                 obs_mode=obs_mode,
                 action_repeat=action_repeat,
+                dodge_hold_s=dodge_hold_s,
                 render_mode=render_mode,
             ),
         )
