@@ -280,8 +280,9 @@ class EscapeEnv(gym.Env):
 
     One step is ``action_repeat`` camera periods (default 1; a camera period is 1/120 s by
     default; a discrete dodge or stop ``dodge_hold_s`` when set): the action is held that long while
-    the detectors see every frame, and the step returns the last observation and the summed reward. The world, the rendering, the detectors and
-    the ground truth run in Rust (``loomlab_env::EscapeEnv``). At every reset an open-loop pass
+    the detectors see every frame, and the step returns the last observation and the summed reward.
+    The world, the rendering, the detectors and the ground truth run in Rust
+    (``loomlab_env::EscapeEnv``). At every reset an open-loop pass
     finds whether the episode is a *threat* (an object touches the robot if it keeps cruising), its
     contact time and its escape deadline.
 
@@ -349,8 +350,8 @@ class EscapeEnv(gym.Env):
     ``−collision_penalty`` once on contact, and ``+timely_dodge_bonus`` once on the first dodging
     step of an episode with an evadable threat whose observation lies in the last
     ``timely_dodge_window_s`` (default 0.5 s) before the threat's escape deadline less the lead
-    margin (a hit, and an informed one: earlier, the object could not yet be seen to come). ``info["reward_terms"]`` reports each
-    term (summed over a repeated action's camera periods).
+    margin (a hit, and an informed one: earlier, the object could not yet be seen to come).
+    ``info["reward_terms"]`` reports each term (summed over a repeated action's camera periods).
 
     Why the bonus: the outcome of a dodge (the collision it avoids) is paid up to ~1 s after the
     decision, tens of decisions later, and a false alarm's cost is paid at once; on the outcome alone

@@ -75,8 +75,9 @@ def evaluate(
         jobs: runner worker threads (``None``: one per CPU).
         progress: print one line per seed.
         detectors, frame_size, action_type, obs_mode, observe_frames, thresholds, action_repeat,
-            dodge_hold_s: the environment the policy was trained in (:class:`loomlab.EscapeEnv`'s arguments); ``frame_size`` and
-            ``detectors`` are applied to the suite as ``loomlab run --size --detectors`` does.
+            dodge_hold_s: the environment the policy was trained in (:class:`loomlab.EscapeEnv`'s
+            arguments); ``frame_size`` and ``detectors`` are applied to the suite as ``loomlab run
+            --size --detectors`` does.
 
     Returns:
         The report dict (keys of ``report.json``: ``detectors`` holds every detector's, every

@@ -31,8 +31,10 @@ The defaults are chosen to learn within ~30 minutes on 2 CPU cores (``make rl-re
   (``curriculum_toml``: balls 1.5× larger and 0.6× as fast, so they loom earlier and slower).
 
 Same ``--seed`` → same episodes, same initial weights, same updates: same weights and curve (the
-native environments are deterministic under a seed; torch runs on one thread). Every ``--eval-every`` steps the policy is evaluated on held-out
-scenario seeds (``--eval-seeds``: the env's scenario expanded with those seeds, which training,
+native environments are deterministic under a seed; torch runs on one thread).
+
+Every ``--eval-every`` steps the policy is evaluated on held-out scenario seeds (``--eval-seeds``:
+the env's scenario expanded with those seeds, which training,
 drawing fresh random expansions from its own seed stream, does not use) and a checkpoint is written.
 Everything goes to ``--out``:
 
@@ -120,8 +122,10 @@ def curriculum_toml(base: str) -> str:
     text = re.sub(r"(?m)^(speed_mps\s*=\s*)([0-9.]+)", lambda m: scale(m, CURRICULUM_SPEED_SCALE), text)
     text = re.sub(
         r'("world\.projectiles\.\d+\.speed_mps"\s*=\s*\{\s*min\s*=\s*)([0-9.]+)(\s*,\s*max\s*=\s*)([0-9.]+)',
-        lambda m: f"{m.group(1)}{float(m.group(2)) * CURRICULUM_SPEED_SCALE:g}{m.group(3)}"
-        f"{float(m.group(4)) * CURRICULUM_SPEED_SCALE:g}",
+        lambda m: (
+            f"{m.group(1)}{float(m.group(2)) * CURRICULUM_SPEED_SCALE:g}{m.group(3)}"
+            f"{float(m.group(4)) * CURRICULUM_SPEED_SCALE:g}"
+        ),
         text,
     )
     if n == 0:
@@ -686,7 +690,10 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--n-epochs", type=int, default=10, help="PPO epochs per rollout (default 10)")
     p.add_argument("--learning-rate", type=float, default=3e-4, help="PPO learning rate (default 3e-4)")
     p.add_argument(
-        "--gamma", type=float, default=0.98, help="discount (default 0.98: episodes are ~40 decisions at --action-repeat 8)"
+        "--gamma",
+        type=float,
+        default=0.98,
+        help="discount (default 0.98: episodes are ~40 decisions at --action-repeat 8)",
     )
     p.add_argument("--ent-coef", type=float, default=0.0, help="PPO entropy bonus (default 0)")
     p.add_argument(
