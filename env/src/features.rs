@@ -43,6 +43,7 @@
 //! | `threat.inv_tau_ps` | urgency 1/τ = θ̇/θ (s⁻¹), 0 when not looming, clamped into [0, [`INV_TAU_LIMIT_PS`]] | [0, 20] |
 //! | `threat.bearing` | image x of its reference point (−1 left edge, +1 right edge) | [−1, 1] |
 //! | `threat.bearing_rate` | d bearing/dt (per s) / [`BEARING_RATE_SCALE_PS`], clamped | [−1, 1] |
+//! | `threat.miss_radii` | \|μ\| / [`MISS_RADII_LIMIT`], clamped, μ = 2β̇/θ̇ the miss at contact in object radii predicted from the percept (β the azimuth; the sphere model of the course gate, `loomlab_agents::strategy`); 1 when not looming | [0, 1] |
 //! | `threat.left_deg`, `threat.right_deg` | azimuths of its image edges / 90° (positive right), clamped | [−1, 1] |
 //! | `threat.bottom_deg`, `threat.top_deg` | elevations of its image edges / 90° (positive up), clamped | [−1, 1] |
 //! | `robot.*` | the normalized mode's 7 robot features | as above |
@@ -110,8 +111,10 @@ pub const FEATURE_SCALES: [(&str, f64); 7] = [
     ("edge_scale_deg", EDGE_SCALE_DEG),
 ];
 
-/// Number of privileged features ([`ObsMode::Privileged`]): 9 of the threat, 7 of the robot.
-pub const PRIVILEGED_FEATURES: usize = 16;
+/// Number of privileged features ([`ObsMode::Privileged`]): 10 of the threat, 7 of the robot.
+pub const PRIVILEGED_FEATURES: usize = 17;
+/// The privileged predicted miss |μ| (object radii) is divided by this and clamped into [0, 1].
+pub const MISS_RADII_LIMIT: f64 = 10.0;
 
 /// Number of features that do not depend on the number of detectors (θ̂, its rate, the looming
 /// side and the 7 robot features).
@@ -173,6 +176,7 @@ pub fn privileged_specs() -> Vec<FeatureSpec> {
         spec("threat.inv_tau_ps", 0.0, INV_TAU_LIMIT_PS),
         spec("threat.bearing", -1.0, 1.0),
         spec("threat.bearing_rate", -1.0, 1.0),
+        spec("threat.miss_radii", 0.0, 1.0),
     ];
     for name in ["left_deg", "right_deg", "bottom_deg", "top_deg"] {
         v.push(spec(format!("threat.{name}"), -1.0, 1.0));
@@ -226,7 +230,8 @@ pub fn most_threatening(truth: &[ObjectTruth]) -> Option<&ObjectTruth> {
 /// at every episode start).
 #[derive(Debug, Clone, Default)]
 pub struct PrivilegedPercept {
-    last: Option<(usize, f64)>,
+    /// The last frame's object: id, bearing (image x) and azimuth (rad).
+    last: Option<(usize, f64, f64)>,
 }
 
 impl PrivilegedPercept {
@@ -259,9 +264,15 @@ impl PrivilegedPercept {
                     0.0
                 };
                 let bearing = f64::from(t.bearing).clamp(-1.0, 1.0);
-                let bearing_rate = match self.last {
-                    Some((id, b)) if id == t.id => (bearing - b) / dt / BEARING_RATE_SCALE_PS,
-                    _ => 0.0,
+                let azimuth = f64::from(t.bearing_deg).to_radians();
+                let (bearing_rate, azimuth_rate) = match self.last {
+                    Some((id, b, a)) if id == t.id => ((bearing - b) / dt / BEARING_RATE_SCALE_PS, (azimuth - a) / dt),
+                    _ => (0.0, 0.0),
+                };
+                let miss = if rate > 0.0 {
+                    (2.0 * azimuth_rate / rate).abs() / MISS_RADII_LIMIT
+                } else {
+                    1.0
                 };
                 let edge = |d: f32| (f64::from(d) / EDGE_SCALE_DEG).clamp(-1.0, 1.0) as f32;
                 f.push(theta as f32);
@@ -269,12 +280,13 @@ impl PrivilegedPercept {
                 f.push(inv_tau as f32);
                 f.push(bearing as f32);
                 f.push(bearing_rate.clamp(-1.0, 1.0) as f32);
+                f.push(miss.clamp(0.0, 1.0) as f32);
                 f.extend(t.azimuth_extent_deg.map(edge));
                 f.extend(t.elevation_extent_deg.map(edge));
-                self.last = Some((t.id, bearing));
+                self.last = Some((t.id, bearing, azimuth));
             }
             None => {
-                f.extend([0.0; 9]);
+                f.extend([0.0; 10]);
                 self.last = None;
             }
         }

@@ -280,7 +280,7 @@ def test_privileged_observation_is_the_true_percept_and_action_repeat_holds_the_
     env = loomlab.EscapeEnv(obs_mode="privileged", action_type="discrete", action_repeat=4, **short_kwargs)
     names = env._native.feature_names
     assert names[:3] == ["threat.theta_rad", "threat.theta_rate_rps", "threat.inv_tau_ps"]
-    assert len(names) == 16 and "robot.time" in names
+    assert len(names) == 17 and "threat.miss_radii" in names and "robot.time" in names
     obs, info = env.reset(seed=2)
     assert env.observation_space.contains(obs)
     steps = 0
@@ -330,7 +330,7 @@ def test_training_on_the_privileged_percept_with_a_curriculum_repeats_under_a_se
     assert [[r[k] for k in keys] for r in ra] == [[r[k] for k in keys] for r in rb]
     za, zb = np.load(a / "checkpoints" / "step_24.npz"), np.load(b / "checkpoints" / "step_24.npz")
     np.testing.assert_array_equal(za["mean"], zb["mean"])
-    assert za["mean"].shape == (17 * 4,), "16 privileged features + bias, 4 actions"
+    assert za["mean"].shape == (18 * 4,), "17 privileged features + bias, 4 actions"
     config = json.loads((a / "config.json").read_text())
     assert (config["obs"], config["action_repeat"]) == ("privileged", 8)
 

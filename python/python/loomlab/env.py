@@ -322,7 +322,7 @@ class EscapeEnv(gym.Env):
 
     The reset observation has zero signals (the detectors see their first frame in the first step).
 
-    ``obs_mode="privileged"``: one ``Box(low, high, (16,), float32)``: the *true* percept of the most
+    ``obs_mode="privileged"``: one ``Box(low, high, (17,), float32)``: the *true* percept of the most
     threatening object (the looming object in view with the shortest optical τ, else the largest in
     view; zeros when nothing is in view) and the 7 robot features above. It reads ground truth, like
     the reference rows ``ideal_tau`` / ``ideal_course``, whose τ trigger and collision-course gate
@@ -337,6 +337,7 @@ class EscapeEnv(gym.Env):
     ``threat.inv_tau_ps``                       urgency 1/τ = θ̇/θ (1/s), 0 if not looming      [0, 20]
     ``threat.bearing``                          image x of its reference point                [-1, 1]
     ``threat.bearing_rate``                     d bearing/dt / 4 s⁻¹, clamped                 [-1, 1]
+    ``threat.miss_radii``                       |2β̇/θ̇| / 10: predicted miss in object radii   [0, 1]
     ``threat.left_deg``, ``threat.right_deg``   azimuths of its image edges / 90°             [-1, 1]
     ``threat.bottom_deg``, ``threat.top_deg``   elevations of its image edges / 90°           [-1, 1]
     ==========================================  ============================================  ===========
