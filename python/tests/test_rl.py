@@ -263,6 +263,16 @@ def test_ppo_training_repeats_under_a_seed_and_resumes(tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     ppo(a, "--timesteps", "128")
     ppo(b, "--timesteps", "128")
+    # the learnability check's path: the privileged percept after a curriculum phase
+    c, d = tmp_path / "c", tmp_path / "d"
+    for out in (c, d):
+        ppo(out, "--timesteps", "128", "--obs", "privileged", "--curriculum-steps", "64")
+    with (
+        zipfile.ZipFile(c / "checkpoints" / "step_128.zip") as zc,
+        zipfile.ZipFile(d / "checkpoints" / "step_128.zip") as zd,
+    ):
+        assert zc.read("policy.pth") == zd.read("policy.pth"), "same seed, same weights (privileged, curriculum)"
+    assert _progress(c) == _progress(d)
     keys = ["steps", "collision_rate", "unnecessary_dodge_rate", "hit_rate"]
     assert [[r[k] for k in keys] for r in _progress(a)] == [[r[k] for k in keys] for r in _progress(b)]
     with (
@@ -302,7 +312,7 @@ def test_curriculum_scenario_has_larger_slower_balls():
 
     base = loomlab.scenario_toml("escape_default")
     easy = curriculum_toml(base)
-    assert "radius_m = 0.3" in easy and "speed_mps = 6" in easy
+    assert "radius_m = 0.25" in easy and "speed_mps = 6" in easy
     assert '"world.projectiles.0.speed_mps" = { min = 4.8, max = 8.4 }' in easy
     env = loomlab.EscapeEnv(scenario_toml=easy, frame_size=32)
     env.close()

@@ -31,7 +31,7 @@ The defaults are chosen to learn within ~30 minutes on 2 CPU cores (``make rl-re
   the policy has seen which dodges pay (without the entropy bonus the pilot runs collapsed to
   "never dodge" within 10-20 k decisions);
 - ``--curriculum-steps N`` (default 0, off): the first N steps on an easier version of the scenario
-  (``curriculum_toml``: balls 1.5× larger and 0.6× as fast, so they loom earlier and slower).
+  (``curriculum_toml``: balls 1.25× larger and 0.6× as fast, so they loom earlier and slower).
 
 Same ``--seed`` → same episodes, same initial weights, same updates: same weights and curve (the
 native environments are deterministic under a seed; torch runs on one thread).
@@ -104,12 +104,12 @@ def parse_seeds(text: str) -> List[int]:
 OBS_MODES = {"detectors": "normalized", "privileged": "privileged"}
 """``--obs`` → the environment's ``obs_mode``."""
 
-CURRICULUM_RADIUS_SCALE = 1.5
+CURRICULUM_RADIUS_SCALE = 1.25
 CURRICULUM_SPEED_SCALE = 0.6
 
 
 def curriculum_toml(base: str) -> str:
-    """An easier version of a scenario's TOML text: every projectile's ``radius_m`` ×1.5 and
+    """An easier version of a scenario's TOML text: every projectile's ``radius_m`` ×1.25 and
     ``speed_mps`` (fixed values and ``[random]`` ranges) ×0.6, so that balls loom earlier and
     slower. Raises ``SystemExit`` naming the fix when the scenario has no projectile."""
     import re
@@ -656,7 +656,7 @@ def parser() -> argparse.ArgumentParser:
         "--curriculum-steps",
         type=int,
         default=0,
-        help="train the first N steps on the easier scenario (balls 1.5x larger, 0.6x as fast; default 0: off)",
+        help="train the first N steps on the easier scenario (balls 1.25x larger, 0.6x as fast; default 0: off)",
     )
     p.add_argument("--hidden", type=int, default=64, help="units of each of the policy's 2 hidden layers (default 64)")
     p.add_argument("--algo", choices=["ppo", "cem"], default="ppo", help="ppo (stable-baselines3) or cem (numpy)")
