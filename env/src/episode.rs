@@ -10,12 +10,12 @@ use loomlab_detector::{DetectorParams, Frame};
 use loomlab_sim::{GpuContext, RobotState, Sim, StepOutput};
 use serde::{Deserialize, Serialize};
 
-use super::features::{FeatureSpec, Normalizer, ObsMode, feature_specs};
+use super::features::{FeatureSpec, Normalizer, ObsMode, PrivilegedPercept, mode_feature_specs};
 use super::reward::StepFacts;
 use super::{
     ActionKind, EnvError, EnvOptions, EnvScenario, EpisodeRng, RewardTerms, ScenarioEpisodes, shared_gpu_context,
 };
-use loomlab_scenarios::metrics::{DetectorEpisode, GroundTruth, TraceSample, score_detector_episode};
+use loomlab_scenarios::metrics::{DetectorEpisode, GroundTruth, TIME_EPS_S, TraceSample, score_detector_episode};
 use loomlab_scenarios::reference::INDICATOR_THRESHOLD;
 use loomlab_scenarios::schema::{DetectorSpec, EpisodeSpec};
 use loomlab_scenarios::truth::{open_loop_truth, threat_deadline};
@@ -81,8 +81,8 @@ pub struct Observation {
     pub robot: [f32; ROBOT_DIM],
     /// The egocentric frame, n·n grey levels row-major (row 0 at the top), if observed.
     pub frame: Option<Vec<u8>>,
-    /// The normalized features ([`crate::features`]), when [`EnvOptions::obs_mode`] is
-    /// [`ObsMode::Normalized`].
+    /// The feature vector ([`crate::features`]), when [`EnvOptions::obs_mode`] is
+    /// [`ObsMode::Normalized`] or [`ObsMode::Privileged`].
     pub features: Option<Vec<f32>>,
 }
 
@@ -142,7 +142,7 @@ pub struct StepInfo {
     pub controller_continuous: [f32; 3],
     /// The same as a discrete action.
     pub controller_discrete: DiscreteAction,
-    /// The terms of the last reward.
+    /// The terms of the last reward (summed over the camera periods of a repeated action).
     pub reward_terms: RewardTerms,
     /// The scored outcome, on the step that ends the episode (terminated or truncated).
     pub outcome: Option<EpisodeSummary>,
@@ -153,7 +153,8 @@ pub struct StepInfo {
 pub struct StepResult {
     /// The observation after the step.
     pub obs: Observation,
-    /// The reward of the step ([`RewardTerms::total`]).
+    /// The reward of the step ([`RewardTerms::total`]; summed over the camera periods of a
+    /// repeated action, [`EnvOptions::action_repeat`]).
     pub reward: f64,
     /// The episode ended: collision, or the scenario's duration is over.
     pub terminated: bool,
@@ -236,6 +237,8 @@ struct Running {
     last_command: VelocityCommand,
     /// The cruise command during the last step.
     last_cruise: VelocityCommand,
+    /// Whether a step of this episode earned the timely-dodge bonus.
+    timely_paid: bool,
     /// The agent's departures from cruising, one sample per step at the time of the observation
     /// the action was chosen on (signal 1: departed, 0: cruised).
     agent_trace: Vec<TraceSample>,
@@ -269,6 +272,7 @@ pub struct EscapeEnv {
     /// Detectors, looming side and the shadow escape controller (driven by the first detector).
     agent: EscapeAgent,
     normalizer: Normalizer,
+    privileged: PrivilegedPercept,
     rng: EpisodeRng,
     running: Option<Running>,
 }
@@ -393,6 +397,7 @@ impl EscapeEnv {
             signal_names,
             agent,
             normalizer: Normalizer::default(),
+            privileged: PrivilegedPercept::default(),
             rng: EpisodeRng::from_entropy(),
             running: None,
             scenario,
@@ -460,9 +465,10 @@ impl EscapeEnv {
         &self.signal_names
     }
 
-    /// Names and declared bounds of the normalized features ([`crate::features`]), in order.
+    /// Names and declared bounds of the features of the observation mode ([`crate::features`]; the
+    /// normalized mode's for the raw mode), in order.
     pub fn feature_specs(&self) -> Vec<FeatureSpec> {
-        feature_specs(&self.detector_labels())
+        mode_feature_specs(self.options.obs_mode, &self.detector_labels())
     }
 
     /// The alarm thresholds of the current episode, in detector order.
@@ -577,21 +583,49 @@ impl EscapeEnv {
             episode_return: 0.0,
             last_command: cruise,
             last_cruise: cruise,
+            timely_paid: false,
             agent_trace: Vec::new(),
             last_t_s: 0.0,
             last_ttc_s: None,
             last_angular_size_deg: None,
         });
         self.normalizer.reset(self.detectors.len());
+        self.privileged.reset();
         self.process(&first, false, RewardTerms::default())
     }
 
-    /// Applies an agent action for one camera period.
+    /// Applies an agent action for [`EnvOptions::action_repeat`] camera periods (a discrete dodge
+    /// or stop for [`EnvOptions::dodge_hold_s`] when set; fewer when the episode ends first): the
+    /// detectors see every frame, the result holds the last observation and info, the summed
+    /// reward and reward terms.
     pub fn step(&mut self, action: Action) -> Result<StepResult, EnvError> {
         let command = self.command_for(action)?;
-        let r = self.step_command(command)?;
+        let mut r = self.step_command(command)?;
         if let Some(run) = self.running.as_mut() {
             run.actions.push(action);
+        }
+        let hold = match action {
+            Action::Discrete(i) if i != 0 && self.options.dodge_hold_s > 0.0 => {
+                let dt = self.dt();
+                ((self.options.dodge_hold_s / dt).round() as u32).max(self.options.action_repeat)
+            }
+            _ => self.options.action_repeat,
+        };
+        for _ in 1..hold {
+            if r.terminated || r.truncated {
+                break;
+            }
+            // the discrete actions follow the cruise command of each period
+            let next = self.step_command(self.command_for(action)?)?;
+            let terms = r.info.reward_terms.plus(&next.info.reward_terms);
+            r = StepResult {
+                reward: terms.total(),
+                info: StepInfo {
+                    reward_terms: terms,
+                    ..next.info
+                },
+                ..next
+            };
         }
         Ok(r)
     }
@@ -661,6 +695,12 @@ impl EscapeEnv {
         let first_dodge = !r.agent_trace[..r.agent_trace.len() - 1]
             .iter()
             .any(|s| s.signal >= INDICATOR_THRESHOLD);
+        let window_s = self.options.reward.timely_dodge_window_s;
+        let in_window = r.t_contact_s.is_some()
+            && r.t_deadline_s.is_some_and(|td| {
+                let end = td - r.spec.scoring.lead_margin_s + TIME_EPS_S;
+                r.last_t_s <= end && r.last_t_s >= end - window_s - 2.0 * TIME_EPS_S
+            });
         let facts = StepFacts {
             dt,
             collision,
@@ -668,8 +708,11 @@ impl EscapeEnv {
             deviation: deviation(command, cruise),
             threat: r.t_contact_s.is_some(),
             first_dodge,
+            in_window,
+            bonus_unpaid: !r.timely_paid,
         };
         let terms = self.options.reward.terms(&facts);
+        r.timely_paid |= terms.timely_dodge > 0.0;
         r.episode_return += terms.total();
         let terminated = r.collision || r.steps >= r.frames;
         let truncated = !terminated && max_steps.is_some_and(|m| r.steps >= m);
@@ -784,6 +827,17 @@ impl EscapeEnv {
         };
         let obs = match self.options.obs_mode {
             ObsMode::Raw => obs,
+            ObsMode::Privileged => {
+                let dt = r.spec.world.dt();
+                let duration_s = r.frames as f64 * dt;
+                let features = self
+                    .privileged
+                    .features(&out.truth, &obs, dt, duration_s, &self.options.action, cmd);
+                Observation {
+                    features: Some(features),
+                    ..obs
+                }
+            }
             ObsMode::Normalized => {
                 let dt = r.spec.world.dt();
                 let duration_s = r.frames as f64 * dt;

@@ -59,8 +59,8 @@ pub use episode::{
     ROBOT_FIELDS, ROBOT_LIMIT, SIGNAL_LIMIT, StepInfo, StepResult,
 };
 pub use error::{EnvError, ErrorKind};
-pub use features::{FeatureSpec, ObsMode, feature_specs};
-pub use options::{ActionKind, EnvOptions, MAX_FRAME_SIZE};
+pub use features::{FeatureSpec, ObsMode, feature_specs, mode_feature_specs};
+pub use options::{ActionKind, EnvOptions, MAX_ACTION_REPEAT, MAX_FRAME_SIZE};
 pub use reward::{DODGE_TOLERANCE, RewardConfig, RewardTerms};
 pub use scenario::{EnvScenario, ScenarioEpisodes};
 pub use vector::{EscapeVectorEnv, VectorSnapshot};

@@ -12,6 +12,9 @@ use super::{EnvError, ObsMode, RewardConfig};
 /// Largest frame size the environment accepts.
 pub const MAX_FRAME_SIZE: u32 = 1024;
 
+/// Largest [`EnvOptions::action_repeat`].
+pub const MAX_ACTION_REPEAT: u32 = 120;
+
 /// The agent's action space.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -59,8 +62,21 @@ pub struct EnvOptions {
     pub clip_actions: bool,
     /// Reward weights.
     pub reward: RewardConfig,
-    /// Truncate episodes after this many steps (`None`: only the scenario's duration ends them).
+    /// Truncate episodes after this many camera periods (`None`: only the scenario's duration
+    /// ends them).
     pub max_episode_steps: Option<u64>,
+    /// Camera periods each action is held for (default 1: one decision per frame). One
+    /// [`EscapeEnv::step`](crate::EscapeEnv::step) then renders and steps the detectors on every
+    /// one of these frames (the detectors see every frame) and returns the last observation and
+    /// the summed reward: a decision rate below the camera rate, which shortens the credit
+    /// assignment from a decision to its outcome by this factor.
+    pub action_repeat: u32,
+    /// Discrete actions only: a dodge or stop is held for this long in one step (s; rounded to
+    /// whole camera periods, at least `action_repeat` of them; default 0: `action_repeat` periods
+    /// like every action). A dodge is then one decision with one outcome, as the escape
+    /// controller's manoeuvre is (`[controller] duration_s`), instead of several decisions that
+    /// must all choose it: random exploration rarely holds a dodge long enough to evade.
+    pub dodge_hold_s: f64,
 }
 
 impl Default for EnvOptions {
@@ -76,6 +92,8 @@ impl Default for EnvOptions {
             clip_actions: false,
             reward: RewardConfig::default(),
             max_episode_steps: None,
+            action_repeat: 1,
+            dodge_hold_s: 0.0,
         }
     }
 }
@@ -130,6 +148,22 @@ impl EnvOptions {
             if !t.is_finite() {
                 return Err(EnvError::option(format!("thresholds.{id}"), t, "must be finite"));
             }
+        }
+        if !(1..=MAX_ACTION_REPEAT).contains(&self.action_repeat) {
+            return Err(EnvError::option(
+                "action_repeat",
+                self.action_repeat,
+                format!(
+                    "must be in 1..={MAX_ACTION_REPEAT} camera periods (1: one decision per frame; 8: 15 Hz at 120 Hz)"
+                ),
+            ));
+        }
+        if !(self.dodge_hold_s.is_finite() && (0.0..=10.0).contains(&self.dodge_hold_s)) {
+            return Err(EnvError::option(
+                "dodge_hold_s",
+                self.dodge_hold_s,
+                "must be in 0..=10 seconds (0: a dodge is held for action_repeat periods like every action; 0.6: the default escape manoeuvre)",
+            ));
         }
         if self.max_episode_steps == Some(0) {
             return Err(EnvError::option("max_episode_steps", 0, "must be >= 1"));

@@ -12,7 +12,15 @@
 //!   truth), i.e. the cost of escaping from nothing,
 //! - `− unnecessary_dodge_penalty` once, on the first such step of an episode without a threat
 //!   (the cost of a false alarm as the scores count it: any departure from cruising),
-//! - `− collision_penalty` once, on the step in which the robot is first touched.
+//! - `− collision_penalty` once, on the step in which the robot is first touched,
+//! - `+ timely_dodge_bonus` once, on the first dodging step of an episode with an evadable threat
+//!   whose observation (the one the dodge was chosen on) lies in the last `timely_dodge_window_s`
+//!   before the threat's escape deadline less the scoring's lead margin (a dodge there is a hit,
+//!   and an informed one: an earlier dodge is a hit by luck, before the object could be seen to
+//!   come). This credits a correct escape at the time of the decision: the collision it avoids is
+//!   only paid (or not) up to ~1 s later, many decisions on. The escape deadline is the runner's,
+//!   from physics-only replays (`loomlab_scenarios::deadline`): ground truth used only in the
+//!   reward, never in the observation.
 //!
 //! Every term is reported separately in [`RewardTerms`] so that agents and tests can see where the
 //! reward came from.
@@ -42,6 +50,12 @@ pub struct RewardConfig {
     /// Subtracted once, on the first dodging step of an episode without a threat (a false alarm).
     /// Default 0 (off).
     pub unnecessary_dodge_penalty: f64,
+    /// Added once, on the first dodging step of an episode with an evadable threat within
+    /// `timely_dodge_window_s` before its escape deadline (see the module docs). Default 0 (off).
+    pub timely_dodge_bonus: f64,
+    /// The window before the escape deadline (less the lead margin) in which a dodge earns
+    /// `timely_dodge_bonus` (s). Default 0.5.
+    pub timely_dodge_window_s: f64,
 }
 
 impl Default for RewardConfig {
@@ -53,6 +67,8 @@ impl Default for RewardConfig {
             effort_per_s: 0.05,
             unnecessary_dodge_per_s: 1.0,
             unnecessary_dodge_penalty: 0.0,
+            timely_dodge_bonus: 0.0,
+            timely_dodge_window_s: 0.5,
         }
     }
 }
@@ -67,6 +83,8 @@ impl RewardConfig {
             ("reward.effort_per_s", self.effort_per_s),
             ("reward.unnecessary_dodge_per_s", self.unnecessary_dodge_per_s),
             ("reward.unnecessary_dodge_penalty", self.unnecessary_dodge_penalty),
+            ("reward.timely_dodge_bonus", self.timely_dodge_bonus),
+            ("reward.timely_dodge_window_s", self.timely_dodge_window_s),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(EnvError::InvalidOption {
@@ -93,12 +111,27 @@ pub struct RewardTerms {
     pub effort: f64,
     /// Unnecessary-dodge cost of this step (≤ 0).
     pub unnecessary_dodge: f64,
+    /// The timely-dodge bonus of this step (≥ 0).
+    pub timely_dodge: f64,
 }
 
 impl RewardTerms {
     /// The reward: the sum of the terms.
     pub fn total(&self) -> f64 {
-        self.collision + self.survival + self.progress + self.effort + self.unnecessary_dodge
+        self.collision + self.survival + self.progress + self.effort + self.unnecessary_dodge + self.timely_dodge
+    }
+
+    /// The term-by-term sum of two steps' terms (the terms of an action repeated over several
+    /// camera periods).
+    pub fn plus(&self, o: &RewardTerms) -> RewardTerms {
+        RewardTerms {
+            collision: self.collision + o.collision,
+            survival: self.survival + o.survival,
+            progress: self.progress + o.progress,
+            effort: self.effort + o.effort,
+            unnecessary_dodge: self.unnecessary_dodge + o.unnecessary_dodge,
+            timely_dodge: self.timely_dodge + o.timely_dodge,
+        }
     }
 }
 
@@ -113,6 +146,11 @@ pub(crate) struct StepFacts {
     pub threat: bool,
     /// No earlier step of the episode dodged.
     pub first_dodge: bool,
+    /// The threat is evadable and this step's observation lies in the bonus window before its
+    /// escape deadline less the lead margin.
+    pub in_window: bool,
+    /// No earlier step of the episode earned the timely-dodge bonus.
+    pub bonus_unpaid: bool,
 }
 
 impl StepFacts {
@@ -139,6 +177,11 @@ impl RewardConfig {
             } else {
                 0.0
             },
+            timely_dodge: if f.threat && f.bonus_unpaid && f.in_window && f.dodging() {
+                self.timely_dodge_bonus
+            } else {
+                0.0
+            },
         }
     }
 }
@@ -155,6 +198,8 @@ mod tests {
             deviation: [0.0; 3],
             threat: true,
             first_dodge: false,
+            in_window: false,
+            bonus_unpaid: true,
         }
     }
 
@@ -206,6 +251,52 @@ mod tests {
             ..facts()
         });
         assert_eq!((hit.collision, hit.survival), (-10.0, 0.0));
+    }
+
+    #[test]
+    fn the_timely_dodge_bonus_is_paid_once_for_a_dodge_in_time() {
+        let cfg = RewardConfig {
+            timely_dodge_bonus: 2.0,
+            ..Default::default()
+        };
+        let first = StepFacts {
+            deviation: [0.0, 0.0, 1.5],
+            in_window: true,
+            ..facts()
+        };
+        assert_eq!(cfg.terms(&first).timely_dodge, 2.0);
+        assert!((cfg.terms(&first).total() - cfg.terms(&first).plus(&RewardTerms::default()).total()).abs() < 1e-15);
+        for (what, f) in [
+            (
+                "once paid",
+                StepFacts {
+                    bonus_unpaid: false,
+                    ..first
+                },
+            ),
+            (
+                "outside the window",
+                StepFacts {
+                    in_window: false,
+                    ..first
+                },
+            ),
+            ("without a threat", StepFacts { threat: false, ..first }),
+            (
+                "cruising",
+                StepFacts {
+                    deviation: [0.0; 3],
+                    ..first
+                },
+            ),
+        ] {
+            assert_eq!(cfg.terms(&f).timely_dodge, 0.0, "{what}");
+        }
+        assert_eq!(
+            RewardConfig::default().terms(&first).timely_dodge,
+            0.0,
+            "off by default"
+        );
     }
 
     #[test]

@@ -602,3 +602,170 @@ fn reset_envs_resets_now_and_cancels_the_pending_autoreset() {
     assert_eq!(next[1].info.step, 1, "environment 1 was reset already: it steps");
     assert_eq!(a.reset_envs(&[2]).unwrap_err().kind(), ErrorKind::Scenario);
 }
+
+/// An action repeated over k camera periods is exactly k single steps of it: the same last
+/// observation and info, the summed reward and reward terms; the episode ends as early.
+#[test]
+fn action_repeat_equals_that_many_single_steps() {
+    let base = EnvOptions {
+        obs_mode: ObsMode::Normalized,
+        ..options(ActionKind::Discrete)
+    };
+    let mut single = EscapeEnv::new(scenario(), base.clone()).unwrap();
+    let mut repeated = EscapeEnv::new(
+        scenario(),
+        EnvOptions {
+            action_repeat: 4,
+            ..base
+        },
+    )
+    .unwrap();
+    // dodge left from the 2nd decision on (before the escape deadline): the ball is evaded
+    let action = |i: usize| Action::Discrete(if i >= 1 { 1 } else { 0 });
+    let singles = run(&mut single, 11, |i| action(i / 4));
+    let repeats = run(&mut repeated, 11, action);
+    assert_eq!(repeats.len(), singles.len().div_ceil(4), "one decision per 4 frames");
+    for (k, r) in repeats.iter().enumerate() {
+        let chunk = &singles[4 * k..(4 * k + 4).min(singles.len())];
+        let last = chunk.last().unwrap();
+        assert_eq!(r.obs, last.obs, "decision {k}: the last frame's observation");
+        assert_eq!((r.terminated, r.truncated), (last.terminated, last.truncated));
+        let sum: f64 = chunk.iter().map(|s| s.reward).sum();
+        assert!((r.reward - sum).abs() < 1e-9, "decision {k}: {} vs {sum}", r.reward);
+        assert_eq!(r.info.step, last.info.step);
+        assert_eq!(r.info.outcome, last.info.outcome);
+    }
+    let outcome = repeats.last().unwrap().info.outcome.as_ref().unwrap();
+    assert!(outcome.threat && outcome.evaded, "{outcome:?}");
+    // a held dodge: one step of 0.1 s (12 periods) for a dodge, 4 periods for cruising
+    let mut held = EscapeEnv::new(
+        scenario(),
+        EnvOptions {
+            action_repeat: 4,
+            dodge_hold_s: 0.1,
+            obs_mode: ObsMode::Normalized,
+            ..options(ActionKind::Discrete)
+        },
+    )
+    .unwrap();
+    held.reset(Some(11)).unwrap();
+    assert_eq!(held.step(Action::Discrete(0)).unwrap().info.step, 4);
+    let dodge = held.step(Action::Discrete(1)).unwrap();
+    assert_eq!(dodge.info.step, 16);
+    assert_eq!(dodge.obs, singles[15].obs, "the same frames as 12 single dodging steps");
+    let e = EnvOptions {
+        action_repeat: 0,
+        ..Default::default()
+    }
+    .validate()
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("action_repeat") && e.contains("0"), "{e}");
+}
+
+/// The privileged observation is the true percept of the ball: its θ and 1/τ grow as it
+/// approaches, its features stay within their declared bounds, and the observation does not depend
+/// on the detectors.
+#[test]
+fn privileged_features_follow_the_true_percept_of_the_ball() {
+    let opts = EnvOptions {
+        obs_mode: ObsMode::Privileged,
+        ..options(ActionKind::Discrete)
+    };
+    let mut env = EscapeEnv::new(scenario(), opts.clone()).unwrap();
+    let specs = env.feature_specs();
+    assert_eq!(specs.len(), features::PRIVILEGED_FEATURES);
+    assert_eq!(specs[0].name, "threat.theta_rad");
+    let steps = run(&mut env, 5, |_| Action::Discrete(0));
+    let mut thetas = Vec::new();
+    for s in &steps {
+        let f = s.obs.features.as_ref().unwrap();
+        assert_eq!(f.len(), specs.len());
+        for (v, spec) in f.iter().zip(&specs) {
+            assert!(
+                (spec.low..=spec.high).contains(v),
+                "{} = {v} outside [{}, {}]",
+                spec.name,
+                spec.low,
+                spec.high
+            );
+        }
+        thetas.push((f[0], f[2]));
+    }
+    // the ball is 8 m away at 10 m/s closing plus the robot's 1 m/s: θ and 1/τ grow as it
+    // approaches (after the contact the ball is behind the camera and the wall is the percept)
+    let last = steps.last().unwrap();
+    assert!(last.info.collision, "the cruising robot is hit");
+    let (theta_end, inv_tau_end) = thetas[2 * thetas.len() / 3];
+    let (theta_mid, inv_tau_mid) = thetas[thetas.len() / 3];
+    assert!(theta_end > theta_mid && inv_tau_end > inv_tau_mid, "{thetas:?}");
+    // 1/τ of the true percept: about the closing speed over the distance
+    let ttc = steps[thetas.len() / 3].info.ttc_s.unwrap();
+    assert!(
+        (f64::from(inv_tau_mid) * ttc - 1.0).abs() < 0.25,
+        "1/τ {inv_tau_mid} vs ttc {ttc}"
+    );
+    // the same episode with another detector: the same privileged observation
+    let mut other = EscapeEnv::new(
+        scenario(),
+        EnvOptions {
+            detectors: Some(vec!["soc".into()]),
+            ..opts
+        },
+    )
+    .unwrap();
+    let again = run(&mut other, 5, |_| Action::Discrete(0));
+    assert_eq!(
+        again.iter().map(|s| s.obs.features.clone()).collect::<Vec<_>>(),
+        steps.iter().map(|s| s.obs.features.clone()).collect::<Vec<_>>()
+    );
+}
+
+/// The timely-dodge bonus is paid once, on the first dodging step in the window before the escape
+/// deadline, and not for a dodge after it.
+#[test]
+fn the_timely_dodge_bonus_is_paid_for_a_dodge_in_time_only() {
+    let opts = EnvOptions {
+        reward: RewardConfig {
+            timely_dodge_bonus: 3.0,
+            timely_dodge_window_s: 10.0,
+            ..Default::default()
+        },
+        ..options(ActionKind::Discrete)
+    };
+    let mut env = EscapeEnv::new(scenario(), opts).unwrap();
+    let early = run(&mut env, 7, |i| Action::Discrete(if i >= 2 { 1 } else { 0 }));
+    let bonus: Vec<f64> = early.iter().map(|s| s.info.reward_terms.timely_dodge).collect();
+    assert_eq!(bonus.iter().filter(|&&b| b != 0.0).count(), 1, "{bonus:?}");
+    assert_eq!(bonus[2], 3.0);
+    assert_eq!(
+        early.last().unwrap().info.outcome.as_ref().unwrap().agent.outcome,
+        Outcome::Hit
+    );
+    // a short dodge long before the deadline, outside a short window: no bonus
+    let mut short = EscapeEnv::new(
+        scenario(),
+        EnvOptions {
+            reward: RewardConfig {
+                timely_dodge_bonus: 3.0,
+                timely_dodge_window_s: 0.02,
+                ..Default::default()
+            },
+            ..options(ActionKind::Discrete)
+        },
+    )
+    .unwrap();
+    let too_early = run(&mut short, 7, |i| {
+        Action::Discrete(if (2..5).contains(&i) { 1 } else { 0 })
+    });
+    assert!(too_early.iter().all(|s| s.info.reward_terms.timely_dodge == 0.0));
+    // a dodge one frame before contact is past the deadline: no bonus
+    let cruise = run(&mut env, 7, |_| Action::Discrete(0));
+    let late_at = cruise.len() - 2;
+    let late = run(&mut env, 7, |i| Action::Discrete(if i >= late_at { 1 } else { 0 }));
+    assert!(late.iter().all(|s| s.info.reward_terms.timely_dodge == 0.0));
+    assert_ne!(
+        late.last().unwrap().info.outcome.as_ref().unwrap().agent.outcome,
+        Outcome::Hit
+    );
+}

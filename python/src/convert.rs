@@ -9,7 +9,7 @@ use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use loomlab_env::{ActionKind, EpisodeSummary, ObsMode, Observation, ROBOT_DIM, StepInfo, StepResult};
+use loomlab_env::{ActionKind, EpisodeSummary, Observation, ROBOT_DIM, StepInfo, StepResult};
 
 use crate::Meta;
 
@@ -22,7 +22,7 @@ fn inf_if_none(v: Option<f64>) -> f64 {
 /// labels); normalized, the feature vector (a dict `{features, frame}` when frames are observed).
 pub fn obs_dict<'py>(py: Python<'py>, meta: &Meta, obs: &Observation) -> PyResult<Bound<'py, PyAny>> {
     let n = meta.frame_size as usize;
-    if meta.obs_mode == ObsMode::Normalized {
+    if meta.obs_mode.is_vector() {
         let f = obs.features.as_deref().unwrap_or_default();
         let features = PyArray1::from_slice(py, f).into_any();
         return match &obs.frame {
@@ -57,6 +57,7 @@ fn reward_terms_dict<'py>(py: Python<'py>, info: &StepInfo) -> PyResult<Bound<'p
     d.set_item("progress", t.progress)?;
     d.set_item("effort", t.effort)?;
     d.set_item("unnecessary_dodge", t.unnecessary_dodge)?;
+    d.set_item("timely_dodge", t.timely_dodge)?;
     Ok(d)
 }
 
@@ -150,7 +151,7 @@ impl<'py> Batch<'py> {
         let m = results.len();
         let n = meta.frame_size as usize;
         let obs = PyDict::new(py);
-        let features = (meta.obs_mode == ObsMode::Normalized).then(|| {
+        let features = meta.obs_mode.is_vector().then(|| {
             let width = meta.feature_names.len();
             let mut v = Vec::with_capacity(m * width);
             for r in results {
@@ -256,6 +257,13 @@ impl<'py> Batch<'py> {
             &terms,
             "unnecessary_dodge",
             f64s(&|i| i.reward_terms.unnecessary_dodge).into_any(),
+            m,
+        )?;
+        set_masked(
+            py,
+            &terms,
+            "timely_dodge",
+            f64s(&|i| i.reward_terms.timely_dodge).into_any(),
             m,
         )?;
         set_masked(py, &info, "reward_terms", terms.into_any(), m)?;

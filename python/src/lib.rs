@@ -171,17 +171,17 @@ macro_rules! meta_getters {
             fn obs_mode(&self) -> &'static str {
                 self.meta.obs_mode.as_str()
             }
-            /// Names of the normalized features, in order.
+            /// Names of the features of the observation mode (the normalized ones for `raw`), in order.
             #[getter]
             fn feature_names(&self) -> Vec<String> {
                 self.meta.feature_names.clone()
             }
-            /// Declared lower bounds of the normalized features.
+            /// Declared lower bounds of those features.
             #[getter]
             fn feature_low(&self) -> Vec<f32> {
                 self.meta.feature_low.clone()
             }
-            /// Declared upper bounds of the normalized features.
+            /// Declared upper bounds of those features.
             #[getter]
             fn feature_high(&self) -> Vec<f32> {
                 self.meta.feature_high.clone()
@@ -620,7 +620,14 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("FEATURE_SCALES", scales)?;
     m.add(
         "OBS_MODES",
-        PyTuple::new(py, [ObsMode::Raw.as_str(), ObsMode::Normalized.as_str()])?,
+        PyTuple::new(
+            py,
+            [
+                ObsMode::Raw.as_str(),
+                ObsMode::Normalized.as_str(),
+                ObsMode::Privileged.as_str(),
+            ],
+        )?,
     )?;
     m.add("AGENT_LABEL", loomlab_env::AGENT_LABEL)?;
     m.add("REWARD_DEFAULTS", defaults_dict(py, &RewardConfig::default())?)?;

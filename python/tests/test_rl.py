@@ -22,7 +22,7 @@ ESCAPE_DEFAULT = os.path.join(os.path.dirname(loomlab.__file__), "scenarios", "e
 
 
 @pytest.mark.parametrize("env_id", ["loomlab/Escape-v0", "loomlab/EscapeDiscrete-v0"])
-@pytest.mark.parametrize("obs_mode", ["raw", "normalized"])
+@pytest.mark.parametrize("obs_mode", ["raw", "normalized", "privileged"])
 @pytest.mark.parametrize("observe_frames", [False, True])
 def test_check_env_passes_for_every_obs_mode(short_kwargs, env_id, obs_mode, observe_frames):
     env = gym.make(env_id, obs_mode=obs_mode, observe_frames=observe_frames, **short_kwargs).unwrapped
@@ -30,7 +30,7 @@ def test_check_env_passes_for_every_obs_mode(short_kwargs, env_id, obs_mode, obs
         warnings.simplefilter("error")
         check_env(env)
     obs, _ = env.reset(seed=3)
-    if obs_mode == "normalized":
+    if obs_mode != "raw":
         features = obs["features"] if observe_frames else obs
         assert features.dtype == np.float32 and features.shape == (len(env._native.feature_names),)
     env.close()
@@ -184,6 +184,10 @@ def _train(out, *extra):
         [
             "--algo",
             "cem",
+            "--action-repeat",
+            "1",
+            "--dodge-hold-s",
+            "0",
             "--n-envs",
             "2",
             "--frame-size",
@@ -259,6 +263,17 @@ def test_ppo_training_repeats_under_a_seed_and_resumes(tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     ppo(a, "--timesteps", "128")
     ppo(b, "--timesteps", "128")
+    # the learnability check's path: the privileged percept after a curriculum phase
+    c, d = tmp_path / "c", tmp_path / "d"
+    for out in (c, d):
+        ppo(out, "--timesteps", "128", "--obs", "privileged", "--curriculum-steps", "64")
+    with (
+        zipfile.ZipFile(c / "checkpoints" / "step_128.zip") as zc,
+        zipfile.ZipFile(d / "checkpoints" / "step_128.zip") as zd,
+    ):
+        assert zc.read("policy.pth") == zd.read("policy.pth"), "same seed, same weights (privileged, curriculum)"
+    curve = ["steps", "collision_rate", "unnecessary_dodge_rate", "hit_rate"]
+    assert [[r[k] for k in curve] for r in _progress(c)] == [[r[k] for k in curve] for r in _progress(d)]
     keys = ["steps", "collision_rate", "unnecessary_dodge_rate", "hit_rate"]
     assert [[r[k] for k in keys] for r in _progress(a)] == [[r[k] for k in keys] for r in _progress(b)]
     with (
@@ -269,3 +284,73 @@ def test_ppo_training_repeats_under_a_seed_and_resumes(tmp_path):
     ppo(a, "--timesteps", "192", "--resume")
     assert [int(r["steps"]) for r in _progress(a)] == [0, 64, 128, 192]
     assert os.path.exists(tmp_path / "a" / "sb3" / "progress.csv")
+
+
+# --- issue 28: the environment designed to be learned --------------------------------------------
+def test_privileged_observation_is_the_true_percept_and_action_repeat_holds_the_action(short_kwargs):
+    env = loomlab.EscapeEnv(obs_mode="privileged", action_type="discrete", action_repeat=4, **short_kwargs)
+    names = env._native.feature_names
+    assert names[:3] == ["threat.theta_rad", "threat.theta_rate_rps", "threat.inv_tau_ps"]
+    assert len(names) == 17 and "threat.miss_radii" in names and "robot.time" in names
+    obs, info = env.reset(seed=2)
+    assert env.observation_space.contains(obs)
+    steps = 0
+    while True:
+        obs, _, term, trunc, info = env.step(0)
+        steps += 1
+        assert env.observation_space.contains(obs)
+        if term or trunc:
+            break
+    assert info["step"] == min(4 * steps, env._native.duration_steps) or info["collision"]
+    assert "timely_dodge" in info["reward_terms"]
+    with pytest.raises(loomlab.ScenarioError, match="action_repeat"):
+        loomlab.EscapeEnv(action_repeat=0, **short_kwargs)
+    env.close()
+
+
+def test_curriculum_scenario_has_larger_slower_balls():
+    from loomlab.train import curriculum_toml
+
+    base = loomlab.scenario_toml("escape_default")
+    easy = curriculum_toml(base)
+    assert "radius_m = 0.25" in easy and "speed_mps = 6" in easy
+    assert '"world.projectiles.0.speed_mps" = { min = 4.8, max = 8.4 }' in easy
+    env = loomlab.EscapeEnv(scenario_toml=easy, frame_size=32)
+    env.close()
+    with pytest.raises(SystemExit, match="no projectile"):
+        curriculum_toml('name = "x"\n')
+
+
+def test_training_on_the_privileged_percept_with_a_curriculum_repeats_under_a_seed(tmp_path):
+    """The numpy learner (no torch: this runs in `make test`) on the privileged observation, the
+    default action repeat and a curriculum phase: same seed, same parameters and the same curve."""
+
+    def cem(out):
+        train_main(
+            ["--algo", "cem", "--obs", "privileged", "--dodge-hold-s", "0", "--n-envs", "2", "--frame-size", "32"]
+            + ["--max-episode-steps", "24", "--eval-every", "12", "--eval-seeds", "1000", "--eval-limit", "2"]
+            + ["--curriculum-steps", "12", "--seed", "6", "--timesteps", "24", "--out", str(out)]
+        )
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    cem(a)
+    cem(b)
+    ra, rb = _progress(a), _progress(b)
+    assert [int(r["steps"]) for r in ra] == [0, 12, 24], "3 decisions per episode, 2 episodes per generation"
+    keys = ["steps", "collision_rate", "unnecessary_dodge_rate", "hit_rate"]
+    assert [[r[k] for k in keys] for r in ra] == [[r[k] for k in keys] for r in rb]
+    za, zb = np.load(a / "checkpoints" / "step_24.npz"), np.load(b / "checkpoints" / "step_24.npz")
+    np.testing.assert_array_equal(za["mean"], zb["mean"])
+    assert za["mean"].shape == (18 * 4,), "17 privileged features + bias, 4 actions"
+    config = json.loads((a / "config.json").read_text())
+    assert (config["obs"], config["action_repeat"]) == ("privileged", 8)
+
+
+def test_a_held_dodge_is_one_decision(short_kwargs):
+    env = loomlab.EscapeEnv(action_type="discrete", action_repeat=4, dodge_hold_s=0.1, **short_kwargs)
+    env.reset(seed=1)
+    assert env.step(0)[4]["step"] == 4
+    assert env.step(1)[4]["step"] == 16, "a dodge: 0.1 s = 12 camera periods in one step"
+    with pytest.raises(loomlab.ScenarioError, match="dodge_hold_s"):
+        loomlab.EscapeEnv(dodge_hold_s=-1.0, **short_kwargs)
+    env.close()

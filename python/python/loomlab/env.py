@@ -32,7 +32,8 @@ CONTINUOUS_ACTION_NAMES: Tuple[str, ...] = tuple(_native.CONTINUOUS_ACTION_NAMES
 """Names of the continuous action components (each in [-1, 1]; Rust ``ContinuousAction::NAMES``)."""
 
 OBS_MODES: Tuple[str, ...] = tuple(_native.OBS_MODES)
-"""Observation modes: ``"raw"`` (detector outputs as they are) and ``"normalized"`` (bounded features)."""
+"""Observation modes: ``"raw"`` (detector outputs as they are), ``"normalized"`` (bounded features) and
+``"privileged"`` (the true percept of the most threatening object: a learnability check)."""
 
 _REWARD = _native.REWARD_DEFAULTS
 _ACTION = _native.ACTION_DEFAULTS
@@ -45,7 +46,9 @@ class RewardConfig:
     ``survival_per_s*dt`` (no collision) ``+ progress_per_m*Δs`` (metres along the start heading)
     ``- effort_per_s*|u - u_cruise|²*dt`` ``- unnecessary_dodge_per_s*dt`` (dodging in an episode
     without a threat) ``- unnecessary_dodge_penalty`` (once, on the first such step: a false alarm)
-    ``- collision_penalty`` (once, on contact).
+    ``- collision_penalty`` (once, on contact) ``+ timely_dodge_bonus`` (once, on the first dodging
+    step of an episode with an evadable threat in the last ``timely_dodge_window_s`` before its
+    escape deadline less the lead margin: an informed hit, credited at the time of the decision).
 
     The defaults are Rust's ``RewardConfig::default()`` (``loomlab._native.REWARD_DEFAULTS``).
     """
@@ -56,6 +59,8 @@ class RewardConfig:
     effort_per_s: float = _REWARD["effort_per_s"]
     unnecessary_dodge_per_s: float = _REWARD["unnecessary_dodge_per_s"]
     unnecessary_dodge_penalty: float = _REWARD["unnecessary_dodge_penalty"]
+    timely_dodge_bonus: float = _REWARD["timely_dodge_bonus"]
+    timely_dodge_window_s: float = _REWARD["timely_dodge_window_s"]
 
 
 @dataclass
@@ -133,6 +138,8 @@ def build_options(
     reward: Union[RewardConfig, Mapping[str, float], None] = None,
     max_episode_steps: Optional[int] = None,
     obs_mode: str = "raw",
+    action_repeat: int = 1,
+    dodge_hold_s: float = 0.0,
 ) -> Dict[str, Any]:
     """The options dict passed (as JSON, :func:`options_json`) to the native environment.
 
@@ -159,6 +166,8 @@ def build_options(
         "clip_actions": _bool_option("clip_actions", clip_actions),
         "max_episode_steps": _json_option("max_episode_steps", max_episode_steps),
         "obs_mode": obs_mode,
+        "action_repeat": _json_option("action_repeat", action_repeat),
+        "dodge_hold_s": _json_option("dodge_hold_s", dodge_hold_s),
     }
     if action_config is not None:
         opts["action"] = _json_option("action_config", _as_dict(action_config))
@@ -173,7 +182,7 @@ def make_spaces(native: Any) -> Tuple[spaces.Space, spaces.Space]:
         action: spaces.Space = spaces.Discrete(len(DISCRETE_ACTIONS))
     else:
         action = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
-    if native.obs_mode == "normalized":
+    if native.obs_mode in ("normalized", "privileged"):
         features = spaces.Box(
             np.asarray(native.feature_low, dtype=np.float32),
             np.asarray(native.feature_high, dtype=np.float32),
@@ -214,6 +223,8 @@ _OPTION_KEYS = (
     "reward",
     "max_episode_steps",
     "obs_mode",
+    "action_repeat",
+    "dodge_hold_s",
 )
 
 
@@ -267,8 +278,11 @@ class EscapeEnv(gym.Env):
 
     ## Description
 
-    One step is one camera period (1/120 s by default). The world, the rendering, the detectors and
-    the ground truth run in Rust (``loomlab_env::EscapeEnv``). At every reset an open-loop pass
+    One step is ``action_repeat`` camera periods (default 1; a camera period is 1/120 s by
+    default; a discrete dodge or stop ``dodge_hold_s`` when set): the action is held that long while
+    the detectors see every frame, and the step returns the last observation and the summed reward.
+    The world, the rendering, the detectors and the ground truth run in Rust
+    (``loomlab_env::EscapeEnv``). At every reset an open-loop pass
     finds whether the episode is a *threat* (an object touches the robot if it keeps cruising), its
     contact time and its escape deadline.
 
@@ -308,18 +322,49 @@ class EscapeEnv(gym.Env):
 
     The reset observation has zero signals (the detectors see their first frame in the first step).
 
+    ``obs_mode="privileged"``: one ``Box(low, high, (17,), float32)``: the *true* percept of the most
+    threatening object (the looming object in view with the shortest optical τ, else the largest in
+    view; zeros when nothing is in view) and the 7 robot features above. It reads ground truth, like
+    the reference rows ``ideal_tau`` / ``ideal_course``, whose τ trigger and collision-course gate
+    decide on the same percept: a policy trained on it shows whether the task is learnable at all,
+    apart from the detectors (the detector observations never read ground truth):
+
+    ==========================================  ============================================  ===========
+    feature                                     definition                                    range
+    ==========================================  ============================================  ===========
+    ``threat.theta_rad``                        true angular size θ (rad)                     [0, π]
+    ``threat.theta_rate_rps``                   dθ/dt (rad/s), clamped                        [-10, 10]
+    ``threat.inv_tau_ps``                       urgency 1/τ = θ̇/θ (1/s), 0 if not looming      [0, 20]
+    ``threat.bearing``                          image x of its reference point                [-1, 1]
+    ``threat.bearing_rate``                     d bearing/dt / 4 s⁻¹, clamped                 [-1, 1]
+    ``threat.miss_radii``                       |2β̇/θ̇| / 10: predicted miss in object radii   [0, 1]
+    ``threat.left_deg``, ``threat.right_deg``   azimuths of its image edges / 90°             [-1, 1]
+    ``threat.bottom_deg``, ``threat.top_deg``   elevations of its image edges / 90°           [-1, 1]
+    ==========================================  ============================================  ===========
+
     ## Rewards
 
     Per step (:class:`RewardConfig`, every weight configurable): ``+survival_per_s·dt`` while
     untouched, ``+progress_per_m·Δs``, ``−effort_per_s·|u − u_cruise|²·dt``,
     ``−unnecessary_dodge_per_s·dt`` while dodging in an episode without a threat,
-    ``−unnecessary_dodge_penalty`` once on the first such step (a false alarm), and
-    ``−collision_penalty`` once on contact. ``info["reward_terms"]`` reports each term.
+    ``−unnecessary_dodge_penalty`` once on the first such step (a false alarm),
+    ``−collision_penalty`` once on contact, and ``+timely_dodge_bonus`` once on the first dodging
+    step of an episode with an evadable threat whose observation lies in the last
+    ``timely_dodge_window_s`` (default 0.5 s) before the threat's escape deadline less the lead
+    margin (a hit, and an informed one: earlier, the object could not yet be seen to come).
+    ``info["reward_terms"]`` reports each term (summed over a repeated action's camera periods).
+
+    Why the bonus: the outcome of a dodge (the collision it avoids) is paid up to ~1 s after the
+    decision, tens of decisions later, and a false alarm's cost is paid at once; on the outcome alone
+    PPO learns that departing from cruising is costly long before it finds a dodge that pays (the
+    README's first RL result collapsed to "never dodge"). The escape deadline (the runner's
+    physics-only replays, ``loomlab_scenarios::deadline``) says at the decision whether the dodge was
+    in time: ground truth in the reward only, never in the observation.
 
     ## Episode End
 
     Terminated when the robot is touched or the scenario's duration is over; truncated after
-    ``max_episode_steps``. The last ``info`` holds ``outcome``: the threat, the collision, every
+    ``max_episode_steps`` camera periods. The last ``info`` holds ``outcome``: the threat, the collision, every
     detector's scored row and ``outcome["agent"]``, the agent scored as a detector (its alarm is the
     first observation on which it departed from cruising): what :func:`loomlab.evaluate` reports.
 
@@ -338,8 +383,14 @@ class EscapeEnv(gym.Env):
         action_config: scales of the action mappings (:class:`ActionConfig` or dict).
         clip_actions: clamp continuous actions into [-1, 1] instead of raising :class:`ActionError`.
         reward: reward weights (:class:`RewardConfig` or dict).
-        max_episode_steps: truncate episodes after this many steps.
-        obs_mode: ``"raw"`` or ``"normalized"`` (see Observation Space).
+        max_episode_steps: truncate episodes after this many camera periods.
+        obs_mode: ``"raw"``, ``"normalized"`` or ``"privileged"`` (see Observation Space).
+        action_repeat: camera periods each action is held for (default 1: one decision per frame;
+            ``python -m loomlab.train`` uses 8, 15 Hz: a dodge of 0.6 s is ~5 decisions, an episode
+            ~40 instead of ~300).
+        dodge_hold_s: discrete actions: a dodge or stop is held this long in one step (s; default 0:
+            ``action_repeat`` periods like every action; ``python -m loomlab.train`` uses 0.6, the
+            escape controller's manoeuvre): a dodge is one decision with one outcome.
         render_mode: ``"rgb_array"`` or ``None``.
     """
 
@@ -360,6 +411,8 @@ class EscapeEnv(gym.Env):
         reward: Union[RewardConfig, Mapping[str, float], None] = None,
         max_episode_steps: Optional[int] = None,
         obs_mode: str = "raw",
+        action_repeat: int = 1,
+        dodge_hold_s: float = 0.0,
         render_mode: Optional[str] = None,
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -377,6 +430,8 @@ class EscapeEnv(gym.Env):
             reward=reward,
             max_episode_steps=max_episode_steps,
             obs_mode=obs_mode,
+            action_repeat=action_repeat,
+            dodge_hold_s=dodge_hold_s,
             render_mode=render_mode,
         )
         self._native = _native.EscapeEnv(self._kwargs["scenario"], scenario_toml, _native_options(self._kwargs))

@@ -60,6 +60,8 @@ def evaluate(
     obs_mode: str = "normalized",
     observe_frames: bool = False,
     thresholds: Optional[Dict[str, float]] = None,
+    action_repeat: int = 1,
+    dodge_hold_s: float = 0.0,
 ) -> Dict[str, Any]:
     """Runs ``policy`` on every episode of ``suite`` for each seed and returns the report.
 
@@ -72,9 +74,10 @@ def evaluate(
         label: the policy's row in the report (not a detector or reference label).
         jobs: runner worker threads (``None``: one per CPU).
         progress: print one line per seed.
-        detectors, frame_size, action_type, obs_mode, observe_frames, thresholds: the environment the
-            policy was trained in (:class:`loomlab.EscapeEnv`'s arguments); ``frame_size`` and
-            ``detectors`` are applied to the suite as ``loomlab run --size --detectors`` does.
+        detectors, frame_size, action_type, obs_mode, observe_frames, thresholds, action_repeat,
+            dodge_hold_s: the environment the policy was trained in (:class:`loomlab.EscapeEnv`'s
+            arguments); ``frame_size`` and ``detectors`` are applied to the suite as ``loomlab run
+            --size --detectors`` does.
 
     Returns:
         The report dict (keys of ``report.json``: ``detectors`` holds every detector's, every
@@ -92,6 +95,8 @@ def evaluate(
             observe_frames=observe_frames,
             action_type=action_type,
             obs_mode=obs_mode,
+            action_repeat=action_repeat,
+            dodge_hold_s=dodge_hold_s,
         )
     )
     rows = []
@@ -200,6 +205,14 @@ def main(argv: Optional[Sequence[str]] = None) -> None:
     p.add_argument("--limit", type=int, default=None, help="episodes per seed (default: all)")
     p.add_argument("--env", choices=["discrete", "continuous"], default="discrete", help="the policy's action space")
     p.add_argument("--label", default="ppo", help="the policy's row (default ppo)")
+    p.add_argument(
+        "--obs",
+        choices=["detectors", "privileged"],
+        default="detectors",
+        help="what the policy observes (python -m loomlab.train --obs; default detectors)",
+    )
+    p.add_argument("--action-repeat", type=int, default=8, help="camera frames per decision (as trained; default 8)")
+    p.add_argument("--dodge-hold-s", type=float, default=0.6, help="a dodge's duration (as trained; default 0.6 s)")
     p.add_argument("--frame-size", type=int, default=64, help="frame size n (default 64)")
     p.add_argument(
         "--calibrate-seeds",
@@ -231,7 +244,10 @@ def main(argv: Optional[Sequence[str]] = None) -> None:
         jobs=args.jobs,
         frame_size=args.frame_size,
         action_type=args.env,
+        obs_mode="privileged" if args.obs == "privileged" else "normalized",
         thresholds=thresholds,
+        action_repeat=args.action_repeat,
+        dodge_hold_s=args.dodge_hold_s,
     )
     report["thresholds"] = thresholds
     report["policy_label"] = args.label

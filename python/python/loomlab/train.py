@@ -7,15 +7,42 @@ Algorithms:
 - ``cem``: a pure-numpy cross-entropy method over a linear policy, with no optional dependency
   (the plumbing test of CI; also a sanity baseline).
 
-Both run on the native vector environment (``loomlab.EscapeVectorEnv``, ``obs_mode="normalized"``)
-of ``loomlab/EscapeDiscrete-v0`` (``--env discrete``) or ``loomlab/Escape-v0`` (``--env
-continuous``), seeded by ``--seed``. Every ``--eval-every`` steps the policy is evaluated on held-out
-scenario seeds (``--eval-seeds``: the env's scenario expanded with those seeds, which training,
+Both run on the native vector environment (``loomlab.EscapeVectorEnv``) of
+``loomlab/EscapeDiscrete-v0`` (``--env discrete``) or ``loomlab/Escape-v0`` (``--env continuous``),
+seeded by ``--seed``, observing the detector features (``--obs detectors``: ``obs_mode="normalized"``)
+or the privileged true percept of the most threatening object (``--obs privileged``: the
+learnability check, the percept of the ``ideal_course`` reference row).
+
+The defaults are chosen to learn within ~30 minutes on 2 CPU cores (``make rl-result``):
+
+- ``--action-repeat 8``: one decision per 8 camera frames (15 Hz at 120 Hz; the detectors still
+  see every frame): ~40 decisions per episode instead of ~300;
+- ``--dodge-hold-s 0.6``: a dodge (or stop) is one decision held for 0.6 s, the escape controller's
+  manoeuvre: one decision, one outcome (random exploration almost never holds a dodge for the ~5
+  decisions an evasion needs);
+- ``--timely-dodge-bonus 5`` with ``--timely-dodge-window-s 0.5``: the reward credits a dodge that
+  comes in time (in the last 0.5 s before the threat's escape deadline) at the decision, not only
+  ~1 s later through the avoided collision;
+- ``--unnecessary-dodge-per-s 10`` and ``--unnecessary-dodge-penalty 5``: a dodge without a threat
+  costs 6 on the decision that dodges, plus 5 once (a 0.6 s dodge from nothing: 11, about a
+  collision), instead of one penalty that, once paid, makes every later dodge of the episode free
+  (the trap of the first RL result); ``--collision-penalty 10``;
+- ``--ent-coef 0.05``, ``--learning-rate 1e-3``, ``--cruise-bias 2``: exploration that lasts until
+  the policy has seen which dodges pay (without the entropy bonus the pilot runs collapsed to
+  "never dodge" within 10-20 k decisions);
+- ``--curriculum-steps N`` (default 0, off): the first N steps on an easier version of the scenario
+  (``curriculum_toml``: balls 1.25× larger and 0.6× as fast, so they loom earlier and slower).
+
+Same ``--seed`` → same episodes, same initial weights, same updates: same weights and curve (the
+native environments are deterministic under a seed; torch runs on one thread).
+
+Every ``--eval-every`` steps the policy is evaluated on held-out scenario seeds (``--eval-seeds``:
+the env's scenario expanded with those seeds, which training,
 drawing fresh random expansions from its own seed stream, does not use) and a checkpoint is written.
 Everything goes to ``--out``:
 
 - ``config.json``: the arguments; ``progress.csv``: one row per evaluation (steps, wall time, the
-  policy's collision, unnecessary-dodge and hit rates, training steps/s);
+  policy's collision, unnecessary-dodge and hit rates, training decisions (environment steps) per second);
 - ``checkpoints/step_<N>.zip`` (PPO) or ``.npz`` (CEM) and ``checkpoints/latest.json``;
 - ``sb3/``: Stable-Baselines3's CSV and TensorBoard logs (``tensorboard --logdir OUT/sb3``).
 
@@ -74,21 +101,80 @@ def parse_seeds(text: str) -> List[int]:
     return seeds
 
 
-def make_vec_env(args: argparse.Namespace):
-    """The native vector environment the policy trains on."""
+OBS_MODES = {"detectors": "normalized", "privileged": "privileged"}
+"""``--obs`` → the environment's ``obs_mode``."""
+
+CURRICULUM_RADIUS_SCALE = 1.25
+CURRICULUM_SPEED_SCALE = 0.6
+
+
+def curriculum_toml(base: str) -> str:
+    """An easier version of a scenario's TOML text: every projectile's ``radius_m`` ×1.25 and
+    ``speed_mps`` (fixed values and ``[random]`` ranges) ×0.6, so that balls loom earlier and
+    slower. Raises ``SystemExit`` naming the fix when the scenario has no projectile."""
+    import re
+
+    n = 0
+
+    def scale(m: "re.Match[str]", k: float) -> str:
+        nonlocal n
+        n += 1
+        return f"{m.group(1)}{float(m.group(2)) * k:g}"
+
+    text = re.sub(r"(?m)^(radius_m\s*=\s*)([0-9.]+)", lambda m: scale(m, CURRICULUM_RADIUS_SCALE), base)
+    text = re.sub(r"(?m)^(speed_mps\s*=\s*)([0-9.]+)", lambda m: scale(m, CURRICULUM_SPEED_SCALE), text)
+    text = re.sub(
+        r'("world\.projectiles\.\d+\.speed_mps"\s*=\s*\{\s*min\s*=\s*)([0-9.]+)(\s*,\s*max\s*=\s*)([0-9.]+)',
+        lambda m: (
+            f"{m.group(1)}{float(m.group(2)) * CURRICULUM_SPEED_SCALE:g}{m.group(3)}"
+            f"{float(m.group(4)) * CURRICULUM_SPEED_SCALE:g}"
+        ),
+        text,
+    )
+    if n == 0:
+        raise SystemExit(
+            "--curriculum-steps: the scenario has no projectile `radius_m` / `speed_mps` to make easier; "
+            "pass --curriculum-steps 0"
+        )
+    return text
+
+
+def _reward(args: argparse.Namespace) -> Dict[str, float]:
+    return {
+        "collision_penalty": args.collision_penalty,
+        "unnecessary_dodge_penalty": args.unnecessary_dodge_penalty,
+        "timely_dodge_bonus": args.timely_dodge_bonus,
+        "timely_dodge_window_s": args.timely_dodge_window_s,
+        "unnecessary_dodge_per_s": args.unnecessary_dodge_per_s,
+    }
+
+
+def make_vec_env(args: argparse.Namespace, curriculum: bool = False):
+    """The native vector environment the policy trains on (``curriculum``: on the easier scenario)."""
+    from . import scenario_toml
     from .vector import EscapeVectorEnv
 
+    toml = None
+    if curriculum:
+        if args.scenario is None:
+            base = scenario_toml("escape_default")
+        elif os.path.exists(args.scenario):
+            with open(args.scenario) as f:
+                base = f.read()
+        else:
+            base = scenario_toml(args.scenario)
+        toml = curriculum_toml(base)
     return EscapeVectorEnv(
         args.n_envs,
-        args.scenario,
+        None if toml is not None else args.scenario,
+        scenario_toml=toml,
         frame_size=args.frame_size,
         action_type=args.env,
-        obs_mode="normalized",
+        obs_mode=OBS_MODES[args.obs],
+        action_repeat=args.action_repeat,
+        dodge_hold_s=args.dodge_hold_s,
         max_episode_steps=args.max_episode_steps,
-        reward={
-            "collision_penalty": args.collision_penalty,
-            "unnecessary_dodge_penalty": args.unnecessary_dodge_penalty,
-        },
+        reward=_reward(args),
     )
 
 
@@ -102,7 +188,9 @@ def quick_eval(policy: Any, args: argparse.Namespace) -> Dict[str, float]:
         build_options(
             frame_size=args.frame_size,
             action_type=args.env,
-            obs_mode="normalized",
+            obs_mode=OBS_MODES[args.obs],
+            action_repeat=args.action_repeat,
+            dodge_hold_s=args.dodge_hold_s,
             max_episode_steps=args.max_episode_steps,
         )
     )
@@ -246,7 +334,7 @@ def _ppo(args: argparse.Namespace, vec: Any, resume_from: Optional[str]) -> Any:
             gamma=args.gamma,
             gae_lambda=0.95,
             ent_coef=args.ent_coef,
-            policy_kwargs={"net_arch": [64, 64]},
+            policy_kwargs={"net_arch": [args.hidden, args.hidden]},
             seed=args.seed,
             device="cpu",
             verbose=0,
@@ -262,14 +350,26 @@ def _ppo(args: argparse.Namespace, vec: Any, resume_from: Optional[str]) -> Any:
 
 
 class _Sb3Learner:
-    def __init__(self, args: argparse.Namespace, resume_from: Optional[str]) -> None:
-        self.vec = sb3_vec_env(make_vec_env(args))
+    def __init__(self, args: argparse.Namespace, resume_from: Optional[str], steps: int) -> None:
+        self.args = args
+        self.curriculum = steps < args.curriculum_steps
+        self.vec = sb3_vec_env(make_vec_env(args, self.curriculum))
+        self.vec.seed(args.seed if resume_from is None else None)
         self.model = _ppo(args, self.vec, resume_from)
         self.first = resume_from is None
 
     def learn(self, steps: int, bar: Progress) -> int:
         from stable_baselines3.common.callbacks import BaseCallback
 
+        if self.curriculum and self.model.num_timesteps >= self.args.curriculum_steps:
+            # the curriculum is over: the same policy goes on on the scenario itself
+            self.curriculum = False
+            self.vec.close()
+            self.vec = sb3_vec_env(make_vec_env(self.args))
+            self.vec.seed(self.args.seed + 1)
+            self.model.set_env(self.vec)
+        if self.curriculum:
+            steps = min(steps, self.args.curriculum_steps - self.model.num_timesteps)
         n = self.vec.num_envs
 
         class Tick(BaseCallback):
@@ -300,8 +400,11 @@ class _CemLearner:
     ``tanh(W·obs + b)``; each generation samples one parameter vector per environment, runs one
     episode with each and refits the sampling distribution to the best ``elite`` fraction."""
 
-    def __init__(self, args: argparse.Namespace, resume_from: Optional[str]) -> None:
-        self.venv = make_vec_env(args)
+    def __init__(self, args: argparse.Namespace, resume_from: Optional[str], steps: int) -> None:
+        self.args = args
+        self.steps = steps
+        self.curriculum = steps < args.curriculum_steps
+        self.venv = make_vec_env(args, self.curriculum)
         self.discrete = args.env == "discrete"
         self.obs_dim = int(self.venv.single_observation_space.shape[0])
         self.out_dim = int(self.venv.single_action_space.n) if self.discrete else 3
@@ -326,6 +429,12 @@ class _CemLearner:
         done_steps = 0
         n = self.venv.num_envs
         while done_steps < steps:
+            if self.curriculum and self.steps + done_steps >= self.args.curriculum_steps:
+                # the curriculum is over: the same search goes on on the scenario itself
+                self.curriculum = False
+                self.venv.close()
+                self.venv = make_vec_env(self.args)
+                self.env_seed = self.args.seed + 1
             thetas = self.mean + self.std * self.rng.standard_normal((n, self.mean.size))
             obs, _ = self.venv.reset(seed=self.env_seed)
             self.env_seed = None
@@ -343,6 +452,7 @@ class _CemLearner:
             best = thetas[np.argsort(returns)[-k:]]
             self.mean = best.mean(axis=0)
             self.std = best.std(axis=0) + 0.02
+        self.steps += done_steps
         return done_steps
 
     @property
@@ -379,7 +489,7 @@ def train(args: argparse.Namespace) -> Dict[str, Any]:
             )
         with open(config_path) as f:
             saved = json.load(f)
-        for key in ("env", "algo", "seed", "n_envs", "frame_size", "scenario"):
+        for key in ("env", "algo", "seed", "n_envs", "frame_size", "scenario", "obs", "action_repeat", "dodge_hold_s"):
             if saved.get(key) != getattr(args, key):
                 raise SystemExit(
                     f"--resume: --{key.replace('_', '-')} {getattr(args, key)!r} differs from the run's "
@@ -393,8 +503,8 @@ def train(args: argparse.Namespace) -> Dict[str, Any]:
     if not args.resume:
         with open(config_path, "w") as f:
             json.dump({k: v for k, v in vars(args).items() if k != "resume"}, f, indent=2)
-    learner: Any = (_Sb3Learner if args.algo == "ppo" else _CemLearner)(args, latest and latest["path"])
     steps = latest["steps"] if latest else 0
+    learner: Any = (_Sb3Learner if args.algo == "ppo" else _CemLearner)(args, latest and latest["path"], steps)
     wall0 = latest["wall_s"] if latest else 0.0
     started = time.monotonic()
     progress_path = os.path.join(args.out, "progress.csv")
@@ -413,8 +523,9 @@ def train(args: argparse.Namespace) -> Dict[str, Any]:
             while steps < args.timesteps:
                 chunk = min(args.eval_every, args.timesteps - steps)
                 t0 = time.monotonic()
-                steps += learner.learn(chunk, bar)
-                rate = chunk / max(time.monotonic() - t0, 1e-9)
+                done = learner.learn(chunk, bar)
+                steps += done
+                rate = done / max(time.monotonic() - t0, 1e-9)
                 wall = wall0 + time.monotonic() - started
                 path = learner.save(os.path.join(args.out, "checkpoints", f"step_{steps}"))
                 with open(os.path.join(args.out, "checkpoints", "latest.json"), "w") as lf:
@@ -502,8 +613,56 @@ def parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--env", choices=sorted(ENV_IDS), default="discrete", help="action space (default: discrete)")
+    p.add_argument(
+        "--obs",
+        choices=sorted(OBS_MODES),
+        default="detectors",
+        help="detectors: the normalized detector features (default); privileged: the true percept of the most "
+        "threatening object (the learnability check; ground truth, like the ideal rows)",
+    )
+    p.add_argument(
+        "--action-repeat",
+        type=int,
+        default=8,
+        help="camera frames per decision (default 8: 15 Hz at 120 Hz; 1: every frame)",
+    )
+    p.add_argument(
+        "--dodge-hold-s",
+        type=float,
+        default=0.6,
+        help="a discrete dodge or stop is one decision held this long (s; default 0.6, the escape manoeuvre; "
+        "0: --action-repeat frames like every action)",
+    )
+    p.add_argument(
+        "--timely-dodge-bonus",
+        type=float,
+        default=5.0,
+        help="reward.timely_dodge_bonus: once for a dodge in the window before the escape deadline (default 5)",
+    )
+    p.add_argument(
+        "--timely-dodge-window-s",
+        type=float,
+        default=0.5,
+        help="reward.timely_dodge_window_s: the bonus window before the escape deadline (s; default 0.5)",
+    )
+    p.add_argument(
+        "--unnecessary-dodge-per-s",
+        type=float,
+        default=10.0,
+        help="reward.unnecessary_dodge_per_s: cost per second of dodging without a threat (default 10: "
+        "6 for a 0.6 s dodge, charged on the decision that dodges)",
+    )
+    p.add_argument(
+        "--curriculum-steps",
+        type=int,
+        default=0,
+        help="train the first N steps on the easier scenario (balls 1.25x larger, 0.6x as fast; default 0: off)",
+    )
+    p.add_argument("--hidden", type=int, default=64, help="units of each of the policy's 2 hidden layers (default 64)")
     p.add_argument("--algo", choices=["ppo", "cem"], default="ppo", help="ppo (stable-baselines3) or cem (numpy)")
-    p.add_argument("--timesteps", type=int, default=300_000, help="environment steps in total (default 300000)")
+    p.add_argument(
+        "--timesteps", type=int, default=200_000, help="decisions (environment steps) in total (default 200000)"
+    )
     p.add_argument("--n-envs", type=int, default=8, help="environments of the native vector env (default 8)")
     p.add_argument("--seed", type=int, default=0, help="seed of the policy and the training episodes (default 0)")
     p.add_argument("--out", default=None, help="run folder (default out/train/<env>-<algo>-seed<seed>)")
@@ -514,7 +673,9 @@ def parser() -> argparse.ArgumentParser:
         "--max-wall-s", type=float, default=None, help="stop after the evaluation past this wall time (s; total)"
     )
     p.add_argument("--max-episode-steps", type=int, default=None, help="truncate episodes (default: none)")
-    p.add_argument("--eval-every", type=int, default=20_000, help="steps between evaluations + checkpoints")
+    p.add_argument(
+        "--eval-every", type=int, default=8192, help="steps between evaluations + checkpoints (default 8192)"
+    )
     p.add_argument(
         "--eval-seeds", type=parse_seeds, default="1000-1003", help="held-out scenario seeds (default 1000-1003)"
     )
@@ -523,21 +684,27 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--unnecessary-dodge-penalty",
         type=float,
-        default=10.0,
-        help="reward.unnecessary_dodge_penalty: once per false alarm (default 10: a false alarm costs a collision)",
+        default=5.0,
+        help="reward.unnecessary_dodge_penalty: once per false alarm (default 5; with the per-second cost a "
+        "0.6 s dodge from nothing costs 11, about a collision)",
     )
-    p.add_argument("--n-steps", type=int, default=256, help="PPO rollout length per environment (default 256)")
+    p.add_argument("--n-steps", type=int, default=128, help="PPO rollout length per environment (default 128)")
     p.add_argument("--batch-size", type=int, default=256, help="PPO minibatch size (default 256)")
     p.add_argument("--n-epochs", type=int, default=10, help="PPO epochs per rollout (default 10)")
-    p.add_argument("--learning-rate", type=float, default=3e-4, help="PPO learning rate (default 3e-4)")
-    p.add_argument("--gamma", type=float, default=0.995, help="discount (default 0.995: episodes are ~300 steps)")
-    p.add_argument("--ent-coef", type=float, default=0.0, help="PPO entropy bonus (default 0)")
+    p.add_argument("--learning-rate", type=float, default=1e-3, help="PPO learning rate (default 1e-3)")
+    p.add_argument(
+        "--gamma",
+        type=float,
+        default=0.98,
+        help="discount (default 0.98: episodes are ~40 decisions at --action-repeat 8)",
+    )
+    p.add_argument("--ent-coef", type=float, default=0.05, help="PPO entropy bonus (default 0.05)")
     p.add_argument(
         "--cruise-bias",
         type=float,
-        default=6.0,
-        help="discrete PPO: initial logit bonus of action 0 (cruise); 6 gives a ~0.7 %% chance per step of "
-        "departing from cruising at the start (default 6; 0: a uniform initial policy)",
+        default=2.0,
+        help="discrete PPO: initial logit bonus of action 0 (cruise); 2 gives a ~29 %% chance per decision of "
+        "departing from cruising at the start (default 2; 0: a uniform initial policy)",
     )
     p.add_argument(
         "--plot",
@@ -558,7 +725,7 @@ def main(argv: Optional[Sequence[str]] = None) -> None:
         plot_progress(args.plot, args.plot_out, args.plot_report)
         print(f"wrote {args.plot_out}")
         return
-    for key in ("timesteps", "n_envs", "eval_every", "n_steps", "batch_size", "n_epochs"):
+    for key in ("timesteps", "n_envs", "eval_every", "n_steps", "batch_size", "n_epochs", "action_repeat", "hidden"):
         if getattr(args, key) < 1:
             raise SystemExit(f"--{key.replace('_', '-')} must be >= 1, got {getattr(args, key)}")
     if args.n_envs > 256:

@@ -65,6 +65,8 @@ class EscapeVectorEnv(VectorEnv):
         reward: Union[RewardConfig, Mapping[str, float], None] = None,
         max_episode_steps: Optional[int] = None,
         obs_mode: str = "raw",
+        action_repeat: int = 1,
+        dodge_hold_s: float = 0.0,
         render_mode: Optional[str] = None,
     ) -> None:
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
@@ -86,6 +88,8 @@ class EscapeVectorEnv(VectorEnv):
                 reward=reward,
                 max_episode_steps=max_episode_steps,
                 obs_mode=obs_mode,
+                action_repeat=action_repeat,
+                dodge_hold_s=dodge_hold_s,
                 render_mode=render_mode,
             ),
         )
@@ -99,8 +103,8 @@ class EscapeVectorEnv(VectorEnv):
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=int(round(1.0 / self._native.dt)))
         self._discrete = self._native.action_kind == "discrete"
-        # normalized without frames: one feature vector (the native side batches it as a dict)
-        self._flat = self._native.obs_mode == "normalized" and not self._native.observe_frames
+        # a feature vector without frames: one array (the native side batches it as a dict)
+        self._flat = self._native.obs_mode in ("normalized", "privileged") and not self._native.observe_frames
 
     @property
     def detector_ids(self) -> list:
