@@ -91,7 +91,17 @@ class EgoForward:
         pass
 
     def step(self, frame: np.ndarray, ego: Optional[dict]) -> float:
-        assert ego is not None and set(ego) == {"forward_mps", "yaw_rate_rps", "lateral_mps"}
+        assert ego is not None and set(ego) == {
+            "forward_mps",
+            "yaw_rate_rps",
+            "lateral_mps",
+            "dt_s",
+            "rotation_rad",
+            "translation_m",
+            "height_m",
+            "pitch_rad",
+            "roll_rad",
+        }
         return float(ego["forward_mps"])
 
 

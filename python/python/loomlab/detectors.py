@@ -38,8 +38,10 @@ class Detector(Protocol):
 
     def step(self, frame: np.ndarray) -> StepResult:
         """Process the next frame: float32 (n, n), luminance in [0, 1]. A ``step(frame, ego)`` also
-        gets the efference copy: the command the robot applied during the camera period that ended
-        with this frame, ``{"forward_mps": ..., "yaw_rate_rps": ..., "lateral_mps": ...}``."""
+        gets the efference copy of the camera period that ended with this frame: the command the
+        robot applied (``forward_mps``, ``yaw_rate_rps``, ``lateral_mps``) and the camera's own
+        motion and pose (``dt_s``, ``rotation_rad``, ``translation_m``, ``height_m``, ``pitch_rad``,
+        ``roll_rad``; docs/adding-a-detector.md)."""
         ...
 
 
