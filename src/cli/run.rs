@@ -885,7 +885,12 @@ fn interrupt_flag() -> Arc<AtomicBool> {
                 ),
                 None => errln!("\nsecond interrupt: stopped"),
             }
-            std::process::exit(130);
+            // `_exit`, not `std::process::exit`: the workers are still running, and exit handlers
+            // (static destructors of the software renderer's LLVM) racing with a worker compiling a
+            // shader abort the process ("CommandLine Error: Option ... registered more than once")
+            // instead of exiting with 130. Everything that must survive is written already.
+            // SAFETY: `_exit` only terminates the process.
+            unsafe { libc::_exit(130) };
         }
         if WRITING_REPORT.load(Ordering::SeqCst) {
             errln!("\ninterrupt: every episode is saved; stopping after the file being written ...");
