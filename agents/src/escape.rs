@@ -361,7 +361,13 @@ impl EscapeConfig {
 
     /// The azimuth (degrees, positive right) of image x in [−1, 1] for this camera.
     pub fn azimuth_deg(&self, image_x: f32) -> f64 {
-        (f64::from(image_x) * (self.camera_fov_deg / 2.0).to_radians().tan())
+        self.image_angle_deg(f64::from(image_x))
+    }
+
+    /// The angle from the optical axis (degrees) of an image coordinate in [−1, 1] (x or y) for
+    /// this camera's field of view.
+    fn image_angle_deg(&self, image_coord: f64) -> f64 {
+        (image_coord * (self.camera_fov_deg / 2.0).to_radians().tan())
             .atan()
             .to_degrees()
     }
@@ -379,9 +385,7 @@ impl EscapeConfig {
 
     /// The elevation (degrees, positive up) of image y in [−1, 1] for this camera.
     pub fn elevation_deg(&self, image_y: f64) -> f64 {
-        (image_y * (self.camera_fov_deg / 2.0).to_radians().tan())
-            .atan()
-            .to_degrees()
+        self.image_angle_deg(image_y)
     }
 
     /// The percept of a real detector that localises the object ([`Signals::region`], e.g.
@@ -393,11 +397,11 @@ impl EscapeConfig {
         match region.filter(finite) {
             None => self.percept(value, looming_side),
             Some(r) => {
-                let azimuth_deg = [self.azimuth_deg_f64(r.x[0]), self.azimuth_deg_f64(r.x[1])];
+                let azimuth_deg = [self.image_angle_deg(r.x[0]), self.image_angle_deg(r.x[1])];
                 let elevation_deg = [self.elevation_deg(r.y[0]), self.elevation_deg(r.y[1])];
                 Percept {
                     value,
-                    azimuth_deg: Some(self.azimuth_deg_f64((r.x[0] + r.x[1]) / 2.0)),
+                    azimuth_deg: Some(self.image_angle_deg((r.x[0] + r.x[1]) / 2.0)),
                     elevation_deg: Some(self.elevation_deg((r.y[0] + r.y[1]) / 2.0)),
                     extent: Some(ImageExtent {
                         azimuth_deg,
@@ -406,13 +410,6 @@ impl EscapeConfig {
                 }
             }
         }
-    }
-
-    /// [`Self::azimuth_deg`] of an image x given in f64.
-    fn azimuth_deg_f64(&self, image_x: f64) -> f64 {
-        (image_x * (self.camera_fov_deg / 2.0).to_radians().tan())
-            .atan()
-            .to_degrees()
     }
 
     /// The command of the manoeuvre towards `side` given the cruise command.
