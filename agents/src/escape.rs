@@ -170,6 +170,13 @@ pub struct EscapeConfig {
     /// the controller re-armed following its last manoeuvre, keeps the previous dodge side: the
     /// same object is still looming, and dodging back would run into it.
     pub side_memory_s: f64,
+    /// How far (m, > 0) lateral dodges may take the robot sideways from its cruising path, all
+    /// dodges together (`None`, the default: no limit). A dodge that reaches it holds the robot's
+    /// lateral position for the rest of the manoeuvre. A robot that knows the width of the lane or
+    /// corridor it drives in (its map) sets it, so that repeated dodges to one side never drive it
+    /// into the side. The offset is the integral of the controller's own lateral commands beyond
+    /// the cruise command (holonomic bases; a differential drive's turning dodge is not limited).
+    pub max_dodge_offset_m: Option<f64>,
     /// The manoeuvre run after a trigger.
     pub manoeuvre: Manoeuvre,
     /// Lateral speed of a dodge in m/s (≥ 0).
@@ -224,6 +231,7 @@ impl Default for EscapeConfig {
             course_closing_speed_mps: 10.0,
             course_window_s: 0.25,
             side_memory_s: 0.5,
+            max_dodge_offset_m: None,
             manoeuvre: Manoeuvre::DodgeLateral,
             dodge_speed_mps: 1.5,
             dodge_forward_scale: 1.0,
@@ -290,6 +298,15 @@ impl EscapeConfig {
         }
         non_negative("escape.min_angular_size_deg", self.min_angular_size_deg)?;
         non_negative("escape.side_memory_s", self.side_memory_s)?;
+        if let Some(v) = self.max_dodge_offset_m
+            && !(v.is_finite() && v > 0.0)
+        {
+            return Err(invalid(
+                "escape.max_dodge_offset_m",
+                v,
+                "must be a finite distance in metres > 0 (leave it out for no limit)",
+            ));
+        }
         non_negative("escape.body_half_width_m", self.body_half_width_m)?;
         for (key, v) in [
             ("escape.body_above_camera_m", self.body_above_camera_m),
@@ -486,6 +503,10 @@ pub struct EscapeController {
     /// The object the current and the last trigger's values come from, when the caller knows it.
     object: Option<usize>,
     last_object: Option<usize>,
+    /// Time of the last step and the lateral speed its command added to the cruise command.
+    last_step: Option<(f64, f64)>,
+    /// How far the dodges have moved the robot sideways from its cruising path (m, + = left).
+    dodge_offset_m: f64,
 }
 
 impl EscapeController {
@@ -504,6 +525,8 @@ impl EscapeController {
             rearmed_s: None,
             object: None,
             last_object: None,
+            last_step: None,
+            dodge_offset_m: 0.0,
         })
     }
 
@@ -524,6 +547,8 @@ impl EscapeController {
         self.rearmed_s = None;
         self.object = None;
         self.last_object = None;
+        self.last_step = None;
+        self.dodge_offset_m = 0.0;
     }
 
     /// Which object the next [`Self::step`]'s value comes from (`None`: unknown, e.g. a detector's
@@ -600,6 +625,11 @@ impl EscapeController {
     ) -> (VelocityCommand, ControllerEvent) {
         let cfg = &self.config;
         if t_s.is_finite() {
+            if let Some((t0, lateral_mps)) = self.last_step
+                && t_s > t0
+            {
+                self.dodge_offset_m += lateral_mps * (t_s - t0);
+            }
             if let Phase::Manoeuvre { start_s, .. } = self.phase
                 && t_s >= start_s + cfg.duration_s
             {
@@ -641,8 +671,8 @@ impl EscapeController {
                 self.triggers += 1;
                 self.first_trigger_s.get_or_insert(t_s);
                 self.last_side = Some(side);
-                let command = cfg.manoeuvre_command(side, cruise);
-                self.last_command = Some(command);
+                let command = self.dodge_command(side, cruise);
+                self.record(t_s, command, cruise);
                 return (
                     command,
                     ControllerEvent::Triggered {
@@ -655,14 +685,35 @@ impl EscapeController {
             Phase::Armed => (cruise, ControllerEvent::Cruise),
             Phase::Cooldown { .. } => (cruise, ControllerEvent::Cooldown),
             Phase::Manoeuvre { side, .. } => (
-                cfg.manoeuvre_command(side, cruise),
+                self.dodge_command(side, cruise),
                 ControllerEvent::Manoeuvring {
                     side: self.reported_side(side),
                 },
             ),
         };
-        self.last_command = Some(command);
+        self.record(t_s, command, cruise);
         (command, event)
+    }
+
+    /// The manoeuvre's command towards `side`, its sidestep held once the dodges have taken the
+    /// robot `max_dodge_offset_m` to that side.
+    fn dodge_command(&self, side: DodgeSide, cruise: VelocityCommand) -> VelocityCommand {
+        let mut command = self.config.manoeuvre_command(side, cruise);
+        if let Some(limit) = self.config.max_dodge_offset_m
+            && side.sign() * self.dodge_offset_m >= limit
+        {
+            command.lateral_mps = cruise.lateral_mps;
+        }
+        command
+    }
+
+    /// Remember this step's command, and the lateral speed it adds to the cruise command (what
+    /// moves the robot off its cruising path until the next step).
+    fn record(&mut self, t_s: f64, command: VelocityCommand, cruise: VelocityCommand) {
+        self.last_command = Some(command);
+        if t_s.is_finite() {
+            self.last_step = Some((t_s, command.lateral_mps - cruise.lateral_mps));
+        }
     }
 
     fn reported_side(&self, side: DodgeSide) -> Option<DodgeSide> {

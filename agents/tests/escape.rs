@@ -1011,3 +1011,58 @@ mod strategies {
         );
     }
 }
+
+#[test]
+fn repeated_dodges_to_one_side_stop_at_the_maximum_offset() {
+    // dodge 1.5 m/s for 0.5 s (0.75 m), 0.25 s cooldown, then the same side again: without a
+    // limit the robot ends 1.5 m to the left; with max_dodge_offset_m = 1.0 it sidesteps until
+    // 1.0 m and then holds its lateral position (forward motion continues)
+    let run = |limit: Option<f64>| {
+        let mut c = EscapeController::new(EscapeConfig {
+            max_dodge_offset_m: limit,
+            ..controller(Manoeuvre::DodgeLateral).config().clone()
+        })
+        .unwrap();
+        let dt = 0.01;
+        let mut offset = 0.0;
+        let mut held_forward = true;
+        for k in 0..200 {
+            // the looming side on the right all the time: every trigger dodges left
+            let (cmd, _) = c.step(k as f64 * dt, 20.0, Some(0.5), CRUISE);
+            offset += (cmd.lateral_mps - CRUISE.lateral_mps) * dt;
+            held_forward &= cmd.forward_mps > 0.0;
+        }
+        assert!(held_forward);
+        (offset, c.triggers())
+    };
+    let (free, triggers) = run(None);
+    assert_eq!(triggers, 3);
+    assert!((free - 3.0 * 0.75).abs() < 0.02, "{free}");
+    let (limited, triggers) = run(Some(1.0));
+    assert_eq!(triggers, 3, "the limit holds the sidestep, not the triggers");
+    assert!((limited - 1.0).abs() <= 1.5 * 0.01 + 1e-9, "{limited}");
+    // a dodge back towards the path is never held
+    let mut c = EscapeController::new(EscapeConfig {
+        max_dodge_offset_m: Some(0.5),
+        ..controller(Manoeuvre::DodgeLateral).config().clone()
+    })
+    .unwrap();
+    for k in 0..130 {
+        // one dodge left (held at 0.5 m), then quiet until side memory has passed
+        let signal = if k < 50 { 20.0 } else { 0.0 };
+        c.step(k as f64 * 0.01, signal, Some(0.5), CRUISE);
+    }
+    let (cmd, ev) = c.step(1.3, 20.0, Some(-0.5), CRUISE);
+    assert!(ev.is_escaping());
+    assert!(cmd.lateral_mps < 0.0, "{cmd:?}");
+    assert!(matches!(
+        EscapeController::new(EscapeConfig {
+            max_dodge_offset_m: Some(0.0),
+            ..EscapeConfig::default()
+        }),
+        Err(AgentError::InvalidConfig {
+            key: "escape.max_dodge_offset_m",
+            ..
+        })
+    ));
+}

@@ -33,7 +33,10 @@
 //!
 //! Each ideal row names to the escape controller the object its value comes from: a re-trigger
 //! keeps the dodge side only for the same object, and an alarm about another object ends a
-//! manoeuvre or its cooldown at once ([`loomlab_agents::escape`], "Several objects").
+//! manoeuvre or its cooldown at once ([`loomlab_agents::escape`], "Several objects"). In a threat
+//! episode an ideal row is scored on its alarms about the threat object alone: an alarm about a
+//! passing car before the threat looms is not a hit, though the row's closed loop starts with it
+//! (the runner's `about_threat` signal).
 //!
 //! `ideal_tau` and `ideal_course` perceive an object only while its reference point is in view and
 //! its angular size fits in the field of view (`θ ≤ fov`): the image cannot show a larger angular

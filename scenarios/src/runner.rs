@@ -444,20 +444,24 @@ impl Runner {
                 threshold: spec.threshold,
                 signal: std::mem::take(&mut signal[i]),
                 raw: raw_theta[i].take(),
+                about_threat: None,
                 output: std::mem::take(&mut output[i]),
                 tail: Tail::Detector(spec),
             })
             .collect();
         if self.references {
-            rows.extend(reference_rows(ep, &truth, &t_s, deadline.as_ref()));
+            let threat_object = episode_truth.contact.as_ref().map(|c| c.object_id);
+            rows.extend(reference_rows(ep, &truth, &t_s, deadline.as_ref(), threat_object));
         }
         let mut scored: Vec<DetectorEpisode> = Vec::with_capacity(rows.len());
         let mut closed = Vec::with_capacity(rows.len());
         for row in &rows {
+            // a row that names its objects is scored on its alarms about the threat
+            let scored_signal = row.about_threat.as_ref().unwrap_or(&row.signal);
             let samples: Vec<TraceSample> = (0..t_s.len())
                 .map(|k| TraceSample {
                     t_s: t_s[k],
-                    signal: row.signal[k],
+                    signal: scored_signal[k],
                     ttc_s: ref_ttc[k],
                     angular_size_deg: Some(ref_theta[k]).filter(|v| v.is_finite()),
                 })
@@ -469,6 +473,7 @@ impl Runner {
                     source,
                 })?;
             let first_alarm = row.signal.iter().position(|&s| s >= row.threshold);
+            let first_alarm_about_threat = scored_signal.iter().position(|&s| s >= row.threshold);
             let cl = match (first_alarm, contact_frame) {
                 (None, _) => ClosedLoop {
                     label: row.label.clone(),
@@ -508,7 +513,7 @@ impl Runner {
                 .filter(|v| v.is_finite());
             if let Some(a) = &approach {
                 d.l_over_v_s = Some(a.l_over_v_s);
-                d.eye_ttc_at_alarm_s = first_alarm.and_then(|k| a.eye_ttc_s(k));
+                d.eye_ttc_at_alarm_s = first_alarm_about_threat.and_then(|k| a.eye_ttc_s(k));
             }
             let theta_hat = match (&row.tail, row.trigger) {
                 (Tail::Detector(_), TriggerSignal::AngularSizeDeg | TriggerSignal::Tau) => {
@@ -759,6 +764,11 @@ struct Row<'a> {
     signal: Vec<f64>,
     /// θ̂ before the decision strategy, for rows whose signal is a strategy's decision value.
     raw: Option<Vec<f64>>,
+    /// For a row that names the object of each alarm (the ideal rows) in a threat episode: its
+    /// signal about the threat object alone. The row is scored on it — an alarm about another
+    /// object (a passing car) is not a hit — while its closed loop still starts at its first
+    /// alarm about anything.
+    about_threat: Option<Vec<f64>>,
     output: Vec<f64>,
     tail: Tail<'a>,
 }
@@ -769,6 +779,7 @@ fn reference_rows<'a>(
     truth: &[Vec<ObjectTruth>],
     t_s: &[f64],
     deadline: Option<&EscapeDeadline>,
+    threat_object: Option<usize>,
 ) -> Vec<Row<'a>> {
     let frames = t_s.len();
     // the world was built for the open-loop pass, so its camera builds
@@ -785,6 +796,7 @@ fn reference_rows<'a>(
         output: signal.clone(),
         signal,
         raw: None,
+        about_threat: None,
         tail,
     };
     let mut rows = vec![
@@ -808,21 +820,28 @@ fn reference_rows<'a>(
         (IDEAL_TAU, IdealKind::Tau),
         (IDEAL_COURSE, IdealKind::Course),
     ] {
-        let mut observer = IdealObserver::new(kind, &ep.controller, ideal_theta_threshold_deg(ep), ep.frame_period_s());
-        let config = observer.config().clone();
-        let signal = (0..frames)
-            .map(|k| {
-                let ego = with_camera_rotation(open_loop_ego(ep, t_s, k), camera.as_ref(), t_s[k]);
-                observer.update(t_s[k], &truth[k], ego).0
-            })
-            .collect();
-        rows.push(row(
+        let observer = || IdealObserver::new(kind, &ep.controller, ideal_theta_threshold_deg(ep), ep.frame_period_s());
+        let config = observer().config().clone();
+        // the observer's decision value over the open loop, on the objects `select` keeps
+        let signal_of = |select: &dyn Fn(&[ObjectTruth]) -> Vec<ObjectTruth>| -> Vec<f64> {
+            let mut observer = observer();
+            (0..frames)
+                .map(|k| {
+                    let ego = with_camera_rotation(open_loop_ego(ep, t_s, k), camera.as_ref(), t_s[k]);
+                    observer.update(t_s[k], &select(&truth[k]), ego).0
+                })
+                .collect()
+        };
+        let mut r = row(
             label,
             config.trigger,
             config.alarm_threshold(),
-            signal,
+            signal_of(&|objects| objects.to_vec()),
             Tail::Ideal(kind),
-        ));
+        );
+        r.about_threat =
+            threat_object.map(|id| signal_of(&|objects| objects.iter().filter(|o| o.id == id).cloned().collect()));
+        rows.push(r);
     }
     rows
 }

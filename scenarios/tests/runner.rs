@@ -473,3 +473,41 @@ fn reference_rows_bound_the_detectors() {
     assert_eq!(v["references"], serde_json::json!(REFERENCE_LABELS));
     assert_eq!(v["detectors"]["oracle"]["evasion_rate"], 1.0);
 }
+
+#[test]
+fn a_reference_row_that_alarms_about_a_passing_car_first_is_scored_on_its_alarm_about_the_threat() {
+    // a car drives past in the lane to the right from the start (θ ≥ 10° at once), the ball is
+    // thrown later: ideal_theta alarms about the car long before the ball looms, and that alarm
+    // is not a hit
+    let car = r#"
+[[world.vehicles]]
+name = "car"
+start = [8.0, -1.6]
+heading_deg = 180.0
+speed_mps = 6.0
+parts = [{ shape = { kind = "box", size = [4.0, 1.8, 1.4] }, texture = { kind = "uniform", luminance = 0.9 } }]
+"#;
+    let s = scenario_with(0.0, "", car);
+    let run = run_one(&runner(1), &s);
+    let row = |label: &str| {
+        let i = run.outcome.detectors.iter().position(|d| d.detector == label).unwrap();
+        (&run.outcome.detectors[i], &run.trace.detectors[i])
+    };
+    let (ideal, trace) = row(IDEAL_THETA);
+    assert!(ideal.threat);
+    let first_any = trace
+        .signal
+        .iter()
+        .position(|&v| v >= trace.threshold)
+        .expect("an alarm about the car");
+    let t_any = run.trace.t_s[first_any];
+    assert!(
+        t_any < 0.3,
+        "the car looms ≥ 10° before the ball's launch (alarm at {t_any} s)"
+    );
+    // scored on the ball: its alarm time is when the ball itself reached 10°, after its launch
+    match ideal.t_alarm_s {
+        Some(t) => assert!(t > 0.3 + 1.0, "scored alarm at {t} s is not about the ball"),
+        None => assert_eq!(ideal.outcome, Outcome::Miss),
+    }
+}
