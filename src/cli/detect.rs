@@ -12,6 +12,7 @@ use loomlab_detector::stimulus::StimulusSpec;
 use loomlab_detector::video::load_video;
 use loomlab_detector::{DetectorSet, Frame, NonSquare, parse_detector_list};
 
+use super::efference::{CameraMount, efference_copies, read_poses};
 use loomlab_report::plot::{LineChart, Series, line_chart};
 
 /// Implementation of the Hopfield detector (both give the same numbers to 1e-6).
@@ -63,6 +64,23 @@ pub struct DetectArgs {
     /// Non-square video frames: embed in gray or crop.
     #[arg(long, value_enum, default_value = "embed")]
     pub non_square: NonSquareArg,
+    /// The robot's own motion for a --video: a CSV with one pose per frame (the truth.csv that
+    /// `loomlab render` writes, or columns t_s, x, y and yaw_deg or yaw_rad). Each frame's detector
+    /// then gets the efference copy of the camera period that ended with it (what the scenario
+    /// runner gives; docs/detectors.md): the ego-motion-compensated detectors need it.
+    #[arg(long, value_name = "FILE.csv", requires = "video")]
+    pub efference: Option<PathBuf>,
+    /// How far ahead of the robot's origin (the pose in the --efference CSV) the camera sits (m;
+    /// `loomlab render`'s default camera: 0.25).
+    #[arg(long, value_name = "M", default_value_t = 0.0, requires = "efference")]
+    pub camera_forward_m: f64,
+    /// Height of the camera above the ground for --efference (m; without it only the camera's
+    /// rotation is compensated; `loomlab render`'s default camera: 0.3).
+    #[arg(long, value_name = "M", requires = "efference")]
+    pub camera_height_m: Option<f64>,
+    /// Pitch of the camera's optical axis above the horizontal for --efference (degrees).
+    #[arg(long, value_name = "DEG", default_value_t = 0.0, requires = "efference")]
+    pub camera_pitch_deg: f64,
     /// Output folder for responses.csv and responses.png (created if missing).
     #[arg(long, short, default_value = "out/detect")]
     pub out: PathBuf,
@@ -182,6 +200,32 @@ pub fn run(args: DetectArgs) -> anyhow::Result<i32> {
         ..DetectorSet::default()
     };
     let mut detectors = ids.iter().map(|id| set.build(id, n)).collect::<Result<Vec<_>, _>>()?;
+    let efference = match &args.efference {
+        Some(path) => {
+            if let Some(h) = args.camera_height_m.filter(|h| !(h.is_finite() && *h > 0.0)) {
+                bail!("--camera-height-m {h}: the camera's height above the ground must be a number of metres > 0");
+            }
+            if !(args.camera_pitch_deg.is_finite() && args.camera_pitch_deg.abs() < 90.0) {
+                bail!(
+                    "--camera-pitch-deg {}: the pitch must lie strictly between -90 and 90 degrees",
+                    args.camera_pitch_deg
+                );
+            }
+            if !args.camera_forward_m.is_finite() {
+                bail!(
+                    "--camera-forward-m {}: must be a number of metres",
+                    args.camera_forward_m
+                );
+            }
+            let mount = CameraMount {
+                forward_m: args.camera_forward_m,
+                height_m: args.camera_height_m,
+                pitch_rad: args.camera_pitch_deg.to_radians(),
+            };
+            Some(efference_copies(&read_poses(path, input.frames.len())?, mount))
+        }
+        None => None,
+    };
 
     // Everything is computed before anything is written: an error leaves no partial output.
     let has_hopfield = ids.contains(&"hopfield");
@@ -208,7 +252,10 @@ pub fn run(args: DetectArgs) -> anyhow::Result<i32> {
         let mut row = vec![k.to_string(), format!("{:.6}", input.t_s[k]), theta];
         let mut extra = Vec::new();
         for (det, col) in detectors.iter_mut().zip(&mut columns) {
-            let s = det.step(frame)?;
+            let s = match &efference {
+                Some(copies) => det.step_moving(frame, &copies[k])?,
+                None => det.step(frame)?,
+            };
             row.push(format!("{:.9}", s.output));
             col.values.push(s.output);
             if det.id() == "hopfield" {

@@ -1,6 +1,7 @@
 //! Subcommands of the `loomlab` CLI, one module each; `src/main.rs` only dispatches.
 
 pub mod detect;
+pub mod efference;
 pub mod figures;
 pub mod render;
 pub mod run;
