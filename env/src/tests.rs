@@ -769,3 +769,106 @@ fn the_timely_dodge_bonus_is_paid_for_a_dodge_in_time_only() {
         Outcome::Hit
     );
 }
+
+/// Every efference copy a recording detector was handed, per detector built (in build order).
+static EGO_RECORDS: std::sync::Mutex<Vec<std::sync::Arc<std::sync::Mutex<Vec<loomlab_detector::EfferenceCopy>>>>> =
+    std::sync::Mutex::new(Vec::new());
+
+/// A detector that records its efference copies and never alarms.
+struct EgoRecorder(std::sync::Arc<std::sync::Mutex<Vec<loomlab_detector::EfferenceCopy>>>);
+
+impl loomlab_detector::Detector for EgoRecorder {
+    fn id(&self) -> &'static str {
+        "ego_recorder"
+    }
+    fn reset(&mut self) {
+        self.0.lock().unwrap().clear();
+    }
+    fn step(
+        &mut self,
+        frame: &loomlab_detector::Frame,
+    ) -> Result<loomlab_detector::Signals, loomlab_detector::DetectorError> {
+        self.step_moving(frame, &loomlab_detector::EfferenceCopy::default())
+    }
+    fn step_moving(
+        &mut self,
+        _frame: &loomlab_detector::Frame,
+        ego: &loomlab_detector::EfferenceCopy,
+    ) -> Result<loomlab_detector::Signals, loomlab_detector::DetectorError> {
+        self.0.lock().unwrap().push(*ego);
+        Ok(loomlab_detector::Signals::default())
+    }
+}
+
+#[derive(Debug, Clone, Default, PartialEq, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct EgoRecorderConfig {}
+
+impl loomlab_detector::registry::DetectorConfig for EgoRecorderConfig {
+    fn validate(&self) -> Result<(), loomlab_detector::DetectorError> {
+        Ok(())
+    }
+    fn build(&self, _n: usize) -> Result<Box<dyn loomlab_detector::Detector>, loomlab_detector::DetectorError> {
+        let seen = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        EGO_RECORDS.lock().unwrap().push(std::sync::Arc::clone(&seen));
+        Ok(Box::new(EgoRecorder(seen)))
+    }
+}
+
+/// The efference copy reaches a detector identically in the env and in the runner: a robot
+/// cruising and turning under camera shake, the env driven by the cruise action.
+#[test]
+fn the_env_hands_detectors_the_runners_efference_copy() {
+    use loomlab_detector::registry::{Registration, Signal};
+    let registry = loomlab_detector::Registry::builtin()
+        .clone()
+        .with(Registration::of::<EgoRecorderConfig>(
+            "ego_recorder",
+            "Records its efference copies (a test detector)",
+            &[Signal::Output],
+            Signal::Output,
+            1.0,
+        ))
+        .unwrap();
+    let text = r#"
+name = "cruise"
+[episode]
+duration_s = 0.3
+seed = 5
+[world]
+camera = { n = 32, pitch_deg = -5.0, shake = { rotation_deg = 1.0, translation_m = 0.002, frequency_hz = 4.0 } }
+[robot]
+forward_mps = 1.0
+yaw_rate_rps = 0.5
+[[detectors]]
+id = "ego_recorder"
+threshold = 1e9
+"#;
+    let opts = loomlab_scenarios::LoadOptions {
+        registry,
+        ..loomlab_scenarios::LoadOptions::default()
+    };
+    let path = std::path::Path::new("cruise.toml");
+    let s = loomlab_scenarios::parse_scenario(text, path, None, &opts).unwrap();
+    let spec = s.episode(0).unwrap();
+    EGO_RECORDS.lock().unwrap().clear();
+    runner().run(&[&spec], |_, _| Ok(())).unwrap();
+    let from_runner = EGO_RECORDS.lock().unwrap()[0].lock().unwrap().clone();
+    let episodes = ScenarioEpisodes {
+        name: "cruise".into(),
+        episodes: vec![spec],
+    };
+    let mut env = EscapeEnv::for_episodes(
+        path,
+        episodes,
+        options(ActionKind::Discrete),
+        shared_gpu_context().unwrap(),
+    )
+    .unwrap();
+    let last = EGO_RECORDS.lock().unwrap().len() - 1;
+    run_episode(&mut env, 0, |_| Action::Discrete(0));
+    let from_env = EGO_RECORDS.lock().unwrap()[last].lock().unwrap().clone();
+    assert_eq!(from_runner.len(), 36, "every frame after the first observation");
+    assert!(from_runner[5].rotation_rad[2] > 1e-3 && from_runner[5].translation_m[0] > 1e-3);
+    assert_eq!(from_env, from_runner);
+}
