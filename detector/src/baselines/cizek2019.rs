@@ -27,8 +27,8 @@ use serde::Deserialize;
 use super::common::{FrameStep, PreviousFrame, Range, check, zeroed};
 use super::lowpass::LowPass;
 use super::stencil::{SymKernel, corr3_rows};
-use crate::registry::{DetectorConfig, Registration, Signal};
-use crate::{Detector, DetectorError, Frame, Signals};
+use crate::registry::{CameraFacts, DetectorConfig, Registration, Signal};
+use crate::{Detector, DetectorError, EfferenceCopy, Frame, Signals};
 
 /// The 3×3 lateral-inhibition kernel `w_I` (docs/detectors.md, cizek2019 §2; sum 1.5, centre 0).
 const INHIBITION_KERNEL: SymKernel = SymKernel {
@@ -56,6 +56,13 @@ pub struct Cizek2019Config {
     /// negative S). `true`: `S ← |S|` before thresholding (symmetric dark/light responses),
     /// docs/detectors.md, cizek2019 §6.
     pub absolute_summation: bool,
+    /// Take the temporal contrast against the previous frame warped to the current view by the
+    /// robot's own motion (its efference copy; `crate::compensation`) instead of the plain previous
+    /// frame, so that the static world's image motion cancels. Default false: the paper's model.
+    pub compensate: bool,
+    /// Full field of view of the camera (degrees), for `compensate`: from `world.camera`, never a
+    /// param. Default 60.
+    pub fov_deg: f64,
 }
 
 impl Default for Cizek2019Config {
@@ -67,6 +74,8 @@ impl Default for Cizek2019Config {
             alpha_l: 0.75,
             gate_factor: 0.95,
             absolute_summation: false,
+            compensate: false,
+            fov_deg: 60.0,
         }
     }
 }
@@ -74,6 +83,7 @@ impl Default for Cizek2019Config {
 impl Cizek2019Config {
     /// Checks every parameter against its valid range.
     pub fn validate(&self) -> Result<(), DetectorError> {
+        check("cizek2019.fov_deg", self.fov_deg, Range::Closed(0.5, 170.0), 60.0, "the camera's field of view")?;
         let d = Self::default();
         check(
             "cizek2019.w_i",
@@ -137,7 +147,7 @@ impl Cizek2019 {
         config.validate()?;
         Ok(Self {
             config,
-            prev: PreviousFrame::default(),
+            prev: PreviousFrame::compensated(config.compensate, config.fov_deg),
             contrast: Vec::new(),
             prev_contrast: Vec::new(),
             row: Vec::new(),
@@ -170,6 +180,11 @@ impl Detector for Cizek2019 {
         self.prev.reset();
         self.cell_threshold.reset();
         self.gate_threshold.reset();
+    }
+
+    fn step_moving(&mut self, frame: &Frame, ego: &EfferenceCopy) -> Result<Signals, DetectorError> {
+        self.prev.set_motion(ego);
+        self.step(frame)
     }
 
     fn step(&mut self, frame: &Frame) -> Result<Signals, DetectorError> {
@@ -222,6 +237,15 @@ impl Detector for Cizek2019 {
 }
 
 impl DetectorConfig for Cizek2019Config {
+    const CAMERA_KEYS: &'static [&'static str] = &["fov_deg"];
+
+    fn for_camera(self, camera: &CameraFacts) -> Self {
+        Self {
+            fov_deg: camera.fov_deg,
+            ..self
+        }
+    }
+
     fn validate(&self) -> Result<(), DetectorError> {
         Cizek2019Config::validate(self)
     }

@@ -1,7 +1,8 @@
 //! Helpers shared by the baseline models: frame history / temporal contrast
 //! (docs/detectors.md, common §2) and parameter validation with uniform error messages.
 
-use crate::{DetectorError, Frame};
+use crate::compensation::CompensatedDifference;
+use crate::{DetectorError, EfferenceCopy, Frame};
 
 /// Result of [`PreviousFrame::begin`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -15,13 +16,72 @@ pub(crate) enum FrameStep {
 }
 
 /// The previous frame `F_{t-1}` (as f64) and the side length fixed by the first frame.
+///
+/// With ego-motion compensation ([`Self::compensated`], a model's `compensate = true`) the
+/// temporal contrast is taken against the previous frame warped to the current view by the
+/// camera's motion in between ([`CompensatedDifference`] with a baseline of one frame; 0 where the
+/// warped frame does not reach): the static world's image motion cancels. The motion is the
+/// efference copy given to [`Self::set_motion`] before the frame; without one (or with `dt_s = 0`)
+/// nothing is predicted to move and the contrast is the plain difference.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct PreviousFrame {
     n: Option<usize>,
     data: Vec<f64>,
+    compensation: Option<Compensation>,
+}
+
+/// The state of [`PreviousFrame`]'s ego-motion compensation.
+#[derive(Debug, Clone)]
+struct Compensation {
+    fov_deg: f64,
+    /// Built on the first frame (it fixes n).
+    difference: Option<CompensatedDifference>,
+    /// The efference copy of the next frame.
+    ego: EfferenceCopy,
+    residual: Vec<f32>,
 }
 
 impl PreviousFrame {
+    /// A previous frame whose contrast is ego-motion compensated (`compensate = true`) for a camera
+    /// of `fov_deg`, or the paper's plain one.
+    pub(crate) fn compensated(compensate: bool, fov_deg: f64) -> Self {
+        Self {
+            compensation: compensate.then(|| Compensation {
+                fov_deg,
+                difference: None,
+                ego: EfferenceCopy::default(),
+                residual: Vec::new(),
+            }),
+            ..Self::default()
+        }
+    }
+
+    /// The efference copy of the next frame (used only with compensation).
+    pub(crate) fn set_motion(&mut self, ego: &EfferenceCopy) {
+        if let Some(c) = &mut self.compensation {
+            c.ego = *ego;
+        }
+    }
+
+    /// With compensation: steps the compensated difference with `frame` and the pending efference
+    /// copy, leaving `F_t − warped F_{t−1}` in the residual. Returns whether to use it: false
+    /// without compensation, and when the camera's motion is not known (then the plain difference
+    /// is exactly the paper's, border pixels included).
+    fn compensate(&mut self, frame: &Frame) -> bool {
+        let Some(c) = &mut self.compensation else {
+            return false;
+        };
+        let n = frame.n();
+        let difference = c
+            .difference
+            .get_or_insert_with(|| CompensatedDifference::new(n, c.fov_deg, 1));
+        c.residual.resize(n * n, 0.0);
+        difference.step(frame.data(), &c.ego, &mut c.residual);
+        let known = c.ego.knows_motion();
+        c.ego = EfferenceCopy::default();
+        known
+    }
+
     /// Checks the frame size. On the first frame stores the frame and returns
     /// [`FrameStep::First`]; afterwards returns [`FrameStep::Next`] without storing
     /// anything (the caller then computes the contrast with [`Self::contrast_into`]).
@@ -32,6 +92,7 @@ impl PreviousFrame {
                 self.n = Some(got);
                 self.data.clear();
                 self.data.extend(frame.data().iter().map(|&v| f64::from(v)));
+                self.compensate(frame);
                 Ok(FrameStep::First(got))
             }
             Some(expected) if expected != got => Err(DetectorError::FrameSize { expected, got }),
@@ -42,6 +103,9 @@ impl PreviousFrame {
     /// Writes `out = scale·(F_t − F_{t−1})` and stores `F_t` as the new previous frame.
     /// Returns `Σ|out|`. `out` must have n·n entries.
     pub(crate) fn contrast_into(&mut self, frame: &Frame, scale: f64, out: &mut [f64]) -> f64 {
+        if self.compensate(frame) {
+            return self.compensated_contrast(frame, scale, out);
+        }
         let mut sum_abs = 0.0;
         for ((o, prev), &f) in out.iter_mut().zip(self.data.iter_mut()).zip(frame.data()) {
             let f = f64::from(f);
@@ -55,6 +119,10 @@ impl PreviousFrame {
 
     /// As [`Self::contrast_into`] without the sum (for models that do not need it).
     pub(crate) fn contrast_only(&mut self, frame: &Frame, scale: f64, out: &mut [f64]) {
+        if self.compensate(frame) {
+            self.compensated_contrast(frame, scale, out);
+            return;
+        }
         for ((o, prev), &f) in out.iter_mut().zip(self.data.iter_mut()).zip(frame.data()) {
             let f = f64::from(f);
             *o = scale * (f - *prev);
@@ -62,9 +130,25 @@ impl PreviousFrame {
         }
     }
 
+    /// `out = scale·residual` of the compensated difference just stepped, storing `F_t`; `Σ|out|`.
+    fn compensated_contrast(&mut self, frame: &Frame, scale: f64, out: &mut [f64]) -> f64 {
+        let residual = self.compensation.as_ref().map_or(&[][..], |c| &c.residual[..]);
+        let mut sum_abs = 0.0;
+        for (((o, prev), &f), &r) in out.iter_mut().zip(self.data.iter_mut()).zip(frame.data()).zip(residual) {
+            *prev = f64::from(f);
+            *o = scale * f64::from(r);
+            sum_abs += o.abs();
+        }
+        sum_abs
+    }
+
     /// Forgets the previous frame and the fixed size (keeps the allocation).
     pub(crate) fn reset(&mut self) {
         self.n = None;
+        if let Some(c) = &mut self.compensation {
+            c.difference = None;
+            c.ego = EfferenceCopy::default();
+        }
     }
 }
 

@@ -31,8 +31,8 @@ use serde::Deserialize;
 use super::common::{FrameStep, PreviousFrame, Range, check, check3, zeroed};
 use super::lowpass::LowPass;
 use super::stencil::{SymKernel, corr3_classes_rows, corr3_rows, max_abs};
-use crate::registry::{DetectorConfig, Registration, Signal};
-use crate::{Detector, DetectorError, Frame, Signals};
+use crate::registry::{CameraFacts, DetectorConfig, Registration, Signal};
+use crate::{Detector, DetectorError, EfferenceCopy, Frame, Signals};
 
 /// Parameters of [`Fu2020`]. Defaults: docs/detectors.md, fu2020 §3 (all from `lgmd2OpenSource.cs`,
 /// ε and α from Keil 2025). Triples are ordered (centre, nearest, diagonal).
@@ -96,6 +96,13 @@ pub struct Fu2020Config {
     pub epsilon: f64,
     /// `α`: memory of the output lowpass, in [0, 1): 0.75 (Keil 2025).
     pub alpha: f64,
+    /// Take the temporal contrast against the previous frame warped to the current view by the
+    /// robot's own motion (its efference copy; `crate::compensation`) instead of the plain previous
+    /// frame, so that the static world's image motion cancels. Default false: the paper's model.
+    pub compensate: bool,
+    /// Full field of view of the camera (degrees), for `compensate`: from `world.camera`, never a
+    /// param. Default 60.
+    pub fov_deg: f64,
 }
 
 impl Default for Fu2020Config {
@@ -129,6 +136,8 @@ impl Default for Fu2020Config {
             contrast_scale: 255.0,
             epsilon: 0.05,
             alpha: 0.75,
+            compensate: false,
+            fov_deg: 60.0,
         }
     }
 }
@@ -152,6 +161,7 @@ pub struct Fu2020Coefficients {
 impl Fu2020Config {
     /// Checks every parameter against its valid range.
     pub fn validate(&self) -> Result<(), DetectorError> {
+        check("fu2020.fov_deg", self.fov_deg, Range::Closed(0.5, 170.0), 60.0, "the camera's field of view")?;
         let d = Self::default();
         check(
             "fu2020.fps_model",
@@ -537,7 +547,7 @@ impl Fu2020 {
                 kernel_on: sym(config.kernel_on),
                 kernel_off: sym(config.kernel_off),
             },
-            prev: PreviousFrame::default(),
+            prev: PreviousFrame::compensated(config.compensate, config.fov_deg),
             contrast: Vec::new(),
             on: Lgmd2::default(),
             off: Lgmd2::default(),
@@ -582,6 +592,11 @@ impl Detector for Fu2020 {
         self.output.reset();
     }
 
+    fn step_moving(&mut self, frame: &Frame, ego: &EfferenceCopy) -> Result<Signals, DetectorError> {
+        self.prev.set_motion(ego);
+        self.step(frame)
+    }
+
     fn step(&mut self, frame: &Frame) -> Result<Signals, DetectorError> {
         let n = match self.prev.begin(frame)? {
             FrameStep::First(n) => {
@@ -612,6 +627,15 @@ impl Detector for Fu2020 {
 }
 
 impl DetectorConfig for Fu2020Config {
+    const CAMERA_KEYS: &'static [&'static str] = &["fov_deg"];
+
+    fn for_camera(self, camera: &CameraFacts) -> Self {
+        Self {
+            fov_deg: camera.fov_deg,
+            ..self
+        }
+    }
+
     fn validate(&self) -> Result<(), DetectorError> {
         Fu2020Config::validate(self)
     }

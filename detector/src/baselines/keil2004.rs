@@ -24,8 +24,8 @@ use serde::Deserialize;
 use super::common::{FrameStep, PreviousFrame, Range, check, zeroed};
 use super::lowpass::LowPass;
 use super::stencil::diffuse_step;
-use crate::registry::{DetectorConfig, Registration, Signal};
-use crate::{Detector, DetectorError, Frame, Signals};
+use crate::registry::{CameraFacts, DetectorConfig, Registration, Signal};
+use crate::{Detector, DetectorError, EfferenceCopy, Frame, Signals};
 
 /// Parameters of [`Keil2004`]. Defaults: docs/detectors.md, keil2004 §3.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -44,6 +44,13 @@ pub struct Keil2004Config {
     pub epsilon: f64,
     /// `α`: memory of the output lowpass, in [0, 1). Exact (Keil 2025): 0.5.
     pub alpha: f64,
+    /// Take the temporal contrast against the previous frame warped to the current view by the
+    /// robot's own motion (its efference copy; `crate::compensation`) instead of the plain previous
+    /// frame, so that the static world's image motion cancels. Default false: the paper's model.
+    pub compensate: bool,
+    /// Full field of view of the camera (degrees), for `compensate`: from `world.camera`, never a
+    /// param. Default 60.
+    pub fov_deg: f64,
 }
 
 impl Default for Keil2004Config {
@@ -55,6 +62,8 @@ impl Default for Keil2004Config {
             iterations: 10,
             epsilon: 0.001,
             alpha: 0.5,
+            compensate: false,
+            fov_deg: 60.0,
         }
     }
 }
@@ -65,6 +74,7 @@ pub const KEIL2004_MAX_ITERATIONS: usize = 1000;
 impl Keil2004Config {
     /// Checks every parameter against its valid range.
     pub fn validate(&self) -> Result<(), DetectorError> {
+        check("keil2004.fov_deg", self.fov_deg, Range::Closed(0.5, 170.0), 60.0, "the camera's field of view")?;
         let d = Self::default();
         check(
             "keil2004.a_v",
@@ -138,7 +148,7 @@ impl Keil2004 {
         config.validate()?;
         Ok(Self {
             config,
-            prev: PreviousFrame::default(),
+            prev: PreviousFrame::compensated(config.compensate, config.fov_deg),
             contrast: Vec::new(),
             spread: Vec::new(),
             scratch: Vec::new(),
@@ -207,6 +217,11 @@ impl Detector for Keil2004 {
         self.output.reset();
     }
 
+    fn step_moving(&mut self, frame: &Frame, ego: &EfferenceCopy) -> Result<Signals, DetectorError> {
+        self.prev.set_motion(ego);
+        self.step(frame)
+    }
+
     fn step(&mut self, frame: &Frame) -> Result<Signals, DetectorError> {
         let n = match self.prev.begin(frame)? {
             FrameStep::First(n) => {
@@ -233,6 +248,15 @@ impl Detector for Keil2004 {
 }
 
 impl DetectorConfig for Keil2004Config {
+    const CAMERA_KEYS: &'static [&'static str] = &["fov_deg"];
+
+    fn for_camera(self, camera: &CameraFacts) -> Self {
+        Self {
+            fov_deg: camera.fov_deg,
+            ..self
+        }
+    }
+
     fn validate(&self) -> Result<(), DetectorError> {
         Keil2004Config::validate(self)
     }

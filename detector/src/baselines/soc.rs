@@ -7,9 +7,9 @@
 
 use serde::Deserialize;
 
-use super::common::{FrameStep, PreviousFrame, zeroed};
-use crate::registry::{DetectorConfig, Registration, Signal};
-use crate::{Detector, DetectorError, Frame, Signals};
+use super::common::{FrameStep, PreviousFrame, Range, check, zeroed};
+use crate::registry::{CameraFacts, DetectorConfig, Registration, Signal};
+use crate::{Detector, DetectorError, EfferenceCopy, Frame, Signals};
 
 /// How the absolute temporal contrast is pooled over the frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
@@ -23,16 +23,34 @@ pub enum SocPooling {
 }
 
 /// Parameters of [`Soc`].
-#[derive(Debug, Clone, Copy, PartialEq, Default, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SocConfig {
     /// Sum (Keil's definition, default) or mean over the frame.
     pub pooling: SocPooling,
+    /// Take the temporal contrast against the previous frame warped to the current view by the
+    /// robot's own motion (its efference copy; `crate::compensation`) instead of the plain previous
+    /// frame, so that the static world's image motion cancels. Default false: the paper's model.
+    pub compensate: bool,
+    /// Full field of view of the camera (degrees), for `compensate`: from `world.camera`, never a
+    /// param. Default 60.
+    pub fov_deg: f64,
+}
+
+impl Default for SocConfig {
+    fn default() -> Self {
+        Self {
+            pooling: SocPooling::Sum,
+            compensate: false,
+            fov_deg: 60.0,
+        }
+    }
 }
 
 impl SocConfig {
-    /// Every value of this config is valid; kept for symmetry with the other models.
+    /// Checks the field of view (the error names it, its range and its default).
     pub fn validate(&self) -> Result<(), DetectorError> {
+        check("soc.fov_deg", self.fov_deg, Range::Closed(0.5, 170.0), 60.0, "the camera's field of view")?;
         Ok(())
     }
 }
@@ -54,7 +72,7 @@ impl Soc {
         config.validate()?;
         Ok(Self {
             config,
-            prev: PreviousFrame::default(),
+            prev: PreviousFrame::compensated(config.compensate, config.fov_deg),
             contrast: Vec::new(),
         })
     }
@@ -83,6 +101,11 @@ impl Detector for Soc {
         self.prev.reset();
     }
 
+    fn step_moving(&mut self, frame: &Frame, ego: &EfferenceCopy) -> Result<Signals, DetectorError> {
+        self.prev.set_motion(ego);
+        self.step(frame)
+    }
+
     fn step(&mut self, frame: &Frame) -> Result<Signals, DetectorError> {
         let n = match self.prev.begin(frame)? {
             FrameStep::First(n) => {
@@ -102,6 +125,15 @@ impl Detector for Soc {
 }
 
 impl DetectorConfig for SocConfig {
+    const CAMERA_KEYS: &'static [&'static str] = &["fov_deg"];
+
+    fn for_camera(self, camera: &CameraFacts) -> Self {
+        Self {
+            fov_deg: camera.fov_deg,
+            ..self
+        }
+    }
+
     fn validate(&self) -> Result<(), DetectorError> {
         SocConfig::validate(self)
     }

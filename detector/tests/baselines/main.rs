@@ -6,6 +6,7 @@
 
 mod cizek2019;
 mod common;
+mod compensate;
 mod fu2020;
 mod golden;
 mod keil2004;

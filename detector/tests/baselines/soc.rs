@@ -16,6 +16,7 @@ fn soc_is_the_sum_of_absolute_frame_differences() {
     assert_eq!(aux(&s, "mean"), vec![0.0, 0.4375, 0.4375]);
     let mut mean = Soc::new(SocConfig {
         pooling: SocPooling::Mean,
+        ..SocConfig::default()
     })
     .unwrap();
     let frames = get(Id::S2, 64);
