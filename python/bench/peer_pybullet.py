@@ -6,6 +6,8 @@
   `render_bench` example of loomlab-sim: a checkered ground, the sky, one ball thrown at the
   camera while the robot drives), one view per submission (`batch 1`) and B views per submission
   (`Sim::step_batch`, `batch B`); device and pipeline creation are not timed;
+  and, on Mesa's lavapipe, the batched run again with `LP_NUM_THREADS=0` (llvmpipe rasterises on its
+  queue thread instead of waking worker threads for every 64x64 tile: a Mesa setting, same pixels);
 - pybullet: `stepSimulation()` + `getCameraImage(n, n, renderer=ER_TINY_RENDERER)` of a plane and
   a sphere (pybullet's CPU software rasterizer; the connection and the scene set-up not timed).
 
@@ -36,10 +38,13 @@ def default_bench_binary() -> Path:
     return target / "release" / "examples" / "render_bench"
 
 
-def loomlab_steps_per_s(binary: Path, n: int, batch: int, seconds: float) -> tuple[float, str]:
+def loomlab_steps_per_s(
+    binary: Path, n: int, batch: int, seconds: float, extra_env: dict[str, str] | None = None
+) -> tuple[float, str]:
     """Steps/s of the render_bench example (one process: start-up excluded by the example)."""
     cmd = [str(binary), "--n", str(n), "--batch", str(batch), "--seconds", str(seconds)]
-    res = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    env = {**os.environ, **(extra_env or {})}
+    res = subprocess.run(cmd, capture_output=True, text=True, check=False, env=env)
     if res.returncode != 0:
         raise SystemExit(f"bench-peer: {' '.join(cmd)} failed:\n{res.stderr.strip()}")
     line = json.loads(res.stdout.strip().splitlines()[-1])
@@ -115,12 +120,17 @@ def main(argv: list[str] | None = None) -> int:
             for b in batches:
                 sps, adapter = loomlab_steps_per_s(args.bench_binary, n, b, args.seconds)
                 results.setdefault((f"loomlab batch {b}", n), []).append(sps)
+            if "llvmpipe" in adapter and "LP_NUM_THREADS" not in os.environ:
+                sps, _ = loomlab_steps_per_s(args.bench_binary, n, args.batch, args.seconds, {"LP_NUM_THREADS": "0"})
+                results.setdefault((f"loomlab batch {args.batch} LP0", n), []).append(sps)
             if peer is not None:
                 results.setdefault(("pybullet TinyRenderer", n), []).append(peer.steps_per_s(n, args.seconds))
     print(f"loomlab adapter: {adapter}")
     print(f"machine: {os.cpu_count()} CPUs; {args.rounds} alternating rounds of {args.seconds:g} s, medians")
     print(f"{'':24}" + "".join(f"{f'{n}x{n} steps/s':>18}{'ratio':>8}" for n in sizes))
-    rows = [f"loomlab batch {b}" for b in batches] + (["pybullet TinyRenderer"] if peer is not None else [])
+    rows = [f"loomlab batch {b}" for b in batches]
+    rows += [r for r in (f"loomlab batch {args.batch} LP0",) if (r, sizes[0]) in results]
+    rows += ["pybullet TinyRenderer"] if peer is not None else []
     for row in rows:
         line = f"{row:24}"
         for n in sizes:
@@ -129,6 +139,8 @@ def main(argv: list[str] | None = None) -> int:
             ratio = f"{med / peer_med:7.2f}x" if peer_med else "     n/a"
             line += f"{med:18.0f}{ratio:>8}"
         print(line)
+    if any(r.endswith("LP0") for r in rows):
+        print("LP0: the same with LP_NUM_THREADS=0 (Mesa's llvmpipe rasterises on its queue thread)")
     if peer is None:
         print("(ratio: pybullet not installed)")
     return 0

@@ -135,6 +135,43 @@ pub struct Sim {
     ground_truth: bool,
 }
 
+/// The robot's view at one moment, captured to be rendered later ([`Sim::capture_view`]): several
+/// frames of one open-loop pass can then be rendered in one batch ([`Renderer::render_batch`] of
+/// their [`CapturedView::desc`]), each frame bit-identical to the one [`Sim::step`] would have
+/// rendered then.
+#[derive(Clone, Debug)]
+pub struct CapturedView {
+    camera_position: DVec3,
+    camera_rotation: crate::glam::DQuat,
+    fov_rad: f64,
+    near_m: f32,
+    sky: f32,
+    ground: Option<crate::texture::ResolvedTexture>,
+    t_s: f64,
+    instances: Vec<RenderInstance>,
+}
+
+impl CapturedView {
+    /// The frame description to render.
+    pub fn desc(&self) -> FrameDesc<'_> {
+        FrameDesc {
+            camera_position: self.camera_position,
+            camera_rotation: self.camera_rotation,
+            fov_rad: self.fov_rad,
+            near_m: self.near_m,
+            sky: self.sky,
+            ground: self.ground.as_ref(),
+            t_s: self.t_s,
+            instances: &self.instances,
+        }
+    }
+
+    /// Simulation time of the view (s).
+    pub fn t_s(&self) -> f64 {
+        self.t_s
+    }
+}
+
 impl std::fmt::Debug for Sim {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Sim")
@@ -763,6 +800,23 @@ impl Sim {
             }
         }
         self.instances = instances;
+    }
+
+    /// Captures the current view (what [`Sim::observe`] would render now) to render it later,
+    /// e.g. in a batch with other moments of the same episode. Works without a renderer.
+    pub fn capture_view(&mut self) -> CapturedView {
+        self.prepare_instances();
+        let d = self.frame_desc();
+        CapturedView {
+            camera_position: d.camera_position,
+            camera_rotation: d.camera_rotation,
+            fov_rad: d.fov_rad,
+            near_m: d.near_m,
+            sky: d.sky,
+            ground: d.ground.copied(),
+            t_s: d.t_s,
+            instances: d.instances.to_vec(),
+        }
     }
 
     /// The view now (after [`Self::prepare_instances`]).

@@ -126,3 +126,32 @@ fn bad_batches_are_errors_and_move_nothing() {
     let err = renderer.render_batch(&[], &mut outs).unwrap_err();
     assert!(err.to_string().contains("one per frame"), "{err}");
 }
+
+#[test]
+fn captured_views_rendered_in_one_batch_equal_the_frames_of_each_step() {
+    let desc = parse(TEXTURES);
+    let n = desc.camera.n;
+    let mut rendering = common::rendering_sim(&desc, 11);
+    let mut physics = Sim::new_physics_only(&desc, 11).unwrap();
+    let mut renderer = Renderer::new(n).unwrap();
+    let cmd = Command::forward(0.8);
+    let mut want = Vec::new();
+    let mut views = Vec::new();
+    for _ in 0..10 {
+        want.push(rendering.step(&cmd).unwrap().frame);
+        let out = physics.step(&cmd).unwrap();
+        assert!(out.frame.is_empty());
+        let view = physics.capture_view();
+        assert_eq!(view.t_s(), out.t_s);
+        views.push(view);
+    }
+    let descs: Vec<_> = views.iter().map(|v| v.desc()).collect();
+    let mut got = vec![Vec::new(); descs.len()];
+    renderer.render_batch(&descs, &mut got).unwrap();
+    for (k, (a, b)) in want.iter().zip(&got).enumerate() {
+        assert!(
+            a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()) && a.len() == b.len(),
+            "frame {k}"
+        );
+    }
+}
