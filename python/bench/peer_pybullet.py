@@ -97,6 +97,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seconds", type=float, default=2.0, help="timed seconds per measurement (default 2)")
     ap.add_argument("--rounds", type=int, default=3, help="alternating rounds; medians are reported (default 3)")
     ap.add_argument("--bench-binary", type=Path, default=default_bench_binary(), help="the render_bench example")
+    ap.add_argument(
+        "--baseline-binary",
+        type=Path,
+        help="render_bench built from another commit, timed at batch 1 in the same rounds (before/after)",
+    )
     args = ap.parse_args(argv)
     if args.batch < 1 or args.rounds < 1 or args.seconds <= 0:
         ap.error("--batch and --rounds must be >= 1 and --seconds > 0")
@@ -120,6 +125,9 @@ def main(argv: list[str] | None = None) -> int:
             for b in batches:
                 sps, adapter = loomlab_steps_per_s(args.bench_binary, n, b, args.seconds)
                 results.setdefault((f"loomlab batch {b}", n), []).append(sps)
+            if args.baseline_binary is not None:
+                sps, _ = loomlab_steps_per_s(args.baseline_binary, n, 1, args.seconds)
+                results.setdefault(("baseline batch 1", n), []).append(sps)
             if "llvmpipe" in adapter and "LP_NUM_THREADS" not in os.environ:
                 sps, _ = loomlab_steps_per_s(args.bench_binary, n, args.batch, args.seconds, {"LP_NUM_THREADS": "0"})
                 results.setdefault((f"loomlab batch {args.batch} LP0", n), []).append(sps)
@@ -128,7 +136,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"loomlab adapter: {adapter}")
     print(f"machine: {os.cpu_count()} CPUs; {args.rounds} alternating rounds of {args.seconds:g} s, medians")
     print(f"{'':24}" + "".join(f"{f'{n}x{n} steps/s':>18}{'ratio':>8}" for n in sizes))
-    rows = [f"loomlab batch {b}" for b in batches]
+    rows = ["baseline batch 1"] if args.baseline_binary is not None else []
+    rows += [f"loomlab batch {b}" for b in batches]
     rows += [r for r in (f"loomlab batch {args.batch} LP0",) if (r, sizes[0]) in results]
     rows += ["pybullet TinyRenderer"] if peer is not None else []
     for row in rows:
