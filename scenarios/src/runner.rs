@@ -21,10 +21,12 @@
 //!    - one that first alarms at or after the contact frame collides;
 //!    - otherwise a detector's tail rebuilds the world without rendering, replays physics up to
 //!      the alarm frame while feeding a fresh [`EscapeAgent`] the cached open-loop frames (so its
-//!      state is exactly the open-loop state), attaches a renderer and continues with rendering,
-//!      the agent driving the robot until the first contact (**collision**) or the end of the
-//!      episode (**evaded**). Re-triggers (the controller is level-triggered after its cooldown)
-//!      are simulated.
+//!      state is exactly the open-loop state), then continues with rendering, the agent driving
+//!      the robot until the first contact (**collision**) or the end of the episode (**evaded**).
+//!      Re-triggers (the controller is level-triggered after its cooldown) are simulated. The
+//!      rendered parts of an episode's tails run in lockstep: each frame index renders the views
+//!      of every tail still running in one batch ([`Sim::step_batch`]; each view bit-identical to
+//!      rendering it alone, so the results are those of running the tails one by one).
 //!
 //!    The reference rows ([`crate::reference`], on by default, [`Runner::with_references`]) are
 //!    scored by the same code: `null` never alarms; `oracle`'s closed loop is the deadline replay
@@ -37,9 +39,13 @@
 //!    the looming side is the x centroid of the temporal contrast |frame(t) − frame(t−1)|
 //!    ([`loomlab_agents::LoomingSideEstimator`]); the controller latches it at the trigger.
 //!
-//! # Parallelism
+//! # Parallelism and batching
 //! Episodes run on a rayon pool of `jobs` workers sharing one [`GpuContext`]; renderers are kept in
 //! a pool and reused across episodes (at most one per worker and frame size is ever created).
+//! Within an episode, frames are rendered in batches (one submission and readback for many views):
+//! the open-loop pass, whose cruise commands do not depend on the frames, steps physics up to
+//! 16 frames ahead and renders their captured views ([`Sim::capture_view`]) together, and the
+//! detectors' tails run in lockstep (above).
 //! Results are handed to a callback as episodes finish (for `episodes.csv` and the progress bar)
 //! and returned in suite order; the run is deterministic whatever the number of workers.
 
