@@ -232,7 +232,7 @@ bench-python: python-env
 PEER_PYTHON ?= $(VENV)/bin/python
 bench-peer: deps
 	$(CARGO) build $(CARGO_PROFILE) -p loomlab-sim --example render_bench
-	@test -x $(PEER_PYTHON) || { echo "bench-peer: $(PEER_PYTHON) missing (make python-venv, or PEER_PYTHON=python3)" >&2; exit 1; }
+	@command -v $(PEER_PYTHON) >/dev/null || { echo "bench-peer: $(PEER_PYTHON) missing (make python-venv, or PEER_PYTHON=python3)" >&2; exit 1; }
 	$(PEER_PYTHON) python/bench/peer_pybullet.py --bench-binary $(TARGET_DIR)/$(PROFILE)/examples/render_bench $(PEER_ARGS)
 
 ## Regenerate the paper's artificial-video figures into out/figures.
