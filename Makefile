@@ -9,7 +9,7 @@ PYTHON ?= python3
 # Mesa's Vulkan loader complains on every device creation when XDG_RUNTIME_DIR is unset (CI, containers).
 export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 $$d && echo $$d)
 
-.PHONY: run cli test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-venv python-env python-examples suite-check sweep bless readme-table bench bench-python figures fmt rl-env rl-train rl-train-detectors rl-train-privileged rl-table rl-table-docs rl-result
+.PHONY: run cli test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-venv python-env python-examples suite-check sweep bless readme-table bench bench-python bench-peer figures fmt rl-env rl-train rl-train-detectors rl-train-privileged rl-table rl-table-docs rl-result
 
 # One build for everything that runs code: `make run`, the tests, the suite check, the Python
 # binding and the sweep tests all use the release profile of one workspace (one Cargo.lock, the
@@ -224,6 +224,16 @@ bench: deps
 ## (docs/adding-a-detector.md; a benchmark, not a test).
 bench-python: python-env
 	$(VENV)/bin/python python/bench/python_detector_overhead.py
+
+## loomlab's render step against pybullet's TinyRenderer (plane + sphere) at 64² and 128², timed
+## alternately in one run, with the ratio (python/bench/peer_pybullet.py; a benchmark, not a test).
+## pybullet is optional: PEER_PYTHON names an interpreter that has it (default: the venv's, where
+## `pip install pybullet` adds it); without it loomlab is timed alone.
+PEER_PYTHON ?= $(VENV)/bin/python
+bench-peer: deps
+	$(CARGO) build $(CARGO_PROFILE) -p loomlab-sim --example render_bench
+	@command -v $(PEER_PYTHON) >/dev/null || { echo "bench-peer: $(PEER_PYTHON) missing (make python-venv, or PEER_PYTHON=python3)" >&2; exit 1; }
+	$(PEER_PYTHON) python/bench/peer_pybullet.py --bench-binary $(TARGET_DIR)/$(PROFILE)/examples/render_bench $(PEER_ARGS)
 
 ## Regenerate the paper's artificial-video figures into out/figures.
 figures:

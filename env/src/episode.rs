@@ -287,6 +287,20 @@ impl std::fmt::Debug for EscapeEnv {
     }
 }
 
+/// The result of two consecutive periods of one [`EscapeEnv::step`]: the second's observation and
+/// info, the summed reward terms.
+pub(crate) fn combine_steps(r: StepResult, next: StepResult) -> StepResult {
+    let terms = r.info.reward_terms.plus(&next.info.reward_terms);
+    StepResult {
+        reward: terms.total(),
+        info: StepInfo {
+            reward_terms: terms,
+            ..next.info
+        },
+        ..next
+    }
+}
+
 /// A detector value for the observation: finite, clamped into ±[`SIGNAL_LIMIT`] (non-finite: 0).
 fn finite_or_zero(v: f64) -> f32 {
     if v.is_finite() {
@@ -604,30 +618,35 @@ impl EscapeEnv {
         if let Some(run) = self.running.as_mut() {
             run.actions.push(action);
         }
-        let hold = match action {
-            Action::Discrete(i) if i != 0 && self.options.dodge_hold_s > 0.0 => {
-                let dt = self.dt();
-                ((self.options.dodge_hold_s / dt).round() as u32).max(self.options.action_repeat)
-            }
-            _ => self.options.action_repeat,
-        };
-        for _ in 1..hold {
+        for _ in 1..self.hold_for(action) {
             if r.terminated || r.truncated {
                 break;
             }
             // the discrete actions follow the cruise command of each period
             let next = self.step_command(self.command_for(action)?)?;
-            let terms = r.info.reward_terms.plus(&next.info.reward_terms);
-            r = StepResult {
-                reward: terms.total(),
-                info: StepInfo {
-                    reward_terms: terms,
-                    ..next.info
-                },
-                ..next
-            };
+            r = combine_steps(r, next);
         }
         Ok(r)
+    }
+
+    /// Camera periods one [`step`](Self::step) with `action` lasts (fewer when the episode ends).
+    pub(crate) fn hold_for(&self, action: Action) -> u32 {
+        match action {
+            Action::Discrete(i) if i != 0 && self.options.dodge_hold_s > 0.0 => {
+                let dt = self.dt();
+                ((self.options.dodge_hold_s / dt).round() as u32).max(self.options.action_repeat)
+            }
+            _ => self.options.action_repeat,
+        }
+    }
+
+    /// Records `action` as the one the last [`step`](Self::step) was given (for
+    /// [`snapshot`](Self::snapshot)): what the vector environment's batched step does after the
+    /// first period.
+    pub(crate) fn record_action(&mut self, action: Action) {
+        if let Some(run) = self.running.as_mut() {
+            run.actions.push(action);
+        }
     }
 
     /// The velocity command an action maps to now (validating it).
@@ -655,6 +674,21 @@ impl EscapeEnv {
     /// Applies a velocity command for one camera period (the Rust-side interface; only actions
     /// given to [`step`](Self::step) are recorded for [`snapshot`](Self::snapshot)).
     pub fn step_command(&mut self, command: VelocityCommand) -> Result<StepResult, EnvError> {
+        let cruise = self.begin_command(command)?;
+        let r = self.running.as_mut().expect("begin_command checked the episode");
+        let out = r.sim.step(&command.to_sim())?;
+        self.finish_command(command, cruise, out)
+    }
+
+    /// The simulator of the running episode (the vector environment steps them in one batch
+    /// between [`Self::begin_command`] and [`Self::finish_command`]).
+    pub(crate) fn sim_mut(&mut self) -> Option<&mut Sim> {
+        self.running.as_mut().map(|r| &mut r.sim)
+    }
+
+    /// [`step_command`](Self::step_command) up to the simulator step: checks the command and the
+    /// episode's state, records the agent sample; returns the cruise command of the period.
+    pub(crate) fn begin_command(&mut self, command: VelocityCommand) -> Result<VelocityCommand, EnvError> {
         if !command.is_finite() {
             return Err(EnvError::option(
                 "command",
@@ -662,7 +696,6 @@ impl EscapeEnv {
                 "velocity commands must be finite",
             ));
         }
-        let max_steps = self.options.max_episode_steps;
         let r = match self.running.as_mut() {
             None => return Err(EnvError::State("step() called before reset(); call reset() first")),
             Some(r) if r.done => {
@@ -673,7 +706,6 @@ impl EscapeEnv {
             Some(r) => r,
         };
         let cruise = r.spec.cruise.command_at(r.sim.time());
-        let dt = r.spec.world.dt();
         let departed = deviation(command, cruise)
             .iter()
             .any(|d| d.abs() > super::reward::DODGE_TOLERANCE);
@@ -683,7 +715,22 @@ impl EscapeEnv {
             ttc_s: r.last_ttc_s,
             angular_size_deg: r.last_angular_size_deg,
         });
-        let out = r.sim.step(&command.to_sim())?;
+        Ok(cruise)
+    }
+
+    /// [`step_command`](Self::step_command) after the simulator step `out`: reward, termination,
+    /// the detectors and the observation.
+    pub(crate) fn finish_command(
+        &mut self,
+        command: VelocityCommand,
+        cruise: VelocityCommand,
+        out: StepOutput,
+    ) -> Result<StepResult, EnvError> {
+        let max_steps = self.options.max_episode_steps;
+        let Some(r) = self.running.as_mut() else {
+            return Err(EnvError::State("step() called before reset(); call reset() first"));
+        };
+        let dt = r.spec.world.dt();
         r.steps += 1;
         r.last_command = command;
         r.last_cruise = cruise;

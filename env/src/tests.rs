@@ -228,6 +228,61 @@ fn vector_env_equals_single_envs_with_next_step_autoreset() {
     assert_eq!(e.kind(), ErrorKind::Action);
 }
 
+/// The batched step (one render batch per camera period, the periods of all environments in
+/// lockstep) equals single environments and the unbatched vector step, with steps that last
+/// different numbers of periods (action repeat, a held dodge) and episodes that end within a step.
+#[test]
+fn batched_vector_env_with_repeats_and_held_dodges_equals_single_envs() {
+    let opts = EnvOptions {
+        max_episode_steps: Some(25),
+        action_repeat: 2,
+        dodge_hold_s: 0.2,
+        ..options(ActionKind::Discrete)
+    };
+    let n = 4;
+    let mut batched = EscapeVectorEnv::new(scenario(), opts.clone(), n).unwrap();
+    let mut unbatched = EscapeVectorEnv::new(scenario(), opts.clone(), n).unwrap();
+    unbatched.set_batched(false);
+    let mut singles: Vec<EscapeEnv> = (0..n)
+        .map(|_| EscapeEnv::new(scenario(), opts.clone()).unwrap())
+        .collect();
+    let b0 = batched.reset(Some(7)).unwrap();
+    assert_eq!(b0, unbatched.reset(Some(7)).unwrap());
+    for (i, s) in singles.iter_mut().enumerate() {
+        assert_eq!(b0[i], s.reset(Some(7 + i as u64)).unwrap());
+    }
+    let mut pending = vec![false; n];
+    let mut resets = 0;
+    for t in 0..40 {
+        let actions: Vec<Action> = (0..n).map(|i| Action::Discrete((((t * 3 + i) % 5) % 3) as _)).collect();
+        let got = batched.step(&actions).unwrap();
+        assert_eq!(
+            got,
+            unbatched.step(&actions).unwrap(),
+            "step {t}: batched and unbatched"
+        );
+        for i in 0..n {
+            let want = if pending[i] {
+                resets += 1;
+                let (obs, info) = singles[i].reset(None).unwrap();
+                StepResult {
+                    obs,
+                    reward: 0.0,
+                    terminated: false,
+                    truncated: false,
+                    info,
+                }
+            } else {
+                singles[i].step(actions[i]).unwrap()
+            };
+            pending[i] = want.terminated || want.truncated;
+            assert_eq!(got[i], want, "env {i} step {t}");
+        }
+    }
+    assert!(resets >= n, "every env auto-reset at least once ({resets})");
+    assert_eq!(batched.snapshot(), unbatched.snapshot());
+}
+
 /// A sweep of [`HEAD_ON`] over the miss distance: threats hit head-on or off-centre, and a near
 /// miss (no threat).
 const MISS_SWEEP: &str = "\n[sweep]\n\"world.projectiles.0.miss_distance_m\" = [0.0, 0.35, 1.5]\n";

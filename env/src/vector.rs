@@ -1,9 +1,14 @@
-//! [`EscapeVectorEnv`]: N environments stepped in parallel on Rust threads.
+//! [`EscapeVectorEnv`]: N environments stepped in lockstep, their N views rendered in one batch
+//! (one submission, one readback: `loomlab_sim::Sim::step_batch`), everything else (the
+//! detectors, rewards, resets) in parallel on Rust threads.
 
+use loomlab_sim::{Renderer, Sim, StepOutput};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::episode::combine_steps;
 use super::{Action, EnvError, EnvOptions, EnvScenario, EpisodeSnapshot, EscapeEnv, Observation, StepInfo, StepResult};
+use loomlab_agents::VelocityCommand;
 
 /// The state that reproduces a vector environment exactly (pickling in Python): each
 /// environment's [`EpisodeSnapshot`] and which of them reset on their next step.
@@ -19,12 +24,17 @@ pub struct VectorSnapshot {
 /// after an environment's episode ends (terminated or truncated), its next `step` ignores the action,
 /// resets it (continuing its seed stream) and returns the first observation with reward 0 and
 /// `terminated = truncated = false`. So the results equal those of N single environments driven
-/// the same way (Gymnasium's `SyncVectorEnv` in its default mode). The engine of the Python
-/// `loomlab.EscapeVectorEnv` (through the native class of the same name).
+/// the same way (Gymnasium's `SyncVectorEnv` in its default mode), frames included: each camera
+/// period renders the running environments' views in one batch, and a view's pixels do not
+/// depend on the batch. The engine of the Python `loomlab.EscapeVectorEnv` (through the native
+/// class of the same name).
 #[derive(Debug)]
 pub struct EscapeVectorEnv {
     envs: Vec<EscapeEnv>,
     autoreset: Vec<bool>,
+    /// Renders the environments' views of one period in one batch.
+    renderer: Renderer,
+    batched: bool,
 }
 
 impl EscapeVectorEnv {
@@ -37,10 +47,21 @@ impl EscapeVectorEnv {
         let envs = (0..num_envs)
             .map(|_| EscapeEnv::with_context(scenario.clone(), options.clone(), ctx.clone()))
             .collect::<Result<Vec<_>, _>>()?;
+        let renderer = Renderer::with_context(ctx, envs[0].frame_size())?;
         Ok(Self {
             autoreset: vec![false; num_envs],
             envs,
+            renderer,
+            batched: true,
         })
+    }
+
+    /// Whether [`step`](Self::step) renders the environments' views in one batch per camera
+    /// period (the default) or each environment renders its own, one submission per view (the
+    /// path before batching, kept for comparison: `env/examples/vector_bench.rs`). The results are
+    /// the same either way.
+    pub fn set_batched(&mut self, batched: bool) {
+        self.batched = batched;
     }
 
     /// Number of environments.
@@ -103,31 +124,114 @@ impl EscapeVectorEnv {
                 env.command_for(a).map_err(|e| e.in_env(i))?;
             }
         }
-        let results = self
-            .envs
-            .par_iter_mut()
-            .zip(actions.par_iter())
-            .zip(self.autoreset.par_iter())
-            .enumerate()
-            .map(|(i, ((env, &a), &auto))| {
-                if auto {
-                    let (obs, info) = env.reset(None).map_err(|e| e.in_env(i))?;
-                    Ok(StepResult {
-                        obs,
-                        reward: 0.0,
-                        terminated: false,
-                        truncated: false,
-                        info,
-                    })
-                } else {
-                    env.step(a).map_err(|e| e.in_env(i))
-                }
-            })
-            .collect::<Result<Vec<_>, EnvError>>()?;
+        let results = if self.batched {
+            self.step_batched(actions)?
+        } else {
+            self.envs
+                .par_iter_mut()
+                .zip(actions.par_iter())
+                .zip(self.autoreset.par_iter())
+                .enumerate()
+                .map(|(i, ((env, &a), &auto))| {
+                    if auto {
+                        reset_result(env, i)
+                    } else {
+                        env.step(a).map_err(|e| e.in_env(i))
+                    }
+                })
+                .collect::<Result<Vec<_>, EnvError>>()?
+        };
         for (auto, r) in self.autoreset.iter_mut().zip(&results) {
             *auto = r.terminated || r.truncated;
         }
         Ok(results)
+    }
+
+    /// [`step`](Self::step) with the camera periods of all environments in lockstep: period p
+    /// steps every environment whose step lasts more than p periods (action repeat, dodge hold)
+    /// and whose episode has not ended, all their views rendered in one batch; the detectors and
+    /// the rest of each period run in parallel. Environments that auto-reset do so in parallel
+    /// first. Each environment goes through exactly the calls of [`EscapeEnv::step`].
+    fn step_batched(&mut self, actions: &[Action]) -> Result<Vec<StepResult>, EnvError> {
+        let n = self.envs.len();
+        let mut results: Vec<Option<StepResult>> = self
+            .envs
+            .par_iter_mut()
+            .zip(self.autoreset.par_iter())
+            .enumerate()
+            .map(|(i, (env, &auto))| auto.then(|| reset_result(env, i)).transpose())
+            .collect::<Result<Vec<_>, EnvError>>()?;
+        let holds: Vec<u32> = self.envs.iter().zip(actions).map(|(e, &a)| e.hold_for(a)).collect();
+        let max_hold = holds.iter().copied().max().unwrap_or(1).max(1);
+        for period in 0..max_hold {
+            // who steps this period, and the commands (validated, bookkept) before anything moves
+            let mut pending: Vec<Option<(VelocityCommand, VelocityCommand)>> = vec![None; n];
+            for (i, env) in self.envs.iter_mut().enumerate() {
+                // an environment that auto-reset this step takes no period
+                let going = !self.autoreset[i]
+                    && (period == 0
+                        || (period < holds[i] && results[i].as_ref().is_some_and(|r| !r.terminated && !r.truncated)));
+                if going {
+                    let command = env.command_for(actions[i]).map_err(|e| e.in_env(i))?;
+                    let cruise = env.begin_command(command).map_err(|e| e.in_env(i))?;
+                    pending[i] = Some((command, cruise));
+                }
+            }
+            let stepping: Vec<usize> = (0..n).filter(|&i| pending[i].is_some()).collect();
+            if stepping.is_empty() {
+                break;
+            }
+            let commands: Vec<loomlab_sim::Command> = stepping
+                .iter()
+                .filter_map(|&i| pending[i].map(|(c, _)| c.to_sim()))
+                .collect();
+            let outs = {
+                let mut sims: Vec<&mut Sim> = self
+                    .envs
+                    .iter_mut()
+                    .zip(&pending)
+                    .filter(|(_, p)| p.is_some())
+                    .filter_map(|(env, _)| env.sim_mut())
+                    .collect();
+                if sims.len() != stepping.len() {
+                    return Err(EnvError::State("step() called before reset(); call reset() first"));
+                }
+                Sim::step_batch(&mut sims, &commands, &mut self.renderer)?
+            };
+            let mut outs: Vec<Option<StepOutput>> = {
+                let mut it = outs.into_iter();
+                pending.iter().map(|p| p.and_then(|_| it.next())).collect()
+            };
+            let finished: Vec<Option<StepResult>> = self
+                .envs
+                .par_iter_mut()
+                .zip(pending.par_iter())
+                .zip(outs.par_iter_mut())
+                .enumerate()
+                .map(|(i, ((env, p), out))| match (p, out.take()) {
+                    (Some((command, cruise)), Some(out)) => env
+                        .finish_command(*command, *cruise, out)
+                        .map(Some)
+                        .map_err(|e| e.in_env(i)),
+                    _ => Ok(None),
+                })
+                .collect::<Result<Vec<_>, EnvError>>()?;
+            for (i, next) in finished.into_iter().enumerate() {
+                let Some(next) = next else { continue };
+                results[i] = Some(match results[i].take() {
+                    Some(r) if period > 0 => combine_steps(r, next),
+                    _ => {
+                        self.envs[i].record_action(actions[i]);
+                        next
+                    }
+                });
+            }
+        }
+        results
+            .into_iter()
+            .enumerate()
+            .map(|(i, r)| r.ok_or_else(|| EnvError::State("an environment took no step").in_env(i)))
+            .collect()
     }
 
     /// Resets the environments `indices` now (each continues its seed stream) and clears their
@@ -181,4 +285,16 @@ impl EscapeVectorEnv {
         self.autoreset.clone_from(&snapshot.autoreset);
         Ok(out)
     }
+}
+
+/// The result of an auto-reset step: the first observation, reward 0, not done.
+fn reset_result(env: &mut EscapeEnv, i: usize) -> Result<StepResult, EnvError> {
+    let (obs, info) = env.reset(None).map_err(|e| e.in_env(i))?;
+    Ok(StepResult {
+        obs,
+        reward: 0.0,
+        terminated: false,
+        truncated: false,
+        info,
+    })
 }

@@ -21,10 +21,12 @@
 //!    - one that first alarms at or after the contact frame collides;
 //!    - otherwise a detector's tail rebuilds the world without rendering, replays physics up to
 //!      the alarm frame while feeding a fresh [`EscapeAgent`] the cached open-loop frames (so its
-//!      state is exactly the open-loop state), attaches a renderer and continues with rendering,
-//!      the agent driving the robot until the first contact (**collision**) or the end of the
-//!      episode (**evaded**). Re-triggers (the controller is level-triggered after its cooldown)
-//!      are simulated.
+//!      state is exactly the open-loop state), then continues with rendering, the agent driving
+//!      the robot until the first contact (**collision**) or the end of the episode (**evaded**).
+//!      Re-triggers (the controller is level-triggered after its cooldown) are simulated. The
+//!      rendered parts of an episode's tails run in lockstep: each frame index renders the views
+//!      of every tail still running in one batch ([`Sim::step_batch`]; each view bit-identical to
+//!      rendering it alone, so the results are those of running the tails one by one).
 //!
 //!    The reference rows ([`crate::reference`], on by default, [`Runner::with_references`]) are
 //!    scored by the same code: `null` never alarms; `oracle`'s closed loop is the deadline replay
@@ -37,9 +39,13 @@
 //!    the looming side is the x centroid of the temporal contrast |frame(t) − frame(t−1)|
 //!    ([`loomlab_agents::LoomingSideEstimator`]); the controller latches it at the trigger.
 //!
-//! # Parallelism
+//! # Parallelism and batching
 //! Episodes run on a rayon pool of `jobs` workers sharing one [`GpuContext`]; renderers are kept in
 //! a pool and reused across episodes (at most one per worker and frame size is ever created).
+//! Within an episode, frames are rendered in batches (one submission and readback for many views):
+//! the open-loop pass, whose cruise commands do not depend on the frames, steps physics up to
+//! 16 frames ahead and renders their captured views ([`Sim::capture_view`]) together, and the
+//! detectors' tails run in lockstep (above).
 //! Results are handed to a callback as episodes finish (for `episodes.csv` and the progress bar)
 //! and returned in suite order; the run is deterministic whatever the number of workers.
 
@@ -63,6 +69,9 @@ use crate::reference::{
 };
 use crate::schema::{DetectorSpec, EpisodeSpec};
 use crate::truth::{Impact, TruthRecorder};
+
+/// Open-loop steps whose views are rendered in one batch (one submission and readback).
+const OPEN_LOOP_BATCH: usize = 16;
 
 /// Renderers kept between episodes, one per frame size and worker at most.
 #[derive(Default)]
@@ -329,8 +338,12 @@ impl Runner {
         let nd = ep.detectors.len();
 
         // ---- open-loop pass: render once, every detector on the same frames ----
-        let renderer = self.renderers.take(&self.ctx, n).map_err(|e| c.sim(e))?;
-        let mut sim = Sim::with_renderer(&ep.world, ep.seed, renderer).map_err(|e| c.sim(e))?;
+        // The cruise command does not depend on the frames, so physics runs ahead by up to
+        // OPEN_LOOP_BATCH steps, capturing each step's view, and the views are rendered in one
+        // batch (bit-identical to rendering each at its step), then handed to the detectors in
+        // order. Steps past the first collision are never rendered.
+        let mut renderer = self.renderers.take(&self.ctx, n).map_err(|e| c.sim(e))?;
+        let mut sim = Sim::new_physics_only(&ep.world, ep.seed).map_err(|e| c.sim(e))?;
         let objects = sim.objects();
         let mut detectors: Vec<Box<dyn Detector>> = Vec::with_capacity(nd);
         for d in &ep.detectors {
@@ -345,36 +358,56 @@ impl Runner {
         let mut truth: Vec<Vec<ObjectTruth>> = Vec::with_capacity(total);
         let mut recorder = TruthRecorder::new(&sim);
         let open = (|| -> Result<(), RunError> {
-            for _ in 0..total {
+            let mut steps = 0;
+            let mut ahead = Vec::with_capacity(OPEN_LOOP_BATCH);
+            let mut pixels: Vec<Vec<f32>> = Vec::with_capacity(OPEN_LOOP_BATCH);
+            'pass: while steps < total {
                 if self.cancelled() {
                     return Err(RunError::Interrupted);
                 }
-                let cmd = ep.cruise.command_at(sim.time());
-                let mut out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
-                let frame = Frame::from_f32(nn, std::mem::take(&mut out.frame)).map_err(|e| c.det(e))?;
-                // the efference copy: the command applied during this period and the camera's
-                // motion and pose, as the escape agent passes it in the closed loop (the same up to
-                // the first alarm)
-                let ego = ego_sensor.sense(cmd, out.t_s, &sim.camera_pose());
-                for (i, (d, spec)) in detectors.iter_mut().zip(&ep.detectors).enumerate() {
-                    let s = d.step_moving(&frame, &ego).map_err(|e| c.det(e))?;
-                    signal[i].push(spec.trigger.value(&s).unwrap_or(f64::NAN));
-                    output[i].push(s.output);
-                    regions[i].push(s.region);
+                ahead.clear();
+                while ahead.len() < OPEN_LOOP_BATCH && steps < total {
+                    let cmd = ep.cruise.command_at(sim.time());
+                    let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
+                    steps += 1;
+                    let collided = out.first_collision().is_some();
+                    ahead.push((cmd, out, sim.camera_pose(), sim.capture_view()));
+                    if collided {
+                        break;
+                    }
                 }
-                t_s.push(out.t_s);
-                frames.push(frame);
-                let contact = recorder.record(&out).is_some();
-                truth.push(out.truth);
-                if contact {
-                    break;
+                let descs: Vec<_> = ahead.iter().map(|a| a.3.desc()).collect();
+                pixels.resize_with(descs.len(), Vec::new);
+                renderer
+                    .render_batch(&descs, &mut pixels[..descs.len()])
+                    .map_err(|e| c.sim(e))?;
+                for ((cmd, mut out, camera_pose, _), px) in ahead.drain(..).zip(pixels.iter_mut()) {
+                    if self.cancelled() {
+                        return Err(RunError::Interrupted);
+                    }
+                    let frame = Frame::from_f32(nn, std::mem::take(px)).map_err(|e| c.det(e))?;
+                    // the efference copy: the command applied during this period and the camera's
+                    // motion and pose, as the escape agent passes it in the closed loop (the same
+                    // up to the first alarm)
+                    let ego = ego_sensor.sense(cmd, out.t_s, &camera_pose);
+                    for (i, (d, spec)) in detectors.iter_mut().zip(&ep.detectors).enumerate() {
+                        let s = d.step_moving(&frame, &ego).map_err(|e| c.det(e))?;
+                        signal[i].push(spec.trigger.value(&s).unwrap_or(f64::NAN));
+                        output[i].push(s.output);
+                        regions[i].push(s.region);
+                    }
+                    t_s.push(out.t_s);
+                    frames.push(frame);
+                    let contact = recorder.record(&out).is_some();
+                    truth.push(std::mem::take(&mut out.truth));
+                    if contact {
+                        break 'pass;
+                    }
                 }
             }
             Ok(())
         })();
-        if let Some(r) = sim.into_renderer() {
-            self.renderers.give_back(r);
-        }
+        self.renderers.give_back(renderer);
         open?;
         let mut frames_rendered = frames.len();
 
@@ -453,9 +486,31 @@ impl Runner {
             let threat_object = episode_truth.contact.as_ref().map(|c| c.object_id);
             rows.extend(reference_rows(ep, &truth, &t_s, deadline.as_ref(), threat_object));
         }
+        let first_alarms: Vec<Option<usize>> = rows
+            .iter()
+            .map(|row| row.signal.iter().position(|&s| s >= row.threshold))
+            .collect();
+        // the detectors' post-alarm tails, stepped in lockstep (one render batch per frame)
+        let tail_jobs: Vec<(usize, &DetectorSpec, usize)> = rows
+            .iter()
+            .zip(&first_alarms)
+            .enumerate()
+            .filter_map(|(r, (row, &alarm))| match (&row.tail, alarm) {
+                (Tail::Detector(spec), Some(ka)) if contact_frame.is_none_or(|kc| ka < kc) => Some((r, *spec, ka)),
+                _ => None,
+            })
+            .collect();
+        let tail_runs = self.closed_loop_tails(&c, &tail_jobs, &frames)?;
+        let mut tail_runs: Vec<Option<ClosedLoop>> = {
+            let mut by_row: Vec<Option<ClosedLoop>> = (0..rows.len()).map(|_| None).collect();
+            for ((r, _, _), cl) in tail_jobs.iter().zip(tail_runs) {
+                by_row[*r] = Some(cl);
+            }
+            by_row
+        };
         let mut scored: Vec<DetectorEpisode> = Vec::with_capacity(rows.len());
         let mut closed = Vec::with_capacity(rows.len());
-        for row in &rows {
+        for (r, row) in rows.iter().enumerate() {
             // a row that names its objects is scored on its alarms about the threat
             let scored_signal = row.about_threat.as_ref().unwrap_or(&row.signal);
             let samples: Vec<TraceSample> = (0..t_s.len())
@@ -472,7 +527,7 @@ impl Runner {
                     episode: ep.index,
                     source,
                 })?;
-            let first_alarm = row.signal.iter().position(|&s| s >= row.threshold);
+            let first_alarm = first_alarms[r];
             let first_alarm_about_threat = scored_signal.iter().position(|&s| s >= row.threshold);
             let cl = match (first_alarm, contact_frame) {
                 (None, _) => ClosedLoop {
@@ -498,7 +553,7 @@ impl Runner {
                         frames_rendered: 0,
                     },
                     Tail::Ideal(kind) => ideal_tail(&c, &row.label, *kind, &truth, ka)?,
-                    Tail::Detector(spec) => self.closed_loop_tail(&c, spec, &frames, ka)?,
+                    Tail::Detector(_) => tail_runs[r].take().ok_or(RunError::Interrupted)?,
                 },
             };
             frames_rendered += cl.frames_rendered;
@@ -568,76 +623,124 @@ impl Runner {
         })
     }
 
-    /// Closed loop of one detector whose first alarm is open-loop frame `ka` (before any
-    /// contact): a physics-only replay to the alarm frame with the agent on the cached frames,
-    /// then rendering with the agent in the loop (see the module docs).
-    fn closed_loop_tail(
+    /// Closed loops of the detectors `jobs` = (row, spec, first alarm `ka`), each alarm before
+    /// any contact: each a physics-only replay to its alarm frame with its agent on the cached
+    /// frames, then rendering with the agent in the loop (see the module docs). The rendered parts
+    /// run in lockstep: every frame index renders the views of all tails still running in one
+    /// batch (each view bit-identical to rendering it alone), so the tails' results are those of
+    /// running them one after the other. Returns one [`ClosedLoop`] per job, in order.
+    fn closed_loop_tails(
         &self,
         c: &Ctx<'_>,
-        spec: &DetectorSpec,
+        jobs: &[(usize, &DetectorSpec, usize)],
         frames: &[Frame],
-        ka: usize,
-    ) -> Result<ClosedLoop, RunError> {
+    ) -> Result<Vec<ClosedLoop>, RunError> {
+        struct TailRun {
+            sim: Sim,
+            agent: EscapeAgent,
+            cmd: VelocityCommand,
+            collision: Option<Impact>,
+            rendered: usize,
+            done: bool,
+        }
+        if jobs.is_empty() {
+            return Ok(Vec::new());
+        }
         let ep = c.ep;
         let n = ep.world.camera.n;
         let nn = n as usize;
         let total = ep.frames();
-        let mut sim = Sim::new_physics_only(&ep.world, ep.seed).map_err(|e| c.sim(e))?;
-        sim.set_ground_truth(false);
-        let detector = spec.build(nn).map_err(|e| c.det(e))?;
-        let mut agent = EscapeAgent::new(vec![detector], spec.controller(&ep.controller)).map_err(|source| {
-            RunError::Controller {
-                scenario: ep.scenario.clone(),
-                episode: ep.index,
-                source,
-            }
-        })?;
-        // Replay up to and including the alarm frame: physics only, the agent on the cached frames.
-        let mut cmd = ep.cruise.command_at(0.0);
-        for frame in &frames[..=ka] {
-            let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
-            cmd = agent
-                .step_posed(out.t_s, frame, ep.cruise.command_at(out.t_s), Some(&sim.camera_pose()))
-                .map_err(|e| c.det(e))?
-                .command;
-        }
-        // Continue with rendering, the agent in the loop.
-        let renderer = self.renderers.take(&self.ctx, n).map_err(|e| c.sim(e))?;
-        if let Err(e) = sim.attach_renderer(renderer) {
-            return Err(c.sim(e));
-        }
-        let mut collision = None;
-        let mut rendered = 0;
-        let tail = (|| -> Result<(), RunError> {
-            for _ in ka + 1..total {
-                if self.cancelled() {
-                    return Err(RunError::Interrupted);
+        let mut runs = Vec::with_capacity(jobs.len());
+        for &(_, spec, ka) in jobs {
+            let mut sim = Sim::new_physics_only(&ep.world, ep.seed).map_err(|e| c.sim(e))?;
+            sim.set_ground_truth(false);
+            let detector = spec.build(nn).map_err(|e| c.det(e))?;
+            let mut agent = EscapeAgent::new(vec![detector], spec.controller(&ep.controller)).map_err(|source| {
+                RunError::Controller {
+                    scenario: ep.scenario.clone(),
+                    episode: ep.index,
+                    source,
                 }
-                let mut out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
-                rendered += 1;
-                if let Some(ct) = out.first_collision() {
-                    collision = Some(Impact::from(ct));
-                    break;
-                }
-                let frame = Frame::from_f32(nn, std::mem::take(&mut out.frame)).map_err(|e| c.det(e))?;
+            })?;
+            // Replay up to and including the alarm frame: physics only, the agent on the cached frames.
+            let mut cmd = ep.cruise.command_at(0.0);
+            for frame in &frames[..=ka] {
+                let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
                 cmd = agent
-                    .step_posed(out.t_s, &frame, ep.cruise.command_at(out.t_s), Some(&sim.camera_pose()))
+                    .step_posed(out.t_s, frame, ep.cruise.command_at(out.t_s), Some(&sim.camera_pose()))
                     .map_err(|e| c.det(e))?
                     .command;
             }
+            runs.push(TailRun {
+                sim,
+                agent,
+                cmd,
+                collision: None,
+                rendered: 0,
+                done: false,
+            });
+        }
+        // Continue with rendering, the agents in the loop: frame k of every tail whose alarm came
+        // before it, in one batch.
+        let mut renderer = self.renderers.take(&self.ctx, n).map_err(|e| c.sim(e))?;
+        let first = jobs.iter().map(|j| j.2).min().unwrap_or(0);
+        let tails = (|| -> Result<(), RunError> {
+            for k in first + 1..total {
+                if self.cancelled() {
+                    return Err(RunError::Interrupted);
+                }
+                let mut active: Vec<&mut TailRun> = runs
+                    .iter_mut()
+                    .zip(jobs)
+                    .filter(|(run, job)| !run.done && job.2 < k)
+                    .map(|(run, _)| run)
+                    .collect();
+                if active.is_empty() {
+                    if runs.iter().all(|r| r.done) {
+                        break;
+                    }
+                    continue;
+                }
+                let commands: Vec<loomlab_sim::Command> = active.iter().map(|r| r.cmd.to_sim()).collect();
+                let outs = {
+                    let mut sims: Vec<&mut Sim> = active.iter_mut().map(|r| &mut r.sim).collect();
+                    Sim::step_batch(&mut sims, &commands, &mut renderer).map_err(|e| c.sim(e))?
+                };
+                for (run, mut out) in active.into_iter().zip(outs) {
+                    run.rendered += 1;
+                    if let Some(ct) = out.first_collision() {
+                        run.collision = Some(Impact::from(ct));
+                        run.done = true;
+                        continue;
+                    }
+                    let frame = Frame::from_f32(nn, std::mem::take(&mut out.frame)).map_err(|e| c.det(e))?;
+                    run.cmd = run
+                        .agent
+                        .step_posed(
+                            out.t_s,
+                            &frame,
+                            ep.cruise.command_at(out.t_s),
+                            Some(&run.sim.camera_pose()),
+                        )
+                        .map_err(|e| c.det(e))?
+                        .command;
+                }
+            }
             Ok(())
         })();
-        if let Some(r) = sim.take_renderer() {
-            self.renderers.give_back(r);
-        }
-        tail?;
-        Ok(ClosedLoop {
-            label: spec.label.clone(),
-            simulated: true,
-            triggers: agent.controller().triggers(),
-            collision,
-            frames_rendered: rendered,
-        })
+        self.renderers.give_back(renderer);
+        tails?;
+        Ok(runs
+            .into_iter()
+            .zip(jobs)
+            .map(|(run, (_, spec, _))| ClosedLoop {
+                label: spec.label.clone(),
+                simulated: true,
+                triggers: run.agent.controller().triggers(),
+                collision: run.collision,
+                frames_rendered: run.rendered,
+            })
+            .collect())
     }
 }
 

@@ -135,6 +135,43 @@ pub struct Sim {
     ground_truth: bool,
 }
 
+/// The robot's view at one moment, captured to be rendered later ([`Sim::capture_view`]): several
+/// frames of one open-loop pass can then be rendered in one batch ([`Renderer::render_batch`] of
+/// their [`CapturedView::desc`]), each frame bit-identical to the one [`Sim::step`] would have
+/// rendered then.
+#[derive(Clone, Debug)]
+pub struct CapturedView {
+    camera_position: DVec3,
+    camera_rotation: crate::glam::DQuat,
+    fov_rad: f64,
+    near_m: f32,
+    sky: f32,
+    ground: Option<crate::texture::ResolvedTexture>,
+    t_s: f64,
+    instances: Vec<RenderInstance>,
+}
+
+impl CapturedView {
+    /// The frame description to render.
+    pub fn desc(&self) -> FrameDesc<'_> {
+        FrameDesc {
+            camera_position: self.camera_position,
+            camera_rotation: self.camera_rotation,
+            fov_rad: self.fov_rad,
+            near_m: self.near_m,
+            sky: self.sky,
+            ground: self.ground.as_ref(),
+            t_s: self.t_s,
+            instances: &self.instances,
+        }
+    }
+
+    /// Simulation time of the view (s).
+    pub fn t_s(&self) -> f64 {
+        self.t_s
+    }
+}
+
 impl std::fmt::Debug for Sim {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Sim")
@@ -357,6 +394,79 @@ impl Sim {
     /// acceleration limits), except at the first step: an episode starts in steady state, the robot
     /// already moving with its first command (clamped to its speed limits).
     pub fn step(&mut self, command: &Command) -> Result<StepOutput, SimError> {
+        let new_contacts = self.advance(command)?;
+        self.render_current()?;
+        Ok(self.output(new_contacts))
+    }
+
+    /// Steps every simulator `sims[i]` by one camera period under `commands[i]` (as [`Sim::step`]
+    /// does) and renders all their new views with `renderer` in one batch: one submission and one
+    /// readback ([`Renderer::render_batch`]) instead of one per simulator. The outputs equal what
+    /// [`Sim::step`] of each would give, frames included (bit-identical: each view is rendered
+    /// exactly as it would be alone); the simulators' own renderers, if any, are not used. Every
+    /// command is validated and every simulator's frame size checked against the renderer's before
+    /// anything moves.
+    pub fn step_batch(
+        sims: &mut [&mut Sim],
+        commands: &[Command],
+        renderer: &mut Renderer,
+    ) -> Result<Vec<StepOutput>, SimError> {
+        if commands.len() != sims.len() {
+            return Err(SimError::invalid(
+                "step_batch commands",
+                commands.len(),
+                format!("must be one per simulator ({} simulators)", sims.len()),
+            ));
+        }
+        Self::check_batch(sims, renderer)?;
+        for c in commands {
+            c.validate()?;
+        }
+        let mut contacts = Vec::with_capacity(sims.len());
+        for (sim, command) in sims.iter_mut().zip(commands) {
+            contacts.push(sim.advance(command)?);
+        }
+        Self::render_views(sims, renderer)?;
+        Ok(sims.iter().zip(contacts).map(|(sim, c)| sim.output(c)).collect())
+    }
+
+    /// [`Sim::observe`] of every simulator, their views rendered in one batch (see
+    /// [`Sim::step_batch`]).
+    pub fn observe_batch(sims: &mut [&mut Sim], renderer: &mut Renderer) -> Result<Vec<StepOutput>, SimError> {
+        Self::check_batch(sims, renderer)?;
+        Self::render_views(sims, renderer)?;
+        Ok(sims.iter().map(|sim| sim.observation()).collect())
+    }
+
+    fn check_batch(sims: &[&mut Sim], renderer: &Renderer) -> Result<(), SimError> {
+        match sims.iter().find(|s| s.world.camera.n != renderer.n()) {
+            Some(s) => Err(SimError::SizeMismatch {
+                renderer_n: renderer.n(),
+                world_n: s.world.camera.n,
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// Renders the current views of `sims` in one batch into their frames.
+    fn render_views(sims: &mut [&mut Sim], renderer: &mut Renderer) -> Result<(), SimError> {
+        for sim in sims.iter_mut() {
+            sim.prepare_instances();
+        }
+        let mut outs: Vec<Vec<f32>> = sims.iter_mut().map(|s| std::mem::take(&mut s.frame)).collect();
+        let result = {
+            let descs: Vec<FrameDesc<'_>> = sims.iter().map(|s| s.frame_desc()).collect();
+            renderer.render_batch(&descs, &mut outs)
+        };
+        for (sim, out) in sims.iter_mut().zip(outs) {
+            sim.frame = out;
+        }
+        result
+    }
+
+    /// Advances the world one camera period under `command` (physics and contacts, no rendering);
+    /// returns the contacts that started.
+    fn advance(&mut self, command: &Command) -> Result<Vec<Contact>, SimError> {
         command.validate()?;
         self.command = *command;
         let mut new_contacts = match self.world.physics {
@@ -365,8 +475,12 @@ impl Sim {
         };
         new_contacts.sort_by(|a, b| a.t_s.total_cmp(&b.t_s).then(a.object_id.cmp(&b.object_id)));
         self.contacts.extend(new_contacts.iter().cloned());
-        self.render_current()?;
-        Ok(StepOutput {
+        Ok(new_contacts)
+    }
+
+    /// The output of a step that found `new_contacts`, with the current frame.
+    fn output(&self, new_contacts: Vec<Contact>) -> StepOutput {
+        StepOutput {
             t_s: self.t,
             frame_index: self.step_index,
             n: self.world.camera.n,
@@ -378,7 +492,7 @@ impl Sim {
             },
             contacts: new_contacts,
             robot: self.robot_state(),
-        })
+        }
     }
 
     /// The end time of substep `s` (1-based) of the current step.
@@ -652,7 +766,12 @@ impl Sim {
     /// Renders and reports the current state without advancing time (e.g. the frame at t = 0).
     pub fn observe(&mut self) -> Result<StepOutput, SimError> {
         self.render_current()?;
-        Ok(StepOutput {
+        Ok(self.observation())
+    }
+
+    /// What [`Sim::observe`] reports, with the current frame.
+    fn observation(&self) -> StepOutput {
+        StepOutput {
             t_s: self.t,
             frame_index: self.step_index,
             n: self.world.camera.n,
@@ -660,16 +779,12 @@ impl Sim {
             truth: self.truth(&self.robot_velocity.as_command()),
             contacts: Vec::new(),
             robot: self.robot_state(),
-        })
+        }
     }
 
-    fn render_current(&mut self) -> Result<(), SimError> {
-        if self.renderer.is_none() {
-            self.frame.clear();
-            return Ok(());
-        }
-        let t = self.t;
-        let cam = self.world.camera.pose(&self.robot_pose, t);
+    /// Fills `instances` with the parts to draw now, relative to the camera.
+    fn prepare_instances(&mut self) {
+        let cam = self.world.camera.pose(&self.robot_pose, self.t);
         let mut instances = std::mem::take(&mut self.instances);
         instances.clear();
         for o in &self.objects {
@@ -684,19 +799,51 @@ impl Sim {
                 });
             }
         }
-        let frame = FrameDesc {
+        self.instances = instances;
+    }
+
+    /// Captures the current view (what [`Sim::observe`] would render now) to render it later,
+    /// e.g. in a batch with other moments of the same episode. Works without a renderer.
+    pub fn capture_view(&mut self) -> CapturedView {
+        self.prepare_instances();
+        let d = self.frame_desc();
+        CapturedView {
+            camera_position: d.camera_position,
+            camera_rotation: d.camera_rotation,
+            fov_rad: d.fov_rad,
+            near_m: d.near_m,
+            sky: d.sky,
+            ground: d.ground.copied(),
+            t_s: d.t_s,
+            instances: d.instances.to_vec(),
+        }
+    }
+
+    /// The view now (after [`Self::prepare_instances`]).
+    fn frame_desc(&self) -> FrameDesc<'_> {
+        let cam = self.world.camera.pose(&self.robot_pose, self.t);
+        FrameDesc {
             camera_position: cam.position,
             camera_rotation: cam.rotation,
             fov_rad: self.world.camera.fov_rad,
             near_m: self.world.camera.near_m,
             sky: self.world.sky,
             ground: self.world.ground.as_ref(),
-            t_s: t,
-            instances: &instances,
+            t_s: self.t,
+            instances: &self.instances,
+        }
+    }
+
+    fn render_current(&mut self) -> Result<(), SimError> {
+        let Some(mut renderer) = self.renderer.take() else {
+            self.frame.clear();
+            return Ok(());
         };
-        let renderer = self.renderer.as_mut().expect("checked above");
-        let result = renderer.render(&frame, &mut self.frame);
-        self.instances = instances;
+        self.prepare_instances();
+        let mut frame = std::mem::take(&mut self.frame);
+        let result = renderer.render(&self.frame_desc(), &mut frame);
+        self.frame = frame;
+        self.renderer = Some(renderer);
         result
     }
 

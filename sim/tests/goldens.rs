@@ -16,7 +16,7 @@ const MAX_FRACTION_OVER: f32 = 0.02;
 /// Largest mean absolute difference.
 const MAX_MEAN_ABS: f32 = 0.01;
 
-const TEXTURES: &str = r#"
+pub(crate) const TEXTURES: &str = r#"
 [world]
 sky_luminance = 0.9
 ground = { texture = { kind = "checker", size_m = 0.5, dark = 0.25, light = 0.45 } }
@@ -67,7 +67,7 @@ stop_at_ground = false
 texture = { kind = "noise", cell_m = 0.04, dark = 0.0, light = 1.0, seed = 9 }
 "#;
 
-const STREET: &str = r#"
+pub(crate) const STREET: &str = r#"
 [world]
 sky_luminance = 0.75
 camera = { n = 128, fov_deg = 60.0, pitch_deg = 2.0 }
@@ -139,7 +139,7 @@ fn check_golden(name: &str, desc: &WorldDesc, steps: u32, command: Command) {
     );
 }
 
-fn parse(src: &str) -> WorldDesc {
+pub(crate) fn parse(src: &str) -> WorldDesc {
     #[derive(serde::Deserialize)]
     #[serde(deny_unknown_fields)]
     struct File {

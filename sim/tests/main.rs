@@ -1,5 +1,6 @@
 //! Integration tests of the simulator: one test binary, one module per concern (`no_adapter` sets a process-wide variable and keeps a binary of its own).
 
+mod batch;
 mod bounds;
 mod common;
 mod contacts;

@@ -5,4 +5,4 @@ mod mesh;
 mod renderer;
 
 pub use gpu::{ADAPTER_ENV, GpuContext};
-pub use renderer::{FrameDesc, RenderInstance, RenderTimings, Renderer, frame_to_u8, padded_bytes_per_row};
+pub use renderer::{FrameDesc, MAX_BATCH, RenderInstance, RenderTimings, Renderer, frame_to_u8, padded_bytes_per_row};

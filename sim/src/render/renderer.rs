@@ -1,6 +1,10 @@
-//! Offscreen renderer: one depth-tested render pass into an n × n `R32Float` target, one copy into a
-//! row-padded readback buffer, one map. All GPU resources are created once and reused every frame; only
-//! the instance buffer grows when a world has more parts than any before it.
+//! Offscreen renderer: one depth-tested render pass per view into one layer of an n × n × B
+//! `R32Float` array texture, one copy of all B layers into a row-padded readback buffer, one
+//! submission and one map per batch ([`Renderer::render_batch`]; [`Renderer::render`] is a batch of
+//! one). Every view is drawn exactly as it would be alone (its own pass, viewport, globals and
+//! instances), so a view's pixels do not depend on the batch it is in. All GPU resources are
+//! created once and reused; the array and the buffers grow when a batch is larger than any before
+//! it (up to what the device allows: larger batches are split into several submissions).
 
 use std::collections::HashMap;
 use std::ops::Range;
@@ -226,7 +230,12 @@ impl Pipelines {
     }
 }
 
-/// An offscreen renderer for n × n single-channel frames.
+/// The most views one submission renders (larger batches are split); the device's limits may allow
+/// fewer ([`Renderer::max_batch`]).
+pub const MAX_BATCH: u32 = 256;
+
+/// An offscreen renderer for n × n single-channel frames, one view or a batch of views per
+/// submission.
 ///
 /// Reusable across worlds with the same `n` ([`crate::Sim::with_renderer`], [`crate::Sim::into_renderer`]);
 /// the GPU device can be shared between renderers of different sizes ([`Renderer::with_context`]).
@@ -234,11 +243,18 @@ pub struct Renderer {
     ctx: Arc<GpuContext>,
     n: u32,
     padded_bpr: u32,
+    /// Views the target, the readback buffer and the globals buffer hold now.
+    layers: u32,
+    /// The most views one submission may render on this device.
+    max_layers: u32,
+    /// Bytes between two views' globals (the device's storage-buffer offset alignment).
+    globals_stride: u64,
     color: wgpu::Texture,
-    color_view: wgpu::TextureView,
+    layer_views: Vec<wgpu::TextureView>,
     depth_view: wgpu::TextureView,
     readback: wgpu::Buffer,
     globals: wgpu::Buffer,
+    bgl: wgpu::BindGroupLayout,
     bind_group: wgpu::BindGroup,
     mesh: wgpu::Buffer,
     cube: Range<u32>,
@@ -248,18 +264,24 @@ pub struct Renderer {
     capacity: usize,
     pipelines: Pipelines,
     scratch: Vec<InstanceRaw>,
+    globals_scratch: Vec<u8>,
     order: Vec<(Stage, u32, usize)>,
+    /// Per view: its draws `(stage, texture kind, first instance, count)` are `groups[range]`.
     groups: Vec<(Stage, u32, u32, u32)>,
+    view_groups: Vec<(Range<usize>, u32)>,
     map_state: Arc<AtomicU8>,
     timings: RenderTimings,
 }
 
-/// Cumulative wall-clock time spent in the phases of [`Renderer::render`] (for profiling).
+/// Cumulative wall-clock time spent in the phases of [`Renderer::render`] and
+/// [`Renderer::render_batch`] (for profiling; a batch's times count once, its views as `frames`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RenderTimings {
-    /// Frames rendered.
+    /// Frames (views) rendered.
     pub frames: u64,
-    /// Building instance data, uploading it and encoding the pass and copy (s).
+    /// Submissions (batches, or parts of a batch larger than [`Renderer::max_batch`]).
+    pub submissions: u64,
+    /// Building instance data, uploading it and encoding the passes and copy (s).
     pub encode_s: f64,
     /// `queue.submit` (s).
     pub submit_s: f64,
@@ -276,6 +298,15 @@ impl std::fmt::Debug for Renderer {
             .field("adapter", &self.ctx.adapter_info.name)
             .finish()
     }
+}
+
+/// The GPU resources whose size depends on the number of views per submission.
+struct LayerResources {
+    color: wgpu::Texture,
+    layer_views: Vec<wgpu::TextureView>,
+    readback: wgpu::Buffer,
+    globals: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
 }
 
 impl Renderer {
@@ -298,43 +329,40 @@ impl Renderer {
             ));
         }
         let device = &ctx.device;
-        let size = wgpu::Extent3d {
-            width: n,
-            height: n,
-            depth_or_array_layers: 1,
-        };
-        let color = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("luminance"),
-            size,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: COLOR_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
+        let limits = device.limits();
+        if n > limits.max_texture_dimension_2d {
+            return Err(SimError::invalid(
+                "world.camera.n",
+                n,
+                format!(
+                    "the GPU adapter allows frames of at most {0}×{0} pixels",
+                    limits.max_texture_dimension_2d
+                ),
+            ));
+        }
+        let padded_bpr = padded_bytes_per_row(n);
+        let view_bytes = u64::from(padded_bpr) * u64::from(n);
+        let align = u64::from(limits.min_storage_buffer_offset_alignment.max(1));
+        let globals_stride = (std::mem::size_of::<Globals>() as u64).div_ceil(align) * align;
+        // the views of one submission: array layers, readback bytes and globals within the limits
+        let max_layers = MAX_BATCH
+            .min(limits.max_texture_array_layers)
+            .min(u32::try_from(limits.max_buffer_size / view_bytes).unwrap_or(u32::MAX))
+            .min(u32::try_from(limits.max_buffer_size / globals_stride).unwrap_or(u32::MAX))
+            .max(1);
         let depth = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("depth"),
-            size,
+            size: wgpu::Extent3d {
+                width: n,
+                height: n,
+                depth_or_array_layers: 1,
+            },
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
             format: DEPTH_FORMAT,
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
             view_formats: &[],
-        });
-        let padded_bpr = padded_bytes_per_row(n);
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: u64::from(padded_bpr) * u64::from(n),
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
-        let globals = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("globals"),
-            size: std::mem::size_of::<Globals>() as u64,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
         });
         let bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("globals"),
@@ -343,20 +371,14 @@ impl Renderer {
                 visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
                 ty: wgpu::BindingType::Buffer {
                     ty: wgpu::BufferBindingType::Storage { read_only: true },
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
+                    has_dynamic_offset: true,
+                    min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<Globals>() as u64),
                 },
                 count: None,
             }],
         });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("globals"),
-            layout: &bgl,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: globals.as_entire_binding(),
-            }],
-        });
+        let layers = 1;
+        let res = Self::layer_resources(device, &bgl, n, padded_bpr, globals_stride, layers);
         let mut verts = mesh::cube();
         let cube = 0..verts.len() as u32;
         verts.extend(mesh::cylinder());
@@ -387,12 +409,16 @@ impl Renderer {
         Ok(Renderer {
             n,
             padded_bpr,
-            color_view: color.create_view(&wgpu::TextureViewDescriptor::default()),
-            color,
+            layers,
+            max_layers,
+            globals_stride,
+            color: res.color,
+            layer_views: res.layer_views,
             depth_view: depth.create_view(&wgpu::TextureViewDescriptor::default()),
-            readback,
-            globals,
-            bind_group,
+            readback: res.readback,
+            globals: res.globals,
+            bgl,
+            bind_group: res.bind_group,
             mesh: mesh_buf,
             cube,
             cylinder,
@@ -401,12 +427,102 @@ impl Renderer {
             capacity,
             pipelines,
             scratch: Vec::with_capacity(capacity),
+            globals_scratch: Vec::new(),
             order: Vec::with_capacity(capacity),
             groups: Vec::new(),
+            view_groups: Vec::new(),
             map_state: Arc::new(AtomicU8::new(0)),
             timings: RenderTimings::default(),
             ctx,
         })
+    }
+
+    fn layer_resources(
+        device: &wgpu::Device,
+        bgl: &wgpu::BindGroupLayout,
+        n: u32,
+        padded_bpr: u32,
+        globals_stride: u64,
+        layers: u32,
+    ) -> LayerResources {
+        let color = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("luminance"),
+            size: wgpu::Extent3d {
+                width: n,
+                height: n,
+                depth_or_array_layers: layers,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: COLOR_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let layer_views = (0..layers)
+            .map(|layer| {
+                color.create_view(&wgpu::TextureViewDescriptor {
+                    label: Some("luminance layer"),
+                    dimension: Some(wgpu::TextureViewDimension::D2),
+                    base_array_layer: layer,
+                    array_layer_count: Some(1),
+                    ..Default::default()
+                })
+            })
+            .collect();
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: u64::from(padded_bpr) * u64::from(n) * u64::from(layers),
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let globals = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("globals"),
+            size: globals_stride * u64::from(layers),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("globals"),
+            layout: bgl,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &globals,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(std::mem::size_of::<Globals>() as u64),
+                }),
+            }],
+        });
+        LayerResources {
+            color,
+            layer_views,
+            readback,
+            globals,
+            bind_group,
+        }
+    }
+
+    /// Grows the array target and its buffers to hold `views` views (at most `max_layers`).
+    fn ensure_layers(&mut self, views: u32) {
+        if views <= self.layers {
+            return;
+        }
+        let layers = views.next_power_of_two().min(self.max_layers).max(views);
+        let res = Self::layer_resources(
+            &self.ctx.device,
+            &self.bgl,
+            self.n,
+            self.padded_bpr,
+            self.globals_stride,
+            layers,
+        );
+        self.color = res.color;
+        self.layer_views = res.layer_views;
+        self.readback = res.readback;
+        self.globals = res.globals;
+        self.bind_group = res.bind_group;
+        self.layers = layers;
     }
 
     fn instance_buffer(device: &wgpu::Device, capacity: usize) -> wgpu::Buffer {
@@ -423,6 +539,13 @@ impl Renderer {
         self.n
     }
 
+    /// The most views one submission renders on this device ([`MAX_BATCH`], or fewer where the
+    /// device's texture-array or buffer limits require); [`Renderer::render_batch`] splits larger
+    /// batches.
+    pub fn max_batch(&self) -> usize {
+        self.max_layers as usize
+    }
+
     /// The GPU context (to create more renderers on the same device).
     pub fn context(&self) -> &Arc<GpuContext> {
         &self.ctx
@@ -434,10 +557,32 @@ impl Renderer {
     }
 
     /// Renders one frame and writes it to `out` (resized to n·n): luminance in [0, 1], row-major, row 0
-    /// at the top of the image.
+    /// at the top of the image. The same as a batch of one ([`Renderer::render_batch`]).
     pub fn render(&mut self, frame: &FrameDesc<'_>, out: &mut Vec<f32>) -> Result<(), SimError> {
-        let n = self.n as usize;
-        let t_start = std::time::Instant::now();
+        self.render_batch(std::slice::from_ref(frame), std::slice::from_mut(out))
+    }
+
+    /// Renders `frames[i]` into `outs[i]` for every i (each resized to n·n, as [`Renderer::render`]
+    /// writes it), all of them in one submission and one readback (or one per [`Self::max_batch`]
+    /// views). Each view's pixels are bit-identical to rendering it alone: every view has its own
+    /// render pass into its own layer, with the same pipelines, viewport and draws.
+    pub fn render_batch(&mut self, frames: &[FrameDesc<'_>], outs: &mut [Vec<f32>]) -> Result<(), SimError> {
+        if frames.len() != outs.len() {
+            return Err(SimError::invalid(
+                "render_batch outputs",
+                outs.len(),
+                format!("must be one per frame description ({} given)", frames.len()),
+            ));
+        }
+        let chunk = self.max_layers as usize;
+        for (frames, outs) in frames.chunks(chunk).zip(outs.chunks_mut(chunk)) {
+            self.render_chunk(frames, outs)?;
+        }
+        Ok(())
+    }
+
+    /// The globals of one view.
+    fn globals_for(&self, frame: &FrameDesc<'_>) -> Globals {
         // camera matrices (camera at the origin of the render frame)
         let fwd = (frame.camera_rotation * DVec3::X).as_vec3();
         let up = (frame.camera_rotation * DVec3::Z).as_vec3();
@@ -459,7 +604,7 @@ impl Renderer {
             }
             None => ([0.0; 4], [0.0; 4], 0, 0, 0.0),
         };
-        let globals = Globals {
+        Globals {
             view_proj: view_proj.to_cols_array_2d(),
             cam_fwd: [fwd.x, fwd.y, fwd.z, (frame.fov_rad / 2.0).tan() as f32],
             cam_right: [right.x, right.y, right.z, frame.near_m],
@@ -470,8 +615,12 @@ impl Renderer {
             ground_a,
             ground_b: [ground_b[0], ground_b[1], enabled, self.n as f32],
             ground_k: [gk, gs, 0, 0],
-        };
-        // instances grouped by (stage, texture kind): one specialised pipeline and one draw per group
+        }
+    }
+
+    /// Appends one view's instances to `scratch`, grouped by (stage, texture kind): one specialised
+    /// pipeline and one draw per group; records its groups in `view_groups` with its ground kind.
+    fn push_view(&mut self, frame: &FrameDesc<'_>) {
         self.order.clear();
         for (i, inst) in frame.instances.iter().enumerate() {
             let stage = match inst.prim {
@@ -482,8 +631,7 @@ impl Renderer {
             self.order.push((stage, inst.texture.kind as u32, i));
         }
         self.order.sort_unstable();
-        self.scratch.clear();
-        self.groups.clear();
+        let first_group = self.groups.len();
         for &(stage, kind, i) in &self.order {
             let inst = &frame.instances[i];
             let model = Mat4::from_rotation_translation(inst.rotation, inst.position);
@@ -496,13 +644,39 @@ impl Renderer {
                 tex_b,
                 kinds: [inst.prim as u32, tk, seed, 0],
             });
-            match self.groups.last_mut() {
+            match self.groups[first_group..].last_mut() {
                 Some(g) if g.0 == stage && g.1 == kind => g.3 += 1,
                 _ => self.groups.push((stage, kind, index, 1)),
             }
         }
         let ground_kind = frame.ground.map_or(TextureKind::Uniform as u32, |t| t.kind as u32);
-        self.pipelines.ensure(&self.ctx.device, Stage::Background, ground_kind);
+        self.view_groups.push((first_group..self.groups.len(), ground_kind));
+    }
+
+    /// One submission: at most `max_layers` views.
+    fn render_chunk(&mut self, frames: &[FrameDesc<'_>], outs: &mut [Vec<f32>]) -> Result<(), SimError> {
+        let n = self.n as usize;
+        let views = frames.len();
+        if views == 0 {
+            return Ok(());
+        }
+        let t_start = std::time::Instant::now();
+        self.ensure_layers(views as u32);
+        self.scratch.clear();
+        self.groups.clear();
+        self.view_groups.clear();
+        self.globals_scratch.clear();
+        let stride = self.globals_stride as usize;
+        for frame in frames {
+            let globals = self.globals_for(frame);
+            let at = self.globals_scratch.len();
+            self.globals_scratch.resize(at + stride, 0);
+            self.globals_scratch[at..at + std::mem::size_of::<Globals>()].copy_from_slice(bytemuck::bytes_of(&globals));
+            self.push_view(frame);
+        }
+        for &(_, ground_kind) in &self.view_groups {
+            self.pipelines.ensure(&self.ctx.device, Stage::Background, ground_kind);
+        }
         for &(stage, kind, _, _) in &self.groups {
             self.pipelines.ensure(&self.ctx.device, stage, kind);
         }
@@ -512,16 +686,17 @@ impl Renderer {
             self.capacity = self.scratch.len().next_power_of_two();
             self.instances = Self::instance_buffer(device, self.capacity);
         }
-        queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));
+        queue.write_buffer(&self.globals, 0, &self.globals_scratch);
         if !self.scratch.is_empty() {
             queue.write_buffer(&self.instances, 0, bytemuck::cast_slice(&self.scratch));
         }
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
-        {
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frames") });
+        for (v, frame) in frames.iter().enumerate() {
+            let (groups, ground_kind) = self.view_groups[v].clone();
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("frame"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &self.color_view,
+                    view: &self.layer_views[v],
                     depth_slice: None,
                     resolve_target: None,
                     ops: wgpu::Operations {
@@ -546,13 +721,15 @@ impl Renderer {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_bind_group(0, &self.bind_group, &[]);
+            // at most MAX_BATCH views of one stride (256 bytes on most devices): far below u32::MAX
+            let offset = (v as u64 * self.globals_stride) as u32;
+            pass.set_bind_group(0, &self.bind_group, &[offset]);
             pass.set_vertex_buffer(0, self.mesh.slice(..));
             pass.set_pipeline(self.pipelines.get(Stage::Background, ground_kind));
             pass.draw(self.fullscreen.clone(), 0..1);
-            if !self.scratch.is_empty() {
+            if !groups.is_empty() {
                 pass.set_vertex_buffer(1, self.instances.slice(..));
-                for &(stage, kind, first, count) in &self.groups {
+                for &(stage, kind, first, count) in &self.groups[groups] {
                     pass.set_pipeline(self.pipelines.get(stage, kind));
                     let vertices = if stage == Stage::Cylinder {
                         self.cylinder.clone()
@@ -581,16 +758,17 @@ impl Renderer {
             wgpu::Extent3d {
                 width: self.n,
                 height: self.n,
-                depth_or_array_layers: 1,
+                depth_or_array_layers: views as u32,
             },
         );
         let cmd = encoder.finish();
         let t_encoded = std::time::Instant::now();
         let index = queue.submit(Some(cmd));
         let t_submitted = std::time::Instant::now();
+        let bytes = u64::from(self.padded_bpr) * self.n as u64 * views as u64;
         self.map_state.store(0, Ordering::Release);
         let state = Arc::clone(&self.map_state);
-        self.readback.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+        self.readback.slice(..bytes).map_async(wgpu::MapMode::Read, move |r| {
             state.store(if r.is_ok() { 1 } else { 2 }, Ordering::Release);
         });
         device
@@ -624,27 +802,31 @@ impl Renderer {
             });
         }
         let t_waited = std::time::Instant::now();
-        out.clear();
-        out.reserve(n * n);
         {
-            let view = self.readback.get_mapped_range(..).map_err(|e| SimError::Gpu {
+            let view = self.readback.get_mapped_range(..bytes).map_err(|e| SimError::Gpu {
                 during: "reading back the frame",
                 reason: e.to_string(),
             })?;
             let bpr = self.padded_bpr as usize;
-            for row in 0..n {
-                let bytes = &view[row * bpr..row * bpr + n * 4];
-                out.extend(
-                    bytes
-                        .chunks_exact(4)
-                        .map(|b| f32::from_ne_bytes([b[0], b[1], b[2], b[3]])),
-                );
+            for (v, out) in outs.iter_mut().enumerate() {
+                out.clear();
+                out.reserve(n * n);
+                let base = v * bpr * n;
+                for row in 0..n {
+                    let bytes = &view[base + row * bpr..base + row * bpr + n * 4];
+                    out.extend(
+                        bytes
+                            .chunks_exact(4)
+                            .map(|b| f32::from_ne_bytes([b[0], b[1], b[2], b[3]])),
+                    );
+                }
             }
         }
         self.readback.unmap();
         let t_end = std::time::Instant::now();
         let tm = &mut self.timings;
-        tm.frames += 1;
+        tm.frames += views as u64;
+        tm.submissions += 1;
         tm.encode_s += (t_encoded - t_start).as_secs_f64();
         tm.submit_s += (t_submitted - t_encoded).as_secs_f64();
         tm.wait_s += (t_waited - t_submitted).as_secs_f64();

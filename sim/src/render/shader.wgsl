@@ -145,7 +145,12 @@ fn fs_background(in: BgOut) -> FragOut {
     let q = max(-dir.z, 1e-12);
     let duv_dx = g.dir_dx.xy * t + dir.xy * (t / q * g.dir_dx.z);
     let duv_dy = g.dir_dy.xy * t + dir.xy * (t / q * g.dir_dy.z);
-    let ground = texture_value(g.ground_k.y, g.ground_a, g.ground_b, uv, duv_dx, duv_dy);
+    // the texture only where the ground is hit: a CPU rasteriser skips the branch for blocks of
+    // pixels that are all sky (the same arithmetic for ground pixels as without the branch)
+    var ground = 0.0;
+    if (hits) {
+        ground = texture_value(g.ground_k.y, g.ground_a, g.ground_b, uv, duv_dx, duv_dy);
+    }
     var o: FragOut;
     // reversed-Z infinite projection: depth = near / view distance
     o.lum = select(g.camera.w, clamp(ground, 0.0, 1.0), hits);
