@@ -36,18 +36,24 @@ use crate::compensation::CompensatedDifference;
 use crate::registry::{CameraFacts, DetectorConfig, Registration, Signal};
 use crate::{Detector, DetectorError, EfferenceCopy, Frame, ImageRegion, Signals};
 
-/// Gain of the α-β filter that smooths each edge of the tracked box (position correction per
-/// frame): a box measured in whole pixels jumps by a pixel at a time, which a τ estimate from a few
-/// frames would read as motion.
-pub const EDGE_ALPHA: f64 = 0.35;
-
-/// Velocity gain of the edges' α-β filter (per frame).
-pub const EDGE_BETA: f64 = 0.05;
-
 /// A region more than this many times wider than high is ignored: a thin horizontal band is the
 /// far ground at the horizon, whose texture is finer than a pixel there and changes unpredictably
 /// from frame to frame (aliasing), not an object.
 pub const MAX_BAND_ASPECT: usize = 4;
+
+/// Smallest fraction of its box that a region of the object's current image must fill to be
+/// measured by its area (a disc fills π/4 of its box; the ring of an object that the background
+/// model still holds fills less).
+pub const MIN_SOLID_FILL: f64 = 0.5;
+
+/// Inside the tracked object's box the standing camera's background model follows the frames this
+/// many times more slowly than elsewhere: the object must not become background while it is
+/// tracked, but an object that stops for good does, after several seconds.
+pub const FROZEN_BACKGROUND_SLOWDOWN: f32 = 8.0;
+
+/// A camera whose rotation (rad) and displacement (m) since the previous frame are both below this
+/// counts as standing: the residual is taken against the background model (module docs, step 1).
+pub const STANDING_MOTION: f64 = 1e-7;
 
 /// Parameters of [`Tracker`].
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -74,6 +80,16 @@ pub struct TrackerConfig {
     /// that appears and vanishes again is noise, and a decision strategy fitting the first frames
     /// of a track would read its jitter as motion. Default 12 (0.1 s at 120 Hz).
     pub confirm_frames: usize,
+    /// Length of the window over which the track's measured boxes are fitted (frames, ≥ 1): the
+    /// box's inverse size and its centre in units of its size change linearly in time for an
+    /// object moving at a constant velocity (module docs, step 4). Default 24 (0.2 s at 120 Hz).
+    pub fit_frames: usize,
+    /// Time constant of the background model of a standing camera (frames, ≥ 1): the background
+    /// follows the frames by `1/background_frames` of their difference per frame outside the
+    /// tracked object's box (and [`FROZEN_BACKGROUND_SLOWDOWN`] times slower inside it). Default
+    /// 60 (0.5 s at 120 Hz): a far object that grows by a pixel in half a second still differs
+    /// from it, and a change the scene keeps (a light switched on) fades within about a second.
+    pub background_frames: usize,
 }
 
 impl Default for TrackerConfig {
@@ -87,6 +103,8 @@ impl Default for TrackerConfig {
             min_pixels: 4,
             hold_frames: 6,
             confirm_frames: 12,
+            fit_frames: 24,
+            background_frames: 60,
         }
     }
 }
@@ -115,6 +133,8 @@ impl TrackerConfig {
             ("tracker.min_pixels", self.min_pixels, 1, 10_000, 4),
             ("tracker.hold_frames", self.hold_frames, 0, 1_000, 6),
             ("tracker.confirm_frames", self.confirm_frames, 1, 1_000, 12),
+            ("tracker.fit_frames", self.fit_frames, 1, 1_000, 24),
+            ("tracker.background_frames", self.background_frames, 1, 100_000, 60),
         ] {
             if !(lo..=hi).contains(&value) {
                 return Err(DetectorError::InvalidParameter {
@@ -137,6 +157,9 @@ struct Blob {
     sum_j: f64,
     /// `[i_min, i_max, j_min, j_max]` (inclusive pixel indices).
     bbox: [usize; 4],
+    /// Whether the region is the object's current image (a standing camera's background
+    /// subtraction, [`Tracker::refine_standing`]) rather than a difference of two frames.
+    current: bool,
 }
 
 impl Blob {
@@ -145,6 +168,7 @@ impl Blob {
         self.mass += o.mass;
         self.sum_i += o.sum_i;
         self.sum_j += o.sum_j;
+        self.current &= o.current;
         self.bbox = [
             self.bbox[0].min(o.bbox[0]),
             self.bbox[1].max(o.bbox[1]),
@@ -159,6 +183,87 @@ impl Blob {
             && self.bbox[2] <= b[3] + margin
             && b[2] <= self.bbox[3] + margin
     }
+}
+
+/// Collects into `ring` the values of `image` (n·n) on the pixels just outside `bbox`
+/// (`[i0, i1, j0, j1]`, inclusive), inside the image.
+fn ring_of(image: &[f32], n: usize, [i0, i1, j0, j1]: [usize; 4], ring: &mut Vec<f32>) {
+    ring.clear();
+    let (c0, c1) = (j0.saturating_sub(1), (j1 + 1).min(n - 1));
+    if i0 > 0 {
+        ring.extend(&image[(i0 - 1) * n + c0..=(i0 - 1) * n + c1]);
+    }
+    if i1 + 1 < n {
+        ring.extend(&image[(i1 + 1) * n + c0..=(i1 + 1) * n + c1]);
+    }
+    for i in i0..=i1 {
+        if j0 > 0 {
+            ring.push(image[i * n + j0 - 1]);
+        }
+        if j1 + 1 < n {
+            ring.push(image[i * n + j1 + 1]);
+        }
+    }
+}
+
+/// One frame's measurement of the tracked object, as the quantities that change linearly in time
+/// for an object moving at a constant velocity: with its size `s` (pixels: the square root of its
+/// area, or of its box's) and its centre `(cx, cy)` relative to the image centre, `1/s` (∝ the
+/// object's depth) and `cx/s`, `cy/s` (∝ its lateral and vertical offsets); its box's shape
+/// `width/s`, `height/s` (constant for a rigid object).
+#[derive(Debug, Clone, Copy)]
+struct BoxSample {
+    /// Frames since the track started.
+    k: f64,
+    inverse_size: f64,
+    x: f64,
+    y: f64,
+    width: f64,
+    height: f64,
+}
+
+impl BoxSample {
+    /// The sample of frame `k` of a box of size `size`, centre `[row, column]` relative to the
+    /// image centre, width `w` and height `h` (pixels).
+    fn of(k: f64, size: f64, [ci, cj]: [f64; 2], w: f64, h: f64) -> Self {
+        let s = size.max(1e-3);
+        Self {
+            k,
+            inverse_size: 1.0 / s,
+            x: cj / s,
+            y: ci / s,
+            width: w / s,
+            height: h / s,
+        }
+    }
+}
+
+/// The box at frame `k` from the least-squares lines through the samples' `1/s`, `cx/s`, `cy/s`
+/// and the mean shape (see [`BoxSample`]); the samples' box when they span a single frame.
+fn fit_box(samples: &std::collections::VecDeque<BoxSample>, k: usize, n: usize) -> [f64; 4] {
+    let m = samples.len().max(1) as f64;
+    let mean = |f: fn(&BoxSample) -> f64| samples.iter().map(f).sum::<f64>() / m;
+    let mk = mean(|s| s.k);
+    let skk: f64 = samples.iter().map(|s| (s.k - mk).powi(2)).sum();
+    let at = |f: fn(&BoxSample) -> f64| {
+        let mv = mean(f);
+        if skk <= 0.0 {
+            return mv;
+        }
+        let skv: f64 = samples.iter().map(|s| (s.k - mk) * (f(s) - mv)).sum();
+        mv + skv / skk * (k as f64 - mk)
+    };
+    // a fitted depth at or behind the camera (a box that grew explosively) keeps the last size
+    let inverse = at(|s| s.inverse_size);
+    let inverse = if inverse > 1e-6 {
+        inverse
+    } else {
+        samples.back().map_or(1.0, |s| s.inverse_size)
+    };
+    let size = 1.0 / inverse;
+    let (cx, cy) = (at(|s| s.x) * size + n as f64 / 2.0, at(|s| s.y) * size + n as f64 / 2.0);
+    let (w, h) = (mean(|s| s.width) * size, mean(|s| s.height) * size);
+    [cy - h / 2.0, cy + h / 2.0, cx - w / 2.0, cx + w / 2.0]
 }
 
 /// The tracker (see the module docs).
@@ -176,9 +281,17 @@ pub struct Tracker {
     missed: usize,
     /// Frames the current track has lasted.
     age: usize,
-    /// The box's smoothed edges `[top, bottom + 1, left, right + 1]` (pixel borders) and their
-    /// velocities (pixels per frame), per α-β filter.
-    edges: [(f64, f64); 4],
+    /// The track's measured boxes over the last `fit_frames` frames ([`BoxSample`]).
+    samples: std::collections::VecDeque<BoxSample>,
+    /// Frames since the track started.
+    clock: usize,
+    /// The fitted box's edges `[top, bottom, left, right]` (pixel borders, sub-pixel).
+    edges: [f64; 4],
+    /// The standing camera's background model (n·n; empty until a standing frame initialises it).
+    background: Vec<f32>,
+    /// Whether the previous frame came from a moving camera (the compensated difference's history
+    /// is then current).
+    moving: bool,
 }
 
 impl Tracker {
@@ -197,7 +310,11 @@ impl Tracker {
             track: None,
             missed: 0,
             age: 0,
-            edges: [(0.0, 0.0); 4],
+            samples: std::collections::VecDeque::new(),
+            clock: 0,
+            edges: [0.0; 4],
+            background: Vec::new(),
+            moving: false,
         })
     }
 
@@ -207,9 +324,9 @@ impl Tracker {
     }
 
     /// Marks changed pixels (`mask` = |residual| where changed, else 0).
-    fn segment(&mut self, frame: &[f32], n: usize) {
+    fn segment(&mut self, frame: &[f32], n: usize, tolerance_px: f64) {
         let thr = self.config.threshold as f32;
-        let tol = self.config.edge_tolerance_px as f32;
+        let tol = tolerance_px as f32;
         for i in 0..n {
             let (iu, id) = (i.saturating_sub(1), (i + 1).min(n - 1));
             for j in 0..n {
@@ -245,6 +362,7 @@ impl Tracker {
                 sum_i: 0.0,
                 sum_j: 0.0,
                 bbox: [si, si, sj, sj],
+                current: false,
             };
             self.label[start] = id;
             self.stack.clear();
@@ -312,6 +430,169 @@ impl Tracker {
         Some(chosen)
     }
 
+    /// The measurement of a region: its box, and — for the object's current image that fills its
+    /// box like a solid shape (at least [`MIN_SOLID_FILL`] of it) — the square root of its area as
+    /// its size and its centroid as its centre: whole-pixel edges jump by a pixel at a time, while
+    /// the area of a growing object grows by one pixel at a time.
+    fn measure(&self, b: &Blob, n: usize) -> BoxSample {
+        let [i0, i1, j0, j1] = b.bbox;
+        let (h, w) = ((i1 - i0 + 1) as f64, (j1 - j0 + 1) as f64);
+        let area = b.pixels as f64;
+        let c = n as f64 / 2.0;
+        let k = self.clock as f64;
+        if !b.current || area < MIN_SOLID_FILL * w * h || b.mass <= 0.0 {
+            return BoxSample::of(k, (w * h).sqrt(), [(i0 + i1 + 1) as f64 / 2.0 - c, (j0 + j1 + 1) as f64 / 2.0 - c], w, h);
+        }
+        let centroid = [b.sum_i / b.mass + 0.5 - c, b.sum_j / b.mass + 0.5 - c];
+        BoxSample::of(k, area.sqrt(), centroid, w, h)
+    }
+
+    /// A standing camera's object region `blob` without the background it uncovered: the model
+    /// may hold the object where it was when the model started (an object in view from the first
+    /// frame), and there the residual has the opposite sign of the object's contrast against its
+    /// surroundings. That contrast's sign is the sign of the summed `frame − b` over the region's
+    /// changed pixels, `b` the median background just outside the region's box; changed pixels of
+    /// the other sign are background again (the model takes their current value) and leave the
+    /// region.
+    fn refine_standing(&mut self, frame: &[f32], n: usize, blob: Blob, starting: bool) -> Blob {
+        let l = self.config.link_px;
+        let [i0, i1, j0, j1] = blob.bbox;
+        let (i0, i1, j0, j1) = (i0.saturating_sub(l), (i1 + l).min(n - 1), j0.saturating_sub(l), (j1 + l).min(n - 1));
+        let mut ring = Vec::new();
+        ring_of(&self.background, n, [i0, i1, j0, j1], &mut ring);
+        if ring.is_empty() {
+            return blob;
+        }
+        let mid = ring.len() / 2;
+        let b = *ring.select_nth_unstable_by(mid, f32::total_cmp).1;
+        let thr = self.config.threshold as f32;
+        let (mut i0, mut i1, mut j0, mut j1) = (i0, i1, j0, j1);
+        if starting {
+            // a new track: the model may hold the object where it stood (an object in view from
+            // the first frame). That imprint — the pixels of the model connected to the region
+            // that differ from the median `b` around it — takes the value `b` when the model
+            // around the imprint is uniform (at least three quarters of the ring around its box
+            // within half the threshold of `b`): a uniform background hides nothing behind it.
+            const FILLED: u32 = u32::MAX;
+            self.stack.clear();
+            let mut imprint = Vec::new();
+            for i in i0..=i1 {
+                for j in j0..=j1 {
+                    let p = i * n + j;
+                    if (self.background[p] - b).abs() > thr {
+                        self.label[p] = FILLED;
+                        self.stack.push(p);
+                    }
+                }
+            }
+            let limit = n * n / 4;
+            let mut bbox = [i0, i1, j0, j1];
+            while let Some(p) = self.stack.pop() {
+                if imprint.len() > limit {
+                    break;
+                }
+                imprint.push(p);
+                let (i, j) = (p / n, p % n);
+                bbox = [bbox[0].min(i), bbox[1].max(i), bbox[2].min(j), bbox[3].max(j)];
+                let neighbours = [
+                    (i > 0).then(|| p - n),
+                    (i + 1 < n).then(|| p + n),
+                    (j > 0).then(|| p - 1),
+                    (j + 1 < n).then(|| p + 1),
+                ];
+                for q in neighbours.into_iter().flatten() {
+                    if self.label[q] != FILLED && (self.background[q] - b).abs() > thr {
+                        self.label[q] = FILLED;
+                        self.stack.push(q);
+                    }
+                }
+            }
+            ring_of(&self.background, n, bbox, &mut ring);
+            let uniform = imprint.len() <= limit
+                && !ring.is_empty()
+                && ring.iter().filter(|&&v| (v - b).abs() <= thr / 2.0).count() * 4 >= ring.len() * 3;
+            if uniform {
+                for &p in &imprint {
+                    self.background[p] = b;
+                    let r = frame[p] - b;
+                    self.residual[p] = r;
+                    self.mask[p] = if r.abs() > thr { r.abs() } else { 0.0 };
+                }
+                [i0, i1, j0, j1] = bbox;
+            }
+        }
+        let mut contrast = 0.0f64;
+        for i in i0..=i1 {
+            for j in j0..=j1 {
+                if self.mask[i * n + j] != 0.0 {
+                    contrast += f64::from(frame[i * n + j] - b);
+                }
+            }
+        }
+        let sign = if contrast >= 0.0 { 1.0 } else { -1.0 };
+        let mut kept: Option<Blob> = None;
+        for i in i0..=i1 {
+            for j in j0..=j1 {
+                let p = i * n + j;
+                let m = self.mask[p];
+                if m == 0.0 {
+                    continue;
+                }
+                if f64::from(self.residual[p]) * sign < 0.0 {
+                    self.background[p] = frame[p];
+                    self.mask[p] = 0.0;
+                    continue;
+                }
+                let m = f64::from(m);
+                let k = kept.get_or_insert(Blob {
+                    pixels: 0,
+                    mass: 0.0,
+                    sum_i: 0.0,
+                    sum_j: 0.0,
+                    bbox: [i, i, j, j],
+                    current: true,
+                });
+                k.merge(&Blob {
+                    pixels: 1,
+                    mass: m,
+                    sum_i: m * i as f64,
+                    sum_j: m * j as f64,
+                    bbox: [i, i, j, j],
+                    current: true,
+                });
+            }
+        }
+        kept.unwrap_or(blob)
+    }
+
+    /// Moves the standing camera's background model towards `frame`: by `1/background_frames` of
+    /// the difference outside the tracked object's box grown by a quarter of its size (at least
+    /// `link_px`), [`FROZEN_BACKGROUND_SLOWDOWN`] times less inside it.
+    fn update_background(&mut self, frame: &[f32], n: usize) {
+        let rate = 1.0 / self.config.background_frames as f32;
+        let slow = rate / FROZEN_BACKGROUND_SLOWDOWN;
+        let frozen = self.track.as_ref().map(|t| {
+            let [i0, i1, j0, j1] = t.bbox;
+            let m = ((i1 - i0).max(j1 - j0) / 4).max(self.config.link_px);
+            [i0.saturating_sub(m), (i1 + m).min(n - 1), j0.saturating_sub(m), (j1 + m).min(n - 1)]
+        });
+        for (i, (brow, frow)) in self.background.chunks_exact_mut(n).zip(frame.chunks_exact(n)).enumerate() {
+            match frozen {
+                Some([i0, i1, j0, j1]) if (i0..=i1).contains(&i) => {
+                    for (j, (b, &f)) in brow.iter_mut().zip(frow).enumerate() {
+                        let k = if (j0..=j1).contains(&j) { slow } else { rate };
+                        *b += (f - *b) * k;
+                    }
+                }
+                _ => {
+                    for (b, &f) in brow.iter_mut().zip(frow) {
+                        *b += (f - *b) * rate;
+                    }
+                }
+            }
+        }
+    }
+
     fn signals(&self, n: usize) -> Signals {
         let confirmed = self.track.as_ref().filter(|_| self.age >= self.config.confirm_frames);
         let Some(t) = confirmed else {
@@ -326,7 +607,7 @@ impl Tracker {
         let x_of = |j: f64| 2.0 * j / nf - 1.0;
         let y_of = |i: f64| 1.0 - 2.0 * i / nf;
         let [i0, i1, j0, j1] = t.bbox;
-        let [top, bottom, left, right] = self.edges.map(|(p, _)| p);
+        let [top, bottom, left, right] = self.edges;
         let (ci, cj) = if t.mass > 0.0 {
             (t.sum_i / t.mass + 0.5, t.sum_j / t.mass + 0.5)
         } else {
@@ -364,6 +645,8 @@ impl Detector for Tracker {
         self.track = None;
         self.missed = 0;
         self.age = 0;
+        self.background.clear();
+        self.moving = false;
     }
 
     fn step(&mut self, frame: &Frame) -> Result<Signals, DetectorError> {
@@ -383,26 +666,57 @@ impl Detector for Tracker {
                 self.label = vec![0; n * n];
             }
         }
-        let diff = self.diff.as_mut().expect("set on the first frame");
-        if !diff.step(frame.data(), ego, &mut self.residual) {
-            return Ok(self.signals(n));
-        }
-        self.segment(frame.data(), n);
+        let standing = !ego.knows_motion()
+            || (ego.rotation_rad.iter().all(|r| r.abs() < STANDING_MOTION)
+                && ego.translation_m.iter().all(|t| t.abs() < STANDING_MOTION));
+        let tolerance_px = if standing {
+            if self.background.len() != n * n {
+                // the first standing frame: the background model starts from it
+                self.background.clear();
+                self.background.extend_from_slice(frame.data());
+                self.moving = false;
+                self.residual.iter_mut().for_each(|r| *r = 0.0);
+                return Ok(self.signals(n));
+            }
+            for ((r, &f), &b) in self.residual.iter_mut().zip(frame.data()).zip(&self.background) {
+                *r = f - b;
+            }
+            self.moving = false;
+            // the background model holds exact earlier frames: no prediction error at edges
+            0.0
+        } else {
+            let diff = self.diff.as_mut().expect("set on the first frame");
+            if !self.moving {
+                // the history was not kept while the camera stood
+                diff.reset();
+                self.moving = true;
+            }
+            self.background.clear();
+            if !diff.step(frame.data(), ego, &mut self.residual) {
+                return Ok(self.signals(n));
+            }
+            self.config.edge_tolerance_px
+        };
+        self.segment(frame.data(), n, tolerance_px);
         self.group(n);
-        match self.choose() {
+        let chosen = self.choose();
+        let chosen = if standing {
+            let starting = self.track.is_none();
+            chosen.map(|b| self.refine_standing(frame.data(), n, b, starting))
+        } else {
+            chosen
+        };
+        match chosen {
             Some(b) => {
-                let [i0, i1, j0, j1] = b.bbox;
-                let measured = [i0 as f64, i1 as f64 + 1.0, j0 as f64, j1 as f64 + 1.0];
                 if self.track.is_none() {
-                    self.edges = measured.map(|m| (m, 0.0));
-                } else {
-                    for ((p, v), m) in self.edges.iter_mut().zip(measured) {
-                        let predicted = *p + *v;
-                        let r = m - predicted;
-                        *p = predicted + EDGE_ALPHA * r;
-                        *v += EDGE_BETA * r;
-                    }
+                    self.samples.clear();
+                    self.clock = 0;
                 }
+                if self.samples.len() >= self.config.fit_frames {
+                    self.samples.pop_front();
+                }
+                let measured = self.measure(&b, n);
+                self.samples.push_back(measured);
                 self.track = Some(b);
                 self.missed = 0;
                 self.age += 1;
@@ -416,6 +730,13 @@ impl Detector for Tracker {
                 }
             }
             None => {}
+        }
+        if self.track.is_some() {
+            self.edges = fit_box(&self.samples, self.clock, n);
+            self.clock += 1;
+        }
+        if standing {
+            self.update_background(frame.data(), n);
         }
         Ok(self.signals(n))
     }
