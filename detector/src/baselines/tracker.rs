@@ -1,33 +1,46 @@
 //! `tracker` — an engineered reference detector, **not an insect model**: it segments the
-//! independently moving region of the image after removing the robot's own motion, tracks its
-//! bounding box and reports its angular size θ̂ and image position and extent.
+//! independently moving region of the image after removing the robot's own motion, tracks it and
+//! reports its angular size θ̂ and image position and extent.
 //!
 //! Per frame (docs/detectors.md, tracker):
-//! 1. **Compensated difference** ([`crate::compensation`]): the current frame minus the frame
-//!    `baseline_frames` earlier warped to the current view by the camera's motion in between (from
-//!    the efference copies: rotation exactly, translation through the ground-plane homography below
-//!    the horizon, at-infinity elsewhere). The static world cancels; what moves on its own, or
-//!    stands near the robot above the horizon, remains.
-//! 2. **Segmentation**: a pixel changed when `|residual| > threshold + edge_tolerance_px · |∇F|`
-//!    (`|∇F|`: the current frame's central-difference gradient per pixel — a sub-pixel error of the
-//!    prediction at an edge of the static texture leaves a residual proportional to it). Changed
-//!    pixels closer than `link_px` (Chebyshev distance) form one region; regions of fewer than
-//!    `min_pixels` pixels are noise, and regions more than [`MAX_BAND_ASPECT`] times wider than
-//!    high are the aliased far ground along the horizon.
+//! 1. **Residual.** *A standing camera* (no motion in its efference copy, or none known) compares
+//!    the frame with a **background model**: a running average of the frames (time constant
+//!    `background_frames`) that follows the scene [`FROZEN_BACKGROUND_SLOWDOWN`] times more slowly
+//!    inside the tracked object's box, so the residual `frame − model` is the object's *current*
+//!    image, however slowly it grows. *A moving camera* takes the **compensated difference**
+//!    ([`crate::compensation`]): the frame minus the frame `baseline_frames` earlier warped to the
+//!    current view by the camera's motion in between (rotation exactly, translation through the
+//!    ground-plane homography below the horizon, at-infinity elsewhere); the static world cancels,
+//!    and what moves on its own, or stands near the robot above the horizon, remains — the union of
+//!    where the object is and where it was.
+//! 2. **Segmentation**: a pixel changed when `|residual| > threshold + tolerance · |∇F|` (`|∇F|`:
+//!    the frame's central-difference gradient; `tolerance` = `edge_tolerance_px` for the
+//!    compensated difference, whose prediction errs by a fraction of a pixel at edges of the static
+//!    texture, and 0 against the background model). Changed pixels closer than `link_px`
+//!    (Chebyshev distance) form one region; regions of fewer than `min_pixels` pixels are noise,
+//!    and regions more than [`MAX_BAND_ASPECT`] times wider than high are the aliased far ground
+//!    along the horizon.
 //! 3. **Tracking**: while an object is tracked, the region overlapping its last bounding box
 //!    (grown by a quarter of its size, at least `link_px`) with the largest summed |residual| is
 //!    the object, joined by every other region that touches it; with none, the largest region
-//!    starts a new track. A track without a region keeps its last box for `hold_frames` frames,
-//!    then ends. A track is reported once it has lasted `confirm_frames` frames.
-//! 4. **Outputs**: each edge of the box is smoothed by an α-β filter ([`EDGE_ALPHA`],
-//!    [`EDGE_BETA`]: sub-pixel positions, no lag at a constant edge velocity); θ̂ = the larger of
-//!    the smoothed box's angular width and height (degrees; 0 while nothing is tracked) as `output` and `angular_size_deg`; the box and the residual-weighted centroid as
-//!    [`Signals::region`](crate::Signals::region) (what the collision-course gate needs); `aux`:
-//!    `pixels` (changed pixels of the object), `x`, `y` (centroid).
-//!
-//! An expanding ring of change marks an approaching uniform object (its interior does not change);
-//! its box is the object's current extent. θ̂ grows as the object nears; the τ strategy reads the
-//! growth, the course gate the box's drift.
+//!    starts a new track. A standing camera's region is then cleaned of what the background model
+//!    got wrong: an object in view from the first frame is in the
+//!    model (its imprint is replaced by the background around it when that is uniform), and where
+//!    the object was, the frame shows background again. A track without a region keeps its last
+//!    box for `hold_frames` frames, then ends. A track is reported once it has lasted
+//!    `confirm_frames` frames.
+//! 4. **Fit**: each frame's measurement — the object's size `s` (the square root of the region's
+//!    area when it is the object's current image and fills its box like a solid shape, else of its
+//!    box's area), centre and box shape — enters least-squares lines through `1/s`,
+//!    `cx/s` and `cy/s` against time with an exponentially fading memory of `fit_frames` frames:
+//!    for an object moving at a constant velocity these are exactly linear (its depth and its
+//!    offsets in units of its size), so the fit has no lag, while the renderer's whole-pixel edges
+//!    (no anti-aliasing) are averaged out.
+//! 5. **Outputs**: θ̂ = the larger of the fitted box's angular width and height (degrees; 0 while
+//!    nothing is reported) as `output` and `angular_size_deg`; the fitted box and the region's
+//!    residual-weighted centroid as [`Signals::region`](crate::Signals::region) (what the
+//!    collision-course gate needs); `aux`: `pixels` (changed pixels of the object), `x`, `y`
+//!    (centroid).
 
 use serde::Deserialize;
 
@@ -45,6 +58,14 @@ pub const MAX_BAND_ASPECT: usize = 4;
 /// measured by its area (a disc fills π/4 of its box; the ring of an object that the background
 /// model still holds fills less).
 pub const MIN_SOLID_FILL: f64 = 0.5;
+
+/// The fit of the tracked box keeps the samples of the last `FIT_SPAN · fit_frames` frames (older
+/// ones weigh less than `exp(−FIT_SPAN)` = 2 %).
+pub const FIT_SPAN: usize = 4;
+
+/// Boxes of the compensated difference (a moving camera) are fitted with a memory this many times
+/// shorter than `fit_frames`: their size is fitted directly, which lags a growing object.
+pub const DIFFERENCE_MEMORY_DIVISOR: f64 = 6.0;
 
 /// Inside the tracked object's box the standing camera's background model follows the frames this
 /// many times more slowly than elsewhere: the object must not become background while it is
@@ -72,17 +93,19 @@ pub struct TrackerConfig {
     /// Changed pixels at most this far apart (Chebyshev, pixels, 1–8) belong to one region.
     /// Default 2.
     pub link_px: usize,
-    /// Fewest changed pixels of a region (pixels, ≥ 1). Default 4.
+    /// Fewest changed pixels of a region (pixels, ≥ 1). Default 2: a far object that grows by a
+    /// fraction of a pixel changes its edge pixels one or two at a time.
     pub min_pixels: usize,
     /// Frames a track survives without a region (frames). Default 6.
     pub hold_frames: usize,
     /// Frames a new track must last before it is reported (frames, ≥ 1): a box of a few pixels
     /// that appears and vanishes again is noise, and a decision strategy fitting the first frames
-    /// of a track would read its jitter as motion. Default 12 (0.1 s at 120 Hz).
+    /// of a track would read its jitter as motion. Default 30 (0.25 s at 120 Hz).
     pub confirm_frames: usize,
-    /// Length of the window over which the track's measured boxes are fitted (frames, ≥ 1): the
-    /// box's inverse size and its centre in units of its size change linearly in time for an
-    /// object moving at a constant velocity (module docs, step 4). Default 24 (0.2 s at 120 Hz).
+    /// Memory of the fit of the track's measurements (frames, ≥ 1): a measurement `j` frames old
+    /// weighs `exp(−j/fit_frames)` in the least-squares lines through the object's inverse size and
+    /// its centre in units of its size, which change linearly in time for an object moving at a
+    /// constant velocity (module docs, step 4). Default 45 (0.375 s at 120 Hz).
     pub fit_frames: usize,
     /// Time constant of the background model of a standing camera (frames, ≥ 1): the background
     /// follows the frames by `1/background_frames` of their difference per frame outside the
@@ -100,10 +123,10 @@ impl Default for TrackerConfig {
             threshold: 0.06,
             edge_tolerance_px: 0.5,
             link_px: 2,
-            min_pixels: 4,
+            min_pixels: 2,
             hold_frames: 6,
-            confirm_frames: 12,
-            fit_frames: 24,
+            confirm_frames: 30,
+            fit_frames: 45,
             background_frames: 60,
         }
     }
@@ -130,10 +153,10 @@ impl TrackerConfig {
         for (name, value, lo, hi, default) in [
             ("tracker.baseline_frames", self.baseline_frames, 1, 120, 8),
             ("tracker.link_px", self.link_px, 1, 8, 2),
-            ("tracker.min_pixels", self.min_pixels, 1, 10_000, 4),
+            ("tracker.min_pixels", self.min_pixels, 1, 10_000, 2),
             ("tracker.hold_frames", self.hold_frames, 0, 1_000, 6),
-            ("tracker.confirm_frames", self.confirm_frames, 1, 1_000, 12),
-            ("tracker.fit_frames", self.fit_frames, 1, 1_000, 24),
+            ("tracker.confirm_frames", self.confirm_frames, 1, 1_000, 30),
+            ("tracker.fit_frames", self.fit_frames, 1, 1_000, 45),
             ("tracker.background_frames", self.background_frames, 1, 100_000, 60),
         ] {
             if !(lo..=hi).contains(&value) {
@@ -220,14 +243,17 @@ struct BoxSample {
     y: f64,
     width: f64,
     height: f64,
+    /// Whether it measured the object's current image (else a difference of two frames).
+    current: bool,
 }
 
 impl BoxSample {
     /// The sample of frame `k` of a box of size `size`, centre `[row, column]` relative to the
     /// image centre, width `w` and height `h` (pixels).
-    fn of(k: f64, size: f64, [ci, cj]: [f64; 2], w: f64, h: f64) -> Self {
+    fn of(k: f64, size: f64, [ci, cj]: [f64; 2], w: f64, h: f64, current: bool) -> Self {
         let s = size.max(1e-3);
         Self {
+            current,
             k,
             inverse_size: 1.0 / s,
             x: cj / s,
@@ -238,20 +264,29 @@ impl BoxSample {
     }
 }
 
-/// The box at frame `k` from the least-squares lines through the samples' `1/s`, `cx/s`, `cy/s`
-/// and the mean shape (see [`BoxSample`]); the samples' box when they span a single frame.
-fn fit_box(samples: &std::collections::VecDeque<BoxSample>, k: usize, n: usize) -> [f64; 4] {
-    let m = samples.len().max(1) as f64;
-    let mean = |f: fn(&BoxSample) -> f64| samples.iter().map(f).sum::<f64>() / m;
+/// The box at frame `k` from the weighted least-squares lines through the samples' `1/s`, `cx/s`,
+/// `cy/s` and their weighted mean shape (see [`BoxSample`]), a sample `j` frames old weighing
+/// `exp(−j/memory)`: an exponentially fading memory changes the fit smoothly as samples age,
+/// where a window of equal weights jumps whenever a sample leaves it. The samples' mean when they
+/// span a single frame.
+fn fit_box(samples: &std::collections::VecDeque<BoxSample>, k: usize, memory: f64, n: usize) -> [f64; 4] {
+    if samples.back().is_some_and(|s| !s.current) {
+        return fit_difference_box(samples, k, memory / DIFFERENCE_MEMORY_DIVISOR, n);
+    }
+    let now = k as f64;
+    let decay = (-1.0 / memory.max(1e-9)).exp();
+    let weight = |s: &BoxSample| decay.powf(now - s.k);
+    let total: f64 = samples.iter().map(weight).sum::<f64>().max(1e-300);
+    let mean = |f: fn(&BoxSample) -> f64| samples.iter().map(|s| weight(s) * f(s)).sum::<f64>() / total;
     let mk = mean(|s| s.k);
-    let skk: f64 = samples.iter().map(|s| (s.k - mk).powi(2)).sum();
+    let skk: f64 = samples.iter().map(|s| weight(s) * (s.k - mk).powi(2)).sum();
     let at = |f: fn(&BoxSample) -> f64| {
         let mv = mean(f);
-        if skk <= 0.0 {
+        if skk <= 1e-9 {
             return mv;
         }
-        let skv: f64 = samples.iter().map(|s| (s.k - mk) * (f(s) - mv)).sum();
-        mv + skv / skk * (k as f64 - mk)
+        let skv: f64 = samples.iter().map(|s| weight(s) * (s.k - mk) * (f(s) - mv)).sum();
+        mv + skv / skk * (now - mk)
     };
     // a fitted depth at or behind the camera (a box that grew explosively) keeps the last size
     let inverse = at(|s| s.inverse_size);
@@ -263,6 +298,33 @@ fn fit_box(samples: &std::collections::VecDeque<BoxSample>, k: usize, n: usize) 
     let size = 1.0 / inverse;
     let (cx, cy) = (at(|s| s.x) * size + n as f64 / 2.0, at(|s| s.y) * size + n as f64 / 2.0);
     let (w, h) = (mean(|s| s.width) * size, mean(|s| s.height) * size);
+    [cy - h / 2.0, cy + h / 2.0, cx - w / 2.0, cx + w / 2.0]
+}
+
+/// The box at frame `k` from boxes of the compensated difference: weighted least-squares lines
+/// through the size `s`, the centre and the mean shape themselves (memory `memory` frames). Such a
+/// box holds where the object was as well as where it is, so `1/s` is not linear in time and its
+/// line would overshoot as the object nears; a line through `s` lags a little instead.
+fn fit_difference_box(samples: &std::collections::VecDeque<BoxSample>, k: usize, memory: f64, n: usize) -> [f64; 4] {
+    let now = k as f64;
+    let decay = (-1.0 / memory.max(1e-9)).exp();
+    let weight = |s: &BoxSample| decay.powf(now - s.k);
+    let total: f64 = samples.iter().map(weight).sum::<f64>().max(1e-300);
+    let mean = |f: &dyn Fn(&BoxSample) -> f64| samples.iter().map(|s| weight(s) * f(s)).sum::<f64>() / total;
+    let mk = mean(&|s| s.k);
+    let skk: f64 = samples.iter().map(|s| weight(s) * (s.k - mk).powi(2)).sum();
+    let at = |f: &dyn Fn(&BoxSample) -> f64| {
+        let mv = mean(f);
+        if skk <= 1e-9 {
+            return mv;
+        }
+        let skv: f64 = samples.iter().map(|s| weight(s) * (s.k - mk) * (f(s) - mv)).sum();
+        mv + skv / skk * (now - mk)
+    };
+    let size = at(&|s| 1.0 / s.inverse_size).max(1e-3);
+    let cx = at(&|s| s.x / s.inverse_size) + n as f64 / 2.0;
+    let cy = at(&|s| s.y / s.inverse_size) + n as f64 / 2.0;
+    let (w, h) = (mean(&|s| s.width) * size, mean(&|s| s.height) * size);
     [cy - h / 2.0, cy + h / 2.0, cx - w / 2.0, cx + w / 2.0]
 }
 
@@ -441,19 +503,18 @@ impl Tracker {
         let c = n as f64 / 2.0;
         let k = self.clock as f64;
         if !b.current || area < MIN_SOLID_FILL * w * h || b.mass <= 0.0 {
-            return BoxSample::of(k, (w * h).sqrt(), [(i0 + i1 + 1) as f64 / 2.0 - c, (j0 + j1 + 1) as f64 / 2.0 - c], w, h);
+            return BoxSample::of(k, (w * h).sqrt(), [(i0 + i1 + 1) as f64 / 2.0 - c, (j0 + j1 + 1) as f64 / 2.0 - c], w, h, false);
         }
         let centroid = [b.sum_i / b.mass + 0.5 - c, b.sum_j / b.mass + 0.5 - c];
-        BoxSample::of(k, area.sqrt(), centroid, w, h)
+        BoxSample::of(k, area.sqrt(), centroid, w, h, true)
     }
 
     /// A standing camera's object region `blob` without the background it uncovered: the model
-    /// may hold the object where it was when the model started (an object in view from the first
-    /// frame), and there the residual has the opposite sign of the object's contrast against its
-    /// surroundings. That contrast's sign is the sign of the summed `frame − b` over the region's
-    /// changed pixels, `b` the median background just outside the region's box; changed pixels of
-    /// the other sign are background again (the model takes their current value) and leave the
-    /// region.
+    /// may hold the object where it was (an object in view from the first frame, or one that stood
+    /// still for a while). With `b` the median of the model just outside the region's box, a
+    /// changed pixel shows the object now when the frame differs more from `b` than the model
+    /// does; otherwise it shows background again: the model takes its current value and it leaves
+    /// the region.
     fn refine_standing(&mut self, frame: &[f32], n: usize, blob: Blob, starting: bool) -> Blob {
         let l = self.config.link_px;
         let [i0, i1, j0, j1] = blob.bbox;
@@ -521,15 +582,6 @@ impl Tracker {
                 [i0, i1, j0, j1] = bbox;
             }
         }
-        let mut contrast = 0.0f64;
-        for i in i0..=i1 {
-            for j in j0..=j1 {
-                if self.mask[i * n + j] != 0.0 {
-                    contrast += f64::from(frame[i * n + j] - b);
-                }
-            }
-        }
-        let sign = if contrast >= 0.0 { 1.0 } else { -1.0 };
         let mut kept: Option<Blob> = None;
         for i in i0..=i1 {
             for j in j0..=j1 {
@@ -538,7 +590,9 @@ impl Tracker {
                 if m == 0.0 {
                     continue;
                 }
-                if f64::from(self.residual[p]) * sign < 0.0 {
+                // the object is where the frame, not the model, differs more from the background
+                let model = frame[p] - self.residual[p];
+                if (frame[p] - b).abs() <= (model - b).abs() {
                     self.background[p] = frame[p];
                     self.mask[p] = 0.0;
                     continue;
@@ -712,7 +766,7 @@ impl Detector for Tracker {
                     self.samples.clear();
                     self.clock = 0;
                 }
-                if self.samples.len() >= self.config.fit_frames {
+                if self.samples.len() >= FIT_SPAN * self.config.fit_frames {
                     self.samples.pop_front();
                 }
                 let measured = self.measure(&b, n);
@@ -732,7 +786,7 @@ impl Detector for Tracker {
             None => {}
         }
         if self.track.is_some() {
-            self.edges = fit_box(&self.samples, self.clock, n);
+            self.edges = fit_box(&self.samples, self.clock, self.config.fit_frames as f64, n);
             self.clock += 1;
         }
         if standing {
