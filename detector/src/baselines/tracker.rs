@@ -17,7 +17,8 @@
 //!    the frame's central-difference gradient; `tolerance` = `edge_tolerance_px` for the
 //!    compensated difference, whose prediction errs by a fraction of a pixel at edges of the static
 //!    texture, and 0 against the background model). Changed pixels closer than `link_px`
-//!    (Chebyshev distance) form one region; regions of fewer than `min_pixels` pixels are noise,
+//!    (Chebyshev distance) form one region; regions of fewer than `min_pixels` pixels
+//!    (`standing_min_pixels` against the background model) are noise,
 //!    and regions more than [`MAX_BAND_ASPECT`] times wider than high are the aliased far ground
 //!    along the horizon.
 //! 3. **Tracking**: while an object is tracked, the region overlapping its last bounding box
@@ -93,9 +94,13 @@ pub struct TrackerConfig {
     /// Changed pixels at most this far apart (Chebyshev, pixels, 1–8) belong to one region.
     /// Default 2.
     pub link_px: usize,
-    /// Fewest changed pixels of a region (pixels, ≥ 1). Default 2: a far object that grows by a
-    /// fraction of a pixel changes its edge pixels one or two at a time.
+    /// Fewest changed pixels of a region of the compensated difference (a moving camera; pixels,
+    /// ≥ 1). Default 4: the prediction's errors at the static texture's edges come in small specks.
     pub min_pixels: usize,
+    /// Fewest changed pixels of a region against a standing camera's background model (pixels,
+    /// ≥ 1). Default 2: the model has no prediction error, and a far object that grows by a
+    /// fraction of a pixel changes its edge pixels one or two at a time.
+    pub standing_min_pixels: usize,
     /// Frames a track survives without a region (frames). Default 6.
     pub hold_frames: usize,
     /// Frames a new track must last before it is reported (frames, ≥ 1): a box of a few pixels
@@ -123,7 +128,8 @@ impl Default for TrackerConfig {
             threshold: 0.06,
             edge_tolerance_px: 0.5,
             link_px: 2,
-            min_pixels: 2,
+            min_pixels: 4,
+            standing_min_pixels: 2,
             hold_frames: 6,
             confirm_frames: 30,
             fit_frames: 45,
@@ -153,7 +159,8 @@ impl TrackerConfig {
         for (name, value, lo, hi, default) in [
             ("tracker.baseline_frames", self.baseline_frames, 1, 120, 8),
             ("tracker.link_px", self.link_px, 1, 8, 2),
-            ("tracker.min_pixels", self.min_pixels, 1, 10_000, 2),
+            ("tracker.min_pixels", self.min_pixels, 1, 10_000, 4),
+            ("tracker.standing_min_pixels", self.standing_min_pixels, 1, 10_000, 2),
             ("tracker.hold_frames", self.hold_frames, 0, 1_000, 6),
             ("tracker.confirm_frames", self.confirm_frames, 1, 1_000, 30),
             ("tracker.fit_frames", self.fit_frames, 1, 1_000, 45),
@@ -408,7 +415,7 @@ impl Tracker {
     }
 
     /// Groups changed pixels into [`Blob`]s (flood fill with the `link_px` neighbourhood).
-    fn group(&mut self, n: usize) {
+    fn group(&mut self, n: usize, min_pixels: usize) {
         let link = self.config.link_px as isize;
         self.blobs.clear();
         self.label.iter_mut().for_each(|l| *l = 0);
@@ -461,7 +468,7 @@ impl Tracker {
                 }
             }
             let (height, width) = (blob.bbox[1] - blob.bbox[0] + 1, blob.bbox[3] - blob.bbox[2] + 1);
-            if blob.pixels >= self.config.min_pixels && width <= MAX_BAND_ASPECT * height {
+            if blob.pixels >= min_pixels && width <= MAX_BAND_ASPECT * height {
                 self.blobs.push(blob);
             }
         }
@@ -752,7 +759,12 @@ impl Detector for Tracker {
             self.config.edge_tolerance_px
         };
         self.segment(frame.data(), n, tolerance_px);
-        self.group(n);
+        let min_pixels = if standing {
+            self.config.standing_min_pixels
+        } else {
+            self.config.min_pixels
+        };
+        self.group(n, min_pixels);
         let chosen = self.choose();
         let chosen = if standing {
             let starting = self.track.is_none();
