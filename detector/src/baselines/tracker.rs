@@ -280,31 +280,17 @@ fn fit_box(samples: &std::collections::VecDeque<BoxSample>, k: usize, memory: f6
     if samples.back().is_some_and(|s| !s.current) {
         return fit_difference_box(samples, k, memory / DIFFERENCE_MEMORY_DIVISOR, n);
     }
-    let now = k as f64;
-    let decay = (-1.0 / memory.max(1e-9)).exp();
-    let weight = |s: &BoxSample| decay.powf(now - s.k);
-    let total: f64 = samples.iter().map(weight).sum::<f64>().max(1e-300);
-    let mean = |f: fn(&BoxSample) -> f64| samples.iter().map(|s| weight(s) * f(s)).sum::<f64>() / total;
-    let mk = mean(|s| s.k);
-    let skk: f64 = samples.iter().map(|s| weight(s) * (s.k - mk).powi(2)).sum();
-    let at = |f: fn(&BoxSample) -> f64| {
-        let mv = mean(f);
-        if skk <= 1e-9 {
-            return mv;
-        }
-        let skv: f64 = samples.iter().map(|s| weight(s) * (s.k - mk) * (f(s) - mv)).sum();
-        mv + skv / skk * (now - mk)
-    };
+    let lines = Lines::fit(samples, k as f64, memory, |s| [s.inverse_size, s.x, s.y, s.width, s.height]);
     // a fitted depth at or behind the camera (a box that grew explosively) keeps the last size
-    let inverse = at(|s| s.inverse_size);
+    let inverse = lines.at(0);
     let inverse = if inverse > 1e-6 {
         inverse
     } else {
         samples.back().map_or(1.0, |s| s.inverse_size)
     };
     let size = 1.0 / inverse;
-    let (cx, cy) = (at(|s| s.x) * size + n as f64 / 2.0, at(|s| s.y) * size + n as f64 / 2.0);
-    let (w, h) = (mean(|s| s.width) * size, mean(|s| s.height) * size);
+    let (cx, cy) = (lines.at(1) * size + n as f64 / 2.0, lines.at(2) * size + n as f64 / 2.0);
+    let (w, h) = (lines.mean[3] * size, lines.mean[4] * size);
     [cy - h / 2.0, cy + h / 2.0, cx - w / 2.0, cx + w / 2.0]
 }
 
@@ -313,26 +299,74 @@ fn fit_box(samples: &std::collections::VecDeque<BoxSample>, k: usize, memory: f6
 /// box holds where the object was as well as where it is, so `1/s` is not linear in time and its
 /// line would overshoot as the object nears; a line through `s` lags a little instead.
 fn fit_difference_box(samples: &std::collections::VecDeque<BoxSample>, k: usize, memory: f64, n: usize) -> [f64; 4] {
-    let now = k as f64;
-    let decay = (-1.0 / memory.max(1e-9)).exp();
-    let weight = |s: &BoxSample| decay.powf(now - s.k);
-    let total: f64 = samples.iter().map(weight).sum::<f64>().max(1e-300);
-    let mean = |f: &dyn Fn(&BoxSample) -> f64| samples.iter().map(|s| weight(s) * f(s)).sum::<f64>() / total;
-    let mk = mean(&|s| s.k);
-    let skk: f64 = samples.iter().map(|s| weight(s) * (s.k - mk).powi(2)).sum();
-    let at = |f: &dyn Fn(&BoxSample) -> f64| {
-        let mv = mean(f);
-        if skk <= 1e-9 {
-            return mv;
-        }
-        let skv: f64 = samples.iter().map(|s| weight(s) * (s.k - mk) * (f(s) - mv)).sum();
-        mv + skv / skk * (now - mk)
-    };
-    let size = at(&|s| 1.0 / s.inverse_size).max(1e-3);
-    let cx = at(&|s| s.x / s.inverse_size) + n as f64 / 2.0;
-    let cy = at(&|s| s.y / s.inverse_size) + n as f64 / 2.0;
-    let (w, h) = (mean(&|s| s.width) * size, mean(&|s| s.height) * size);
+    let lines = Lines::fit(samples, k as f64, memory, |s| {
+        let size = 1.0 / s.inverse_size;
+        [size, s.x * size, s.y * size, s.width, s.height]
+    });
+    let size = lines.at(0).max(1e-3);
+    let (cx, cy) = (lines.at(1) + n as f64 / 2.0, lines.at(2) + n as f64 / 2.0);
+    let (w, h) = (lines.mean[3] * size, lines.mean[4] * size);
     [cy - h / 2.0, cy + h / 2.0, cx - w / 2.0, cx + w / 2.0]
+}
+
+/// Weighted least-squares lines through five quantities of the samples against their frame, a
+/// sample `j` frames before `now` weighing `exp(−j/memory)`.
+struct Lines {
+    now: f64,
+    mean_k: f64,
+    mean: [f64; 5],
+    /// Slopes (per frame; 0 when the samples span a single frame).
+    slope: [f64; 5],
+}
+
+impl Lines {
+    fn fit(
+        samples: &std::collections::VecDeque<BoxSample>,
+        now: f64,
+        memory: f64,
+        values: impl Fn(&BoxSample) -> [f64; 5],
+    ) -> Self {
+        let decay = (-1.0 / memory.max(1e-9)).exp();
+        // one pass: weighted sums of 1, k, k², v and k·v (k relative to now, newest first)
+        let (mut sw, mut sk, mut skk) = (0.0, 0.0, 0.0);
+        let (mut sv, mut skv) = ([0.0; 5], [0.0; 5]);
+        let mut w = 1.0;
+        let mut last_k = now;
+        for s in samples.iter().rev() {
+            w *= decay.powi((last_k - s.k).round() as i32);
+            last_k = s.k;
+            let k = s.k - now;
+            let v = values(s);
+            sw += w;
+            sk += w * k;
+            skk += w * k * k;
+            for q in 0..5 {
+                sv[q] += w * v[q];
+                skv[q] += w * k * v[q];
+            }
+        }
+        let sw = f64::max(sw, 1e-300);
+        let mean_k = sk / sw;
+        let var_k = skk - sk * mean_k;
+        let mean = sv.map(|v| v / sw);
+        let mut slope = [0.0; 5];
+        if var_k > 1e-9 {
+            for q in 0..5 {
+                slope[q] = (skv[q] - sk * mean[q]) / var_k;
+            }
+        }
+        Self {
+            now: 0.0,
+            mean_k,
+            mean,
+            slope,
+        }
+    }
+
+    /// Line `q` at `now`.
+    fn at(&self, q: usize) -> f64 {
+        self.mean[q] + self.slope[q] * (self.now - self.mean_k)
+    }
 }
 
 /// The tracker (see the module docs).
@@ -416,11 +450,13 @@ impl Tracker {
 
     /// Groups changed pixels into [`Blob`]s (flood fill with the `link_px` neighbourhood).
     fn group(&mut self, n: usize, min_pixels: usize) {
-        let link = self.config.link_px as isize;
+        let link = self.config.link_px;
         self.blobs.clear();
-        self.label.iter_mut().for_each(|l| *l = 0);
+        // disjoint borrows: the fill's inner loop reads the mask and labels through plain slices
+        let (mask, label, stack) = (&self.mask[..n * n], &mut self.label[..n * n], &mut self.stack);
+        label.fill(0);
         for start in 0..n * n {
-            if self.mask[start] == 0.0 || self.label[start] != 0 {
+            if mask[start] == 0.0 || label[start] != 0 {
                 continue;
             }
             let id = self.blobs.len() as u32 + 1;
@@ -433,12 +469,12 @@ impl Tracker {
                 bbox: [si, si, sj, sj],
                 current: false,
             };
-            self.label[start] = id;
-            self.stack.clear();
-            self.stack.push(start);
-            while let Some(p) = self.stack.pop() {
+            label[start] = id;
+            stack.clear();
+            stack.push(start);
+            while let Some(p) = stack.pop() {
                 let (i, j) = (p / n, p % n);
-                let m = f64::from(self.mask[p]);
+                let m = f64::from(mask[p]);
                 blob.pixels += 1;
                 blob.mass += m;
                 blob.sum_i += m * i as f64;
@@ -449,20 +485,15 @@ impl Tracker {
                     blob.bbox[2].min(j),
                     blob.bbox[3].max(j),
                 ];
-                for di in -link..=link {
-                    let ii = i as isize + di;
-                    if ii < 0 || ii >= n as isize {
-                        continue;
-                    }
-                    for dj in -link..=link {
-                        let jj = j as isize + dj;
-                        if jj < 0 || jj >= n as isize {
-                            continue;
-                        }
-                        let q = ii as usize * n + jj as usize;
-                        if self.mask[q] != 0.0 && self.label[q] == 0 {
-                            self.label[q] = id;
-                            self.stack.push(q);
+                let (ia, ib) = (i.saturating_sub(link), (i + link).min(n - 1));
+                let (ja, jb) = (j.saturating_sub(link), (j + link).min(n - 1));
+                for ii in ia..=ib {
+                    let row = ii * n;
+                    let (mrow, lrow) = (&mask[row + ja..=row + jb], &mut label[row + ja..=row + jb]);
+                    for (o, (&mv, l)) in mrow.iter().zip(lrow.iter_mut()).enumerate() {
+                        if mv != 0.0 && *l == 0 {
+                            *l = id;
+                            stack.push(row + ja + o);
                         }
                     }
                 }
