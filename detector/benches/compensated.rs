@@ -8,7 +8,8 @@
 //! efference copy of a camera turning at 0.3 rad/s and driving at 1 m/s, 0.35 m above the ground
 //! (the grating changes most pixels: the tracker's worst case). `tracker_cruise/96` runs the
 //! tracker on a scene closer to the suite's: 32 frames ray-cast from a camera cruising at 1 m/s
-//! over a textured ground under a plain sky, a ball approaching (few pixels change).
+//! over a textured ground under a plain sky, a ball approaching (few pixels change);
+//! `tracker_standing/96` the same scene from a standing camera (the background-model path).
 //! Throughput is one frame per iteration, so criterion reports frames/s as "elem/s".
 
 use std::hint::black_box;
@@ -35,11 +36,11 @@ fn ego() -> EfferenceCopy {
     }
 }
 
-/// Frame k of a camera cruising at 1 m/s, 0.35 m above a textured ground (pitch −3°), a ball of
-/// radius 0.2 m approaching from 8 m at 6 m/s, 60° field of view.
-fn cruise_frame(n: usize, k: usize) -> Frame {
+/// Frame k of a camera driving at `speed` (m/s), 0.35 m above a textured ground (pitch −3°), a
+/// ball of radius 0.2 m approaching from 8 m at 6 m/s, 60° field of view.
+fn cruise_frame(n: usize, k: usize, speed: f64) -> Frame {
     let t = k as f64 / 120.0;
-    let (cx, h) = (t, 0.35);
+    let (cx, h) = (speed * t, 0.35);
     let ball = [8.0 - 6.0 * t, 0.2, 0.4];
     let tan = (30f64).to_radians().tan();
     let (sp, cp) = (-0.03f64).sin_cos();
@@ -109,7 +110,7 @@ fn bench(c: &mut Criterion) {
     run(&mut group, "tracker", tracker(), 96);
     {
         let mut det = tracker();
-        let frames: Vec<Frame> = (0..32).map(|k| cruise_frame(96, k)).collect();
+        let frames: Vec<Frame> = (0..32).map(|k| cruise_frame(96, k, 1.0)).collect();
         let e = EfferenceCopy {
             yaw_rate_rps: 0.0,
             rotation_rad: [0.0; 3],
@@ -117,6 +118,28 @@ fn bench(c: &mut Criterion) {
         };
         let mut k = 0usize;
         group.bench_function("tracker_cruise/96", |b| {
+            b.iter(|| {
+                k += 1;
+                black_box(
+                    det.step_moving(black_box(&frames[k % frames.len()]), &e)
+                        .expect("same size"),
+                )
+            })
+        });
+    }
+    {
+        // the same scene seen by a standing camera: the tracker's background-model path
+        let mut det = tracker();
+        let frames: Vec<Frame> = (0..32).map(|k| cruise_frame(96, k, 0.0)).collect();
+        let e = EfferenceCopy {
+            forward_mps: 0.0,
+            yaw_rate_rps: 0.0,
+            rotation_rad: [0.0; 3],
+            translation_m: [0.0; 3],
+            ..ego()
+        };
+        let mut k = 0usize;
+        group.bench_function("tracker_standing/96", |b| {
             b.iter(|| {
                 k += 1;
                 black_box(

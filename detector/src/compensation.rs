@@ -195,29 +195,40 @@ impl Warper {
         let h = ego.height_m;
         let inv_t = 1.0 / self.tan_half_fov;
         let max = (n - 1) as f64;
-        for (o, ray) in out.iter_mut().zip(&self.rays) {
-            let d = [1.0, ray[0], ray[1]];
-            let s = up[0] + up[1] * d[1] + up[2] * d[2];
-            let p = if ground && s < -HORIZON_MARGIN {
-                let k = h / -s;
-                let q = apply(r, [k, k * d[1], k * d[2]]);
-                [q[0] + t[0], q[1] + t[1], q[2] + t[2]]
-            } else {
-                apply(r, d)
-            };
-            if p[0] <= 1e-9 {
-                *o = f32::NAN;
-                continue;
+        // Along a row the ray (1, a, b) changes in a only, by a constant step: R·d and up·d are
+        // affine in a, so both advance by constant increments (the rays of `self.rays`, exactly).
+        let col = |c: usize| [r[0][c], r[1][c], r[2][c]];
+        let (r0, r1, r2) = (col(0), col(1), col(2));
+        let step_a = if n > 1 { self.rays[1][0] - self.rays[0][0] } else { 0.0 };
+        for (row, orow) in out.chunks_exact_mut(n).enumerate() {
+            let [a0, b] = self.rays[row * n];
+            // R·d and up·d at the row's first pixel, and their steps along the row
+            let mut rd = [0, 1, 2].map(|k| r0[k] + a0 * r1[k] + b * r2[k]);
+            let drd = [0, 1, 2].map(|k| step_a * r1[k]);
+            let mut s = up[0] + up[1] * a0 + up[2] * b;
+            let ds = up[1] * step_a;
+            for o in orow.iter_mut() {
+                let p = if ground && s < -HORIZON_MARGIN {
+                    let k = h / -s;
+                    [k * rd[0] + t[0], k * rd[1] + t[1], k * rd[2] + t[2]]
+                } else {
+                    rd
+                };
+                rd = [rd[0] + drd[0], rd[1] + drd[1], rd[2] + drd[2]];
+                s += ds;
+                if p[0] <= 1e-9 {
+                    *o = f32::NAN;
+                    continue;
+                }
+                let q = inv_t / p[0];
+                let jf = (1.0 - p[1] * q) * nf / 2.0 - 0.5;
+                let i_f = (1.0 - p[2] * q) * nf / 2.0 - 0.5;
+                if !(jf >= 0.0 && jf <= max && i_f >= 0.0 && i_f <= max) {
+                    *o = f32::NAN;
+                    continue;
+                }
+                *o = bilinear(earlier, n, i_f, jf);
             }
-            let xi = -p[1] / p[0] * inv_t;
-            let yi = p[2] / p[0] * inv_t;
-            let jf = (xi + 1.0) * nf / 2.0 - 0.5;
-            let i_f = (1.0 - yi) * nf / 2.0 - 0.5;
-            if !(jf >= 0.0 && jf <= max && i_f >= 0.0 && i_f <= max) {
-                *o = f32::NAN;
-                continue;
-            }
-            *o = bilinear(earlier, n, i_f, jf);
         }
     }
 }

@@ -242,13 +242,14 @@ fn cruise(with_ball: bool) -> Vec<(f64, f64, Option<f64>)> {
 #[test]
 fn the_tracker_sees_an_approaching_ball_early_while_the_camera_cruises() {
     let run = cruise(true);
-    // θ̂ leaves 0 for good (the frame after the last 0) by a true angular size of 5°
+    // θ̂ leaves 0 for good (the frame after the last 0) by a true angular size of 7° (the issue asks
+    // for 10°; a track is reported once it has lasted `confirm_frames`)
     let onset = run.iter().rposition(|&(_, est, _)| est <= 0.0).map_or(0, |k| k + 1);
-    assert!(onset < run.len() && run[onset].0 <= 5.0, "θ̂ leaves 0 at frame {onset}");
-    // and tracks θ within 20 % (median) from 5° on
+    assert!(onset < run.len() && run[onset].0 <= 7.0, "θ̂ leaves 0 at frame {onset}");
+    // and tracks θ within 20 % (median) from 7° on
     let mut errs: Vec<f64> = run
         .iter()
-        .filter(|&&(th, _, _)| th >= 5.0)
+        .filter(|&&(th, _, _)| th >= 7.0)
         .map(|&(th, est, _)| (est - th).abs() / th)
         .collect();
     errs.sort_by(f64::total_cmp);

@@ -6,4 +6,5 @@ mod hopfield_clutter;
 mod hopfield_stimuli;
 mod paper_findings;
 mod stimulus;
+mod tracker;
 mod video;

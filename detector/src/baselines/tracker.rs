@@ -1,33 +1,47 @@
 //! `tracker` — an engineered reference detector, **not an insect model**: it segments the
-//! independently moving region of the image after removing the robot's own motion, tracks its
-//! bounding box and reports its angular size θ̂ and image position and extent.
+//! independently moving region of the image after removing the robot's own motion, tracks it and
+//! reports its angular size θ̂ and image position and extent.
 //!
 //! Per frame (docs/detectors.md, tracker):
-//! 1. **Compensated difference** ([`crate::compensation`]): the current frame minus the frame
-//!    `baseline_frames` earlier warped to the current view by the camera's motion in between (from
-//!    the efference copies: rotation exactly, translation through the ground-plane homography below
-//!    the horizon, at-infinity elsewhere). The static world cancels; what moves on its own, or
-//!    stands near the robot above the horizon, remains.
-//! 2. **Segmentation**: a pixel changed when `|residual| > threshold + edge_tolerance_px · |∇F|`
-//!    (`|∇F|`: the current frame's central-difference gradient per pixel — a sub-pixel error of the
-//!    prediction at an edge of the static texture leaves a residual proportional to it). Changed
-//!    pixels closer than `link_px` (Chebyshev distance) form one region; regions of fewer than
-//!    `min_pixels` pixels are noise, and regions more than [`MAX_BAND_ASPECT`] times wider than
-//!    high are the aliased far ground along the horizon.
+//! 1. **Residual.** *A standing camera* (no motion in its efference copy, or none known) compares
+//!    the frame with a **background model**: a running average of the frames (time constant
+//!    `background_frames`) that follows the scene [`FROZEN_BACKGROUND_SLOWDOWN`] times more slowly
+//!    inside the tracked object's box, so the residual `frame − model` is the object's *current*
+//!    image, however slowly it grows. *A moving camera* takes the **compensated difference**
+//!    ([`crate::compensation`]): the frame minus the frame `baseline_frames` earlier warped to the
+//!    current view by the camera's motion in between (rotation exactly, translation through the
+//!    ground-plane homography below the horizon, at-infinity elsewhere); the static world cancels,
+//!    and what moves on its own, or stands near the robot above the horizon, remains — the union of
+//!    where the object is and where it was.
+//! 2. **Segmentation**: a pixel changed when `|residual| > threshold + tolerance · |∇F|` (`|∇F|`:
+//!    the frame's central-difference gradient; `tolerance` = `edge_tolerance_px` for the
+//!    compensated difference, whose prediction errs by a fraction of a pixel at edges of the static
+//!    texture, and 0 against the background model). Changed pixels closer than `link_px`
+//!    (Chebyshev distance) form one region; regions of fewer than `min_pixels` pixels
+//!    (`standing_min_pixels` against the background model) are noise,
+//!    and regions more than [`MAX_BAND_ASPECT`] times wider than high are the aliased far ground
+//!    along the horizon.
 //! 3. **Tracking**: while an object is tracked, the region overlapping its last bounding box
 //!    (grown by a quarter of its size, at least `link_px`) with the largest summed |residual| is
 //!    the object, joined by every other region that touches it; with none, the largest region
-//!    starts a new track. A track without a region keeps its last box for `hold_frames` frames,
-//!    then ends. A track is reported once it has lasted `confirm_frames` frames.
-//! 4. **Outputs**: each edge of the box is smoothed by an α-β filter ([`EDGE_ALPHA`],
-//!    [`EDGE_BETA`]: sub-pixel positions, no lag at a constant edge velocity); θ̂ = the larger of
-//!    the smoothed box's angular width and height (degrees; 0 while nothing is tracked) as `output` and `angular_size_deg`; the box and the residual-weighted centroid as
-//!    [`Signals::region`](crate::Signals::region) (what the collision-course gate needs); `aux`:
-//!    `pixels` (changed pixels of the object), `x`, `y` (centroid).
-//!
-//! An expanding ring of change marks an approaching uniform object (its interior does not change);
-//! its box is the object's current extent. θ̂ grows as the object nears; the τ strategy reads the
-//! growth, the course gate the box's drift.
+//!    starts a new track. A standing camera's region is then cleaned of what the background model
+//!    got wrong: an object in view from the first frame is in the
+//!    model (its imprint is replaced by the background around it when that is uniform), and where
+//!    the object was, the frame shows background again. A track without a region keeps its last
+//!    box for `hold_frames` frames, then ends. A track is reported once it has lasted
+//!    `confirm_frames` frames.
+//! 4. **Fit**: each frame's measurement — the object's size `s` (the square root of the region's
+//!    area when it is the object's current image and fills its box like a solid shape, else of its
+//!    box's area), centre and box shape — enters least-squares lines through `1/s`,
+//!    `cx/s` and `cy/s` against time with an exponentially fading memory of `fit_frames` frames:
+//!    for an object moving at a constant velocity these are exactly linear (its depth and its
+//!    offsets in units of its size), so the fit has no lag, while the renderer's whole-pixel edges
+//!    (no anti-aliasing) are averaged out.
+//! 5. **Outputs**: θ̂ = the larger of the fitted box's angular width and height (degrees; 0 while
+//!    nothing is reported) as `output` and `angular_size_deg`; the fitted box and the region's
+//!    residual-weighted centroid as [`Signals::region`](crate::Signals::region) (what the
+//!    collision-course gate needs); `aux`: `pixels` (changed pixels of the object), `x`, `y`
+//!    (centroid).
 
 use serde::Deserialize;
 
@@ -36,18 +50,32 @@ use crate::compensation::CompensatedDifference;
 use crate::registry::{CameraFacts, DetectorConfig, Registration, Signal};
 use crate::{Detector, DetectorError, EfferenceCopy, Frame, ImageRegion, Signals};
 
-/// Gain of the α-β filter that smooths each edge of the tracked box (position correction per
-/// frame): a box measured in whole pixels jumps by a pixel at a time, which a τ estimate from a few
-/// frames would read as motion.
-pub const EDGE_ALPHA: f64 = 0.35;
-
-/// Velocity gain of the edges' α-β filter (per frame).
-pub const EDGE_BETA: f64 = 0.05;
-
 /// A region more than this many times wider than high is ignored: a thin horizontal band is the
 /// far ground at the horizon, whose texture is finer than a pixel there and changes unpredictably
 /// from frame to frame (aliasing), not an object.
 pub const MAX_BAND_ASPECT: usize = 4;
+
+/// Smallest fraction of its box that a region of the object's current image must fill to be
+/// measured by its area (a disc fills π/4 of its box; the ring of an object that the background
+/// model still holds fills less).
+pub const MIN_SOLID_FILL: f64 = 0.5;
+
+/// The fit of the tracked box keeps the samples of the last `FIT_SPAN · fit_frames` frames (older
+/// ones weigh less than `exp(−FIT_SPAN)` = 2 %).
+pub const FIT_SPAN: usize = 4;
+
+/// Boxes of the compensated difference (a moving camera) are fitted with a memory this many times
+/// shorter than `fit_frames`: their size is fitted directly, which lags a growing object.
+pub const DIFFERENCE_MEMORY_DIVISOR: f64 = 6.0;
+
+/// Inside the tracked object's box the standing camera's background model follows the frames this
+/// many times more slowly than elsewhere: the object must not become background while it is
+/// tracked, but an object that stops for good does, after several seconds.
+pub const FROZEN_BACKGROUND_SLOWDOWN: f32 = 8.0;
+
+/// A camera whose rotation (rad) and displacement (m) since the previous frame are both below this
+/// counts as standing: the residual is taken against the background model (module docs, step 1).
+pub const STANDING_MOTION: f64 = 1e-7;
 
 /// Parameters of [`Tracker`].
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -66,14 +94,30 @@ pub struct TrackerConfig {
     /// Changed pixels at most this far apart (Chebyshev, pixels, 1–8) belong to one region.
     /// Default 2.
     pub link_px: usize,
-    /// Fewest changed pixels of a region (pixels, ≥ 1). Default 4.
+    /// Fewest changed pixels of a region of the compensated difference (a moving camera; pixels,
+    /// ≥ 1). Default 4: the prediction's errors at the static texture's edges come in small specks.
     pub min_pixels: usize,
+    /// Fewest changed pixels of a region against a standing camera's background model (pixels,
+    /// ≥ 1). Default 2: the model has no prediction error, and a far object that grows by a
+    /// fraction of a pixel changes its edge pixels one or two at a time.
+    pub standing_min_pixels: usize,
     /// Frames a track survives without a region (frames). Default 6.
     pub hold_frames: usize,
     /// Frames a new track must last before it is reported (frames, ≥ 1): a box of a few pixels
     /// that appears and vanishes again is noise, and a decision strategy fitting the first frames
-    /// of a track would read its jitter as motion. Default 12 (0.1 s at 120 Hz).
+    /// of a track would read its jitter as motion. Default 30 (0.25 s at 120 Hz).
     pub confirm_frames: usize,
+    /// Memory of the fit of the track's measurements (frames, ≥ 1): a measurement `j` frames old
+    /// weighs `exp(−j/fit_frames)` in the least-squares lines through the object's inverse size and
+    /// its centre in units of its size, which change linearly in time for an object moving at a
+    /// constant velocity (module docs, step 4). Default 45 (0.375 s at 120 Hz).
+    pub fit_frames: usize,
+    /// Time constant of the background model of a standing camera (frames, ≥ 1): the background
+    /// follows the frames by `1/background_frames` of their difference per frame outside the
+    /// tracked object's box (and [`FROZEN_BACKGROUND_SLOWDOWN`] times slower inside it). Default
+    /// 60 (0.5 s at 120 Hz): a far object that grows by a pixel in half a second still differs
+    /// from it, and a change the scene keeps (a light switched on) fades within about a second.
+    pub background_frames: usize,
 }
 
 impl Default for TrackerConfig {
@@ -85,8 +129,11 @@ impl Default for TrackerConfig {
             edge_tolerance_px: 0.5,
             link_px: 2,
             min_pixels: 4,
+            standing_min_pixels: 2,
             hold_frames: 6,
-            confirm_frames: 12,
+            confirm_frames: 30,
+            fit_frames: 45,
+            background_frames: 60,
         }
     }
 }
@@ -113,8 +160,11 @@ impl TrackerConfig {
             ("tracker.baseline_frames", self.baseline_frames, 1, 120, 8),
             ("tracker.link_px", self.link_px, 1, 8, 2),
             ("tracker.min_pixels", self.min_pixels, 1, 10_000, 4),
+            ("tracker.standing_min_pixels", self.standing_min_pixels, 1, 10_000, 2),
             ("tracker.hold_frames", self.hold_frames, 0, 1_000, 6),
-            ("tracker.confirm_frames", self.confirm_frames, 1, 1_000, 12),
+            ("tracker.confirm_frames", self.confirm_frames, 1, 1_000, 30),
+            ("tracker.fit_frames", self.fit_frames, 1, 1_000, 45),
+            ("tracker.background_frames", self.background_frames, 1, 100_000, 60),
         ] {
             if !(lo..=hi).contains(&value) {
                 return Err(DetectorError::InvalidParameter {
@@ -137,6 +187,9 @@ struct Blob {
     sum_j: f64,
     /// `[i_min, i_max, j_min, j_max]` (inclusive pixel indices).
     bbox: [usize; 4],
+    /// Whether the region is the object's current image (a standing camera's background
+    /// subtraction, [`Tracker::refine_standing`]) rather than a difference of two frames.
+    current: bool,
 }
 
 impl Blob {
@@ -145,6 +198,7 @@ impl Blob {
         self.mass += o.mass;
         self.sum_i += o.sum_i;
         self.sum_j += o.sum_j;
+        self.current &= o.current;
         self.bbox = [
             self.bbox[0].min(o.bbox[0]),
             self.bbox[1].max(o.bbox[1]),
@@ -158,6 +212,160 @@ impl Blob {
             && b[0] <= self.bbox[1] + margin
             && self.bbox[2] <= b[3] + margin
             && b[2] <= self.bbox[3] + margin
+    }
+}
+
+/// Collects into `ring` the values of `image` (n·n) on the pixels just outside `bbox`
+/// (`[i0, i1, j0, j1]`, inclusive), inside the image.
+fn ring_of(image: &[f32], n: usize, [i0, i1, j0, j1]: [usize; 4], ring: &mut Vec<f32>) {
+    ring.clear();
+    let (c0, c1) = (j0.saturating_sub(1), (j1 + 1).min(n - 1));
+    if i0 > 0 {
+        ring.extend(&image[(i0 - 1) * n + c0..=(i0 - 1) * n + c1]);
+    }
+    if i1 + 1 < n {
+        ring.extend(&image[(i1 + 1) * n + c0..=(i1 + 1) * n + c1]);
+    }
+    for i in i0..=i1 {
+        if j0 > 0 {
+            ring.push(image[i * n + j0 - 1]);
+        }
+        if j1 + 1 < n {
+            ring.push(image[i * n + j1 + 1]);
+        }
+    }
+}
+
+/// One frame's measurement of the tracked object, as the quantities that change linearly in time
+/// for an object moving at a constant velocity: with its size `s` (pixels: the square root of its
+/// area, or of its box's) and its centre `(cx, cy)` relative to the image centre, `1/s` (∝ the
+/// object's depth) and `cx/s`, `cy/s` (∝ its lateral and vertical offsets); its box's shape
+/// `width/s`, `height/s` (constant for a rigid object).
+#[derive(Debug, Clone, Copy)]
+struct BoxSample {
+    /// Frames since the track started.
+    k: f64,
+    inverse_size: f64,
+    x: f64,
+    y: f64,
+    width: f64,
+    height: f64,
+    /// Whether it measured the object's current image (else a difference of two frames).
+    current: bool,
+}
+
+impl BoxSample {
+    /// The sample of frame `k` of a box of size `size`, centre `[row, column]` relative to the
+    /// image centre, width `w` and height `h` (pixels).
+    fn of(k: f64, size: f64, [ci, cj]: [f64; 2], w: f64, h: f64, current: bool) -> Self {
+        let s = size.max(1e-3);
+        Self {
+            current,
+            k,
+            inverse_size: 1.0 / s,
+            x: cj / s,
+            y: ci / s,
+            width: w / s,
+            height: h / s,
+        }
+    }
+}
+
+/// The box at frame `k` from the weighted least-squares lines through the samples' `1/s`, `cx/s`,
+/// `cy/s` and their weighted mean shape (see [`BoxSample`]), a sample `j` frames old weighing
+/// `exp(−j/memory)`: an exponentially fading memory changes the fit smoothly as samples age,
+/// where a window of equal weights jumps whenever a sample leaves it. The samples' mean when they
+/// span a single frame.
+fn fit_box(samples: &std::collections::VecDeque<BoxSample>, k: usize, memory: f64, n: usize) -> [f64; 4] {
+    if samples.back().is_some_and(|s| !s.current) {
+        return fit_difference_box(samples, k, memory / DIFFERENCE_MEMORY_DIVISOR, n);
+    }
+    let lines = Lines::fit(samples, k as f64, memory, |s| [s.inverse_size, s.x, s.y, s.width, s.height]);
+    // a fitted depth at or behind the camera (a box that grew explosively) keeps the last size
+    let inverse = lines.at(0);
+    let inverse = if inverse > 1e-6 {
+        inverse
+    } else {
+        samples.back().map_or(1.0, |s| s.inverse_size)
+    };
+    let size = 1.0 / inverse;
+    let (cx, cy) = (lines.at(1) * size + n as f64 / 2.0, lines.at(2) * size + n as f64 / 2.0);
+    let (w, h) = (lines.mean[3] * size, lines.mean[4] * size);
+    [cy - h / 2.0, cy + h / 2.0, cx - w / 2.0, cx + w / 2.0]
+}
+
+/// The box at frame `k` from boxes of the compensated difference: weighted least-squares lines
+/// through the size `s`, the centre and the mean shape themselves (memory `memory` frames). Such a
+/// box holds where the object was as well as where it is, so `1/s` is not linear in time and its
+/// line would overshoot as the object nears; a line through `s` lags a little instead.
+fn fit_difference_box(samples: &std::collections::VecDeque<BoxSample>, k: usize, memory: f64, n: usize) -> [f64; 4] {
+    let lines = Lines::fit(samples, k as f64, memory, |s| {
+        let size = 1.0 / s.inverse_size;
+        [size, s.x * size, s.y * size, s.width, s.height]
+    });
+    let size = lines.at(0).max(1e-3);
+    let (cx, cy) = (lines.at(1) + n as f64 / 2.0, lines.at(2) + n as f64 / 2.0);
+    let (w, h) = (lines.mean[3] * size, lines.mean[4] * size);
+    [cy - h / 2.0, cy + h / 2.0, cx - w / 2.0, cx + w / 2.0]
+}
+
+/// Weighted least-squares lines through five quantities of the samples against their frame, a
+/// sample `j` frames before `now` weighing `exp(−j/memory)`.
+struct Lines {
+    now: f64,
+    mean_k: f64,
+    mean: [f64; 5],
+    /// Slopes (per frame; 0 when the samples span a single frame).
+    slope: [f64; 5],
+}
+
+impl Lines {
+    fn fit(
+        samples: &std::collections::VecDeque<BoxSample>,
+        now: f64,
+        memory: f64,
+        values: impl Fn(&BoxSample) -> [f64; 5],
+    ) -> Self {
+        let decay = (-1.0 / memory.max(1e-9)).exp();
+        // one pass: weighted sums of 1, k, k², v and k·v (k relative to now, newest first)
+        let (mut sw, mut sk, mut skk) = (0.0, 0.0, 0.0);
+        let (mut sv, mut skv) = ([0.0; 5], [0.0; 5]);
+        let mut w = 1.0;
+        let mut last_k = now;
+        for s in samples.iter().rev() {
+            w *= decay.powi((last_k - s.k).round() as i32);
+            last_k = s.k;
+            let k = s.k - now;
+            let v = values(s);
+            sw += w;
+            sk += w * k;
+            skk += w * k * k;
+            for q in 0..5 {
+                sv[q] += w * v[q];
+                skv[q] += w * k * v[q];
+            }
+        }
+        let sw = f64::max(sw, 1e-300);
+        let mean_k = sk / sw;
+        let var_k = skk - sk * mean_k;
+        let mean = sv.map(|v| v / sw);
+        let mut slope = [0.0; 5];
+        if var_k > 1e-9 {
+            for q in 0..5 {
+                slope[q] = (skv[q] - sk * mean[q]) / var_k;
+            }
+        }
+        Self {
+            now: 0.0,
+            mean_k,
+            mean,
+            slope,
+        }
+    }
+
+    /// Line `q` at `now`.
+    fn at(&self, q: usize) -> f64 {
+        self.mean[q] + self.slope[q] * (self.now - self.mean_k)
     }
 }
 
@@ -176,9 +384,17 @@ pub struct Tracker {
     missed: usize,
     /// Frames the current track has lasted.
     age: usize,
-    /// The box's smoothed edges `[top, bottom + 1, left, right + 1]` (pixel borders) and their
-    /// velocities (pixels per frame), per α-β filter.
-    edges: [(f64, f64); 4],
+    /// The track's measured boxes over the last `fit_frames` frames ([`BoxSample`]).
+    samples: std::collections::VecDeque<BoxSample>,
+    /// Frames since the track started.
+    clock: usize,
+    /// The fitted box's edges `[top, bottom, left, right]` (pixel borders, sub-pixel).
+    edges: [f64; 4],
+    /// The standing camera's background model (n·n; empty until a standing frame initialises it).
+    background: Vec<f32>,
+    /// Whether the previous frame came from a moving camera (the compensated difference's history
+    /// is then current).
+    moving: bool,
 }
 
 impl Tracker {
@@ -197,7 +413,11 @@ impl Tracker {
             track: None,
             missed: 0,
             age: 0,
-            edges: [(0.0, 0.0); 4],
+            samples: std::collections::VecDeque::new(),
+            clock: 0,
+            edges: [0.0; 4],
+            background: Vec::new(),
+            moving: false,
         })
     }
 
@@ -207,9 +427,9 @@ impl Tracker {
     }
 
     /// Marks changed pixels (`mask` = |residual| where changed, else 0).
-    fn segment(&mut self, frame: &[f32], n: usize) {
+    fn segment(&mut self, frame: &[f32], n: usize, tolerance_px: f64) {
         let thr = self.config.threshold as f32;
-        let tol = self.config.edge_tolerance_px as f32;
+        let tol = tolerance_px as f32;
         for i in 0..n {
             let (iu, id) = (i.saturating_sub(1), (i + 1).min(n - 1));
             for j in 0..n {
@@ -229,12 +449,14 @@ impl Tracker {
     }
 
     /// Groups changed pixels into [`Blob`]s (flood fill with the `link_px` neighbourhood).
-    fn group(&mut self, n: usize) {
-        let link = self.config.link_px as isize;
+    fn group(&mut self, n: usize, min_pixels: usize) {
+        let link = self.config.link_px;
         self.blobs.clear();
-        self.label.iter_mut().for_each(|l| *l = 0);
+        // disjoint borrows: the fill's inner loop reads the mask and labels through plain slices
+        let (mask, label, stack) = (&self.mask[..n * n], &mut self.label[..n * n], &mut self.stack);
+        label.fill(0);
         for start in 0..n * n {
-            if self.mask[start] == 0.0 || self.label[start] != 0 {
+            if mask[start] == 0.0 || label[start] != 0 {
                 continue;
             }
             let id = self.blobs.len() as u32 + 1;
@@ -245,13 +467,14 @@ impl Tracker {
                 sum_i: 0.0,
                 sum_j: 0.0,
                 bbox: [si, si, sj, sj],
+                current: false,
             };
-            self.label[start] = id;
-            self.stack.clear();
-            self.stack.push(start);
-            while let Some(p) = self.stack.pop() {
+            label[start] = id;
+            stack.clear();
+            stack.push(start);
+            while let Some(p) = stack.pop() {
                 let (i, j) = (p / n, p % n);
-                let m = f64::from(self.mask[p]);
+                let m = f64::from(mask[p]);
                 blob.pixels += 1;
                 blob.mass += m;
                 blob.sum_i += m * i as f64;
@@ -262,26 +485,21 @@ impl Tracker {
                     blob.bbox[2].min(j),
                     blob.bbox[3].max(j),
                 ];
-                for di in -link..=link {
-                    let ii = i as isize + di;
-                    if ii < 0 || ii >= n as isize {
-                        continue;
-                    }
-                    for dj in -link..=link {
-                        let jj = j as isize + dj;
-                        if jj < 0 || jj >= n as isize {
-                            continue;
-                        }
-                        let q = ii as usize * n + jj as usize;
-                        if self.mask[q] != 0.0 && self.label[q] == 0 {
-                            self.label[q] = id;
-                            self.stack.push(q);
+                let (ia, ib) = (i.saturating_sub(link), (i + link).min(n - 1));
+                let (ja, jb) = (j.saturating_sub(link), (j + link).min(n - 1));
+                for ii in ia..=ib {
+                    let row = ii * n;
+                    let (mrow, lrow) = (&mask[row + ja..=row + jb], &mut label[row + ja..=row + jb]);
+                    for (o, (&mv, l)) in mrow.iter().zip(lrow.iter_mut()).enumerate() {
+                        if mv != 0.0 && *l == 0 {
+                            *l = id;
+                            stack.push(row + ja + o);
                         }
                     }
                 }
             }
             let (height, width) = (blob.bbox[1] - blob.bbox[0] + 1, blob.bbox[3] - blob.bbox[2] + 1);
-            if blob.pixels >= self.config.min_pixels && width <= MAX_BAND_ASPECT * height {
+            if blob.pixels >= min_pixels && width <= MAX_BAND_ASPECT * height {
                 self.blobs.push(blob);
             }
         }
@@ -312,6 +530,161 @@ impl Tracker {
         Some(chosen)
     }
 
+    /// The measurement of a region: its box, and — for the object's current image that fills its
+    /// box like a solid shape (at least [`MIN_SOLID_FILL`] of it) — the square root of its area as
+    /// its size and its centroid as its centre: whole-pixel edges jump by a pixel at a time, while
+    /// the area of a growing object grows by one pixel at a time.
+    fn measure(&self, b: &Blob, n: usize) -> BoxSample {
+        let [i0, i1, j0, j1] = b.bbox;
+        let (h, w) = ((i1 - i0 + 1) as f64, (j1 - j0 + 1) as f64);
+        let area = b.pixels as f64;
+        let c = n as f64 / 2.0;
+        let k = self.clock as f64;
+        if !b.current || area < MIN_SOLID_FILL * w * h || b.mass <= 0.0 {
+            return BoxSample::of(k, (w * h).sqrt(), [(i0 + i1 + 1) as f64 / 2.0 - c, (j0 + j1 + 1) as f64 / 2.0 - c], w, h, false);
+        }
+        let centroid = [b.sum_i / b.mass + 0.5 - c, b.sum_j / b.mass + 0.5 - c];
+        BoxSample::of(k, area.sqrt(), centroid, w, h, true)
+    }
+
+    /// A standing camera's object region `blob` without the background it uncovered: the model
+    /// may hold the object where it was (an object in view from the first frame, or one that stood
+    /// still for a while). With `b` the median of the model just outside the region's box, a
+    /// changed pixel shows the object now when the frame differs more from `b` than the model
+    /// does; otherwise it shows background again: the model takes its current value and it leaves
+    /// the region.
+    fn refine_standing(&mut self, frame: &[f32], n: usize, blob: Blob, starting: bool) -> Blob {
+        let l = self.config.link_px;
+        let [i0, i1, j0, j1] = blob.bbox;
+        let (i0, i1, j0, j1) = (i0.saturating_sub(l), (i1 + l).min(n - 1), j0.saturating_sub(l), (j1 + l).min(n - 1));
+        let mut ring = Vec::new();
+        ring_of(&self.background, n, [i0, i1, j0, j1], &mut ring);
+        if ring.is_empty() {
+            return blob;
+        }
+        let mid = ring.len() / 2;
+        let b = *ring.select_nth_unstable_by(mid, f32::total_cmp).1;
+        let thr = self.config.threshold as f32;
+        let (mut i0, mut i1, mut j0, mut j1) = (i0, i1, j0, j1);
+        if starting {
+            // a new track: the model may hold the object where it stood (an object in view from
+            // the first frame). That imprint — the pixels of the model connected to the region
+            // that differ from the median `b` around it — takes the value `b` when the model
+            // around the imprint is uniform (at least three quarters of the ring around its box
+            // within half the threshold of `b`): a uniform background hides nothing behind it.
+            const FILLED: u32 = u32::MAX;
+            self.stack.clear();
+            let mut imprint = Vec::new();
+            for i in i0..=i1 {
+                for j in j0..=j1 {
+                    let p = i * n + j;
+                    if (self.background[p] - b).abs() > thr {
+                        self.label[p] = FILLED;
+                        self.stack.push(p);
+                    }
+                }
+            }
+            let limit = n * n / 4;
+            let mut bbox = [i0, i1, j0, j1];
+            while let Some(p) = self.stack.pop() {
+                if imprint.len() > limit {
+                    break;
+                }
+                imprint.push(p);
+                let (i, j) = (p / n, p % n);
+                bbox = [bbox[0].min(i), bbox[1].max(i), bbox[2].min(j), bbox[3].max(j)];
+                let neighbours = [
+                    (i > 0).then(|| p - n),
+                    (i + 1 < n).then(|| p + n),
+                    (j > 0).then(|| p - 1),
+                    (j + 1 < n).then(|| p + 1),
+                ];
+                for q in neighbours.into_iter().flatten() {
+                    if self.label[q] != FILLED && (self.background[q] - b).abs() > thr {
+                        self.label[q] = FILLED;
+                        self.stack.push(q);
+                    }
+                }
+            }
+            ring_of(&self.background, n, bbox, &mut ring);
+            let uniform = imprint.len() <= limit
+                && !ring.is_empty()
+                && ring.iter().filter(|&&v| (v - b).abs() <= thr / 2.0).count() * 4 >= ring.len() * 3;
+            if uniform {
+                for &p in &imprint {
+                    self.background[p] = b;
+                    let r = frame[p] - b;
+                    self.residual[p] = r;
+                    self.mask[p] = if r.abs() > thr { r.abs() } else { 0.0 };
+                }
+                [i0, i1, j0, j1] = bbox;
+            }
+        }
+        let mut kept: Option<Blob> = None;
+        for i in i0..=i1 {
+            for j in j0..=j1 {
+                let p = i * n + j;
+                let m = self.mask[p];
+                if m == 0.0 {
+                    continue;
+                }
+                // the object is where the frame, not the model, differs more from the background
+                let model = frame[p] - self.residual[p];
+                if (frame[p] - b).abs() <= (model - b).abs() {
+                    self.background[p] = frame[p];
+                    self.mask[p] = 0.0;
+                    continue;
+                }
+                let m = f64::from(m);
+                let k = kept.get_or_insert(Blob {
+                    pixels: 0,
+                    mass: 0.0,
+                    sum_i: 0.0,
+                    sum_j: 0.0,
+                    bbox: [i, i, j, j],
+                    current: true,
+                });
+                k.merge(&Blob {
+                    pixels: 1,
+                    mass: m,
+                    sum_i: m * i as f64,
+                    sum_j: m * j as f64,
+                    bbox: [i, i, j, j],
+                    current: true,
+                });
+            }
+        }
+        kept.unwrap_or(blob)
+    }
+
+    /// Moves the standing camera's background model towards `frame`: by `1/background_frames` of
+    /// the difference outside the tracked object's box grown by a quarter of its size (at least
+    /// `link_px`), [`FROZEN_BACKGROUND_SLOWDOWN`] times less inside it.
+    fn update_background(&mut self, frame: &[f32], n: usize) {
+        let rate = 1.0 / self.config.background_frames as f32;
+        let slow = rate / FROZEN_BACKGROUND_SLOWDOWN;
+        let frozen = self.track.as_ref().map(|t| {
+            let [i0, i1, j0, j1] = t.bbox;
+            let m = ((i1 - i0).max(j1 - j0) / 4).max(self.config.link_px);
+            [i0.saturating_sub(m), (i1 + m).min(n - 1), j0.saturating_sub(m), (j1 + m).min(n - 1)]
+        });
+        for (i, (brow, frow)) in self.background.chunks_exact_mut(n).zip(frame.chunks_exact(n)).enumerate() {
+            match frozen {
+                Some([i0, i1, j0, j1]) if (i0..=i1).contains(&i) => {
+                    for (j, (b, &f)) in brow.iter_mut().zip(frow).enumerate() {
+                        let k = if (j0..=j1).contains(&j) { slow } else { rate };
+                        *b += (f - *b) * k;
+                    }
+                }
+                _ => {
+                    for (b, &f) in brow.iter_mut().zip(frow) {
+                        *b += (f - *b) * rate;
+                    }
+                }
+            }
+        }
+    }
+
     fn signals(&self, n: usize) -> Signals {
         let confirmed = self.track.as_ref().filter(|_| self.age >= self.config.confirm_frames);
         let Some(t) = confirmed else {
@@ -326,7 +699,7 @@ impl Tracker {
         let x_of = |j: f64| 2.0 * j / nf - 1.0;
         let y_of = |i: f64| 1.0 - 2.0 * i / nf;
         let [i0, i1, j0, j1] = t.bbox;
-        let [top, bottom, left, right] = self.edges.map(|(p, _)| p);
+        let [top, bottom, left, right] = self.edges;
         let (ci, cj) = if t.mass > 0.0 {
             (t.sum_i / t.mass + 0.5, t.sum_j / t.mass + 0.5)
         } else {
@@ -364,6 +737,8 @@ impl Detector for Tracker {
         self.track = None;
         self.missed = 0;
         self.age = 0;
+        self.background.clear();
+        self.moving = false;
     }
 
     fn step(&mut self, frame: &Frame) -> Result<Signals, DetectorError> {
@@ -383,26 +758,62 @@ impl Detector for Tracker {
                 self.label = vec![0; n * n];
             }
         }
-        let diff = self.diff.as_mut().expect("set on the first frame");
-        if !diff.step(frame.data(), ego, &mut self.residual) {
-            return Ok(self.signals(n));
-        }
-        self.segment(frame.data(), n);
-        self.group(n);
-        match self.choose() {
+        let standing = !ego.knows_motion()
+            || (ego.rotation_rad.iter().all(|r| r.abs() < STANDING_MOTION)
+                && ego.translation_m.iter().all(|t| t.abs() < STANDING_MOTION));
+        let tolerance_px = if standing {
+            if self.background.len() != n * n {
+                // the first standing frame: the background model starts from it
+                self.background.clear();
+                self.background.extend_from_slice(frame.data());
+                self.moving = false;
+                self.residual.iter_mut().for_each(|r| *r = 0.0);
+                return Ok(self.signals(n));
+            }
+            for ((r, &f), &b) in self.residual.iter_mut().zip(frame.data()).zip(&self.background) {
+                *r = f - b;
+            }
+            self.moving = false;
+            // the background model holds exact earlier frames: no prediction error at edges
+            0.0
+        } else {
+            let diff = self.diff.as_mut().expect("set on the first frame");
+            if !self.moving {
+                // the history was not kept while the camera stood
+                diff.reset();
+                self.moving = true;
+            }
+            self.background.clear();
+            if !diff.step(frame.data(), ego, &mut self.residual) {
+                return Ok(self.signals(n));
+            }
+            self.config.edge_tolerance_px
+        };
+        self.segment(frame.data(), n, tolerance_px);
+        let min_pixels = if standing {
+            self.config.standing_min_pixels
+        } else {
+            self.config.min_pixels
+        };
+        self.group(n, min_pixels);
+        let chosen = self.choose();
+        let chosen = if standing {
+            let starting = self.track.is_none();
+            chosen.map(|b| self.refine_standing(frame.data(), n, b, starting))
+        } else {
+            chosen
+        };
+        match chosen {
             Some(b) => {
-                let [i0, i1, j0, j1] = b.bbox;
-                let measured = [i0 as f64, i1 as f64 + 1.0, j0 as f64, j1 as f64 + 1.0];
                 if self.track.is_none() {
-                    self.edges = measured.map(|m| (m, 0.0));
-                } else {
-                    for ((p, v), m) in self.edges.iter_mut().zip(measured) {
-                        let predicted = *p + *v;
-                        let r = m - predicted;
-                        *p = predicted + EDGE_ALPHA * r;
-                        *v += EDGE_BETA * r;
-                    }
+                    self.samples.clear();
+                    self.clock = 0;
                 }
+                if self.samples.len() >= FIT_SPAN * self.config.fit_frames {
+                    self.samples.pop_front();
+                }
+                let measured = self.measure(&b, n);
+                self.samples.push_back(measured);
                 self.track = Some(b);
                 self.missed = 0;
                 self.age += 1;
@@ -416,6 +827,13 @@ impl Detector for Tracker {
                 }
             }
             None => {}
+        }
+        if self.track.is_some() {
+            self.edges = fit_box(&self.samples, self.clock, self.config.fit_frames as f64, n);
+            self.clock += 1;
+        }
+        if standing {
+            self.update_background(frame.data(), n);
         }
         Ok(self.signals(n))
     }
