@@ -114,7 +114,7 @@ pub struct TrackerConfig {
     pub fit_frames: usize,
     /// Time constant of the background model of a standing camera (frames, ≥ 1): the background
     /// follows the frames by `1/background_frames` of their difference per frame outside the
-    /// tracked object's box (and [`FROZEN_BACKGROUND_SLOWDOWN`] times slower inside it). Default
+    /// tracked object's box (and 8 times slower inside it). Default
     /// 60 (0.5 s at 120 Hz): a far object that grows by a pixel in half a second still differs
     /// from it, and a change the scene keeps (a light switched on) fades within about a second.
     pub background_frames: usize,
