@@ -1017,12 +1017,15 @@ fn repeated_dodges_to_one_side_stop_at_the_maximum_offset() {
     // dodge 1.5 m/s for 0.5 s (0.75 m), 0.25 s cooldown, then the same side again: without a
     // limit the robot ends 1.5 m to the left; with max_dodge_offset_m = 1.0 it sidesteps until
     // 1.0 m and then holds its lateral position (forward motion continues)
-    let run = |limit: Option<f64>| {
-        let mut c = EscapeController::new(EscapeConfig {
+    let limited_to = |limit: Option<f64>| {
+        EscapeController::new(EscapeConfig {
             max_dodge_offset_m: limit,
             ..controller(Manoeuvre::DodgeLateral).config().clone()
         })
-        .unwrap();
+        .unwrap()
+    };
+    let run = |limit: Option<f64>| {
+        let mut c = limited_to(limit);
         let dt = 0.01;
         let mut offset = 0.0;
         let mut held_forward = true;
@@ -1042,11 +1045,7 @@ fn repeated_dodges_to_one_side_stop_at_the_maximum_offset() {
     assert_eq!(triggers, 3, "the limit holds the sidestep, not the triggers");
     assert!((limited - 1.0).abs() <= 1.5 * 0.01 + 1e-9, "{limited}");
     // a dodge back towards the path is never held
-    let mut c = EscapeController::new(EscapeConfig {
-        max_dodge_offset_m: Some(0.5),
-        ..controller(Manoeuvre::DodgeLateral).config().clone()
-    })
-    .unwrap();
+    let mut c = limited_to(Some(0.5));
     for k in 0..130 {
         // one dodge left (held at 0.5 m), then quiet until side memory has passed
         let signal = if k < 50 { 20.0 } else { 0.0 };

@@ -925,13 +925,20 @@ fn reference_rows<'a>(
     ] {
         let observer = || IdealObserver::new(kind, &ep.controller, ideal_theta_threshold_deg(ep), ep.frame_period_s());
         let config = observer().config().clone();
-        // the observer's decision value over the open loop, on the objects `select` keeps
-        let signal_of = |select: &dyn Fn(&[ObjectTruth]) -> Vec<ObjectTruth>| -> Vec<f64> {
+        // the observer's decision value over the open loop: about every object, or about `only`
+        let signal_of = |only: Option<usize>| -> Vec<f64> {
             let mut observer = observer();
             (0..frames)
                 .map(|k| {
                     let ego = with_camera_rotation(open_loop_ego(ep, t_s, k), camera.as_ref(), t_s[k]);
-                    observer.update(t_s[k], &select(&truth[k]), ego).0
+                    let objects = match only {
+                        Some(id) => truth[k]
+                            .iter()
+                            .find(|o| o.id == id)
+                            .map_or(&[][..], std::slice::from_ref),
+                        None => &truth[k][..],
+                    };
+                    observer.update(t_s[k], objects, ego).0
                 })
                 .collect()
         };
@@ -939,11 +946,10 @@ fn reference_rows<'a>(
             label,
             config.trigger,
             config.alarm_threshold(),
-            signal_of(&|objects| objects.to_vec()),
+            signal_of(None),
             Tail::Ideal(kind),
         );
-        r.about_threat =
-            threat_object.map(|id| signal_of(&|objects| objects.iter().filter(|o| o.id == id).cloned().collect()));
+        r.about_threat = threat_object.map(|id| signal_of(Some(id)));
         rows.push(r);
     }
     rows

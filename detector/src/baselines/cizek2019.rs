@@ -27,7 +27,7 @@ use serde::Deserialize;
 use super::common::{FrameStep, PreviousFrame, Range, check, zeroed};
 use super::lowpass::LowPass;
 use super::stencil::{SymKernel, corr3_rows};
-use crate::registry::{CameraFacts, DetectorConfig, Registration, Signal};
+use crate::registry::{DetectorConfig, Registration, Signal};
 use crate::{Detector, DetectorError, EfferenceCopy, Frame, Signals};
 
 /// The 3×3 lateral-inhibition kernel `w_I` (docs/detectors.md, cizek2019 §2; sum 1.5, centre 0).
@@ -237,14 +237,7 @@ impl Detector for Cizek2019 {
 }
 
 impl DetectorConfig for Cizek2019Config {
-    const CAMERA_KEYS: &'static [&'static str] = &["fov_deg"];
-
-    fn for_camera(self, camera: &CameraFacts) -> Self {
-        Self {
-            fov_deg: camera.fov_deg,
-            ..self
-        }
-    }
+    fov_from_camera!();
 
     fn validate(&self) -> Result<(), DetectorError> {
         Cizek2019Config::validate(self)

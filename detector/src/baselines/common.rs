@@ -2,6 +2,21 @@
 //! (docs/detectors.md, common §2) and parameter validation with uniform error messages.
 
 use crate::compensation::CompensatedDifference;
+
+/// The [`DetectorConfig`](crate::registry::DetectorConfig) items of a model whose `fov_deg` field
+/// comes from the camera (never a param): its `CAMERA_KEYS` and `for_camera`.
+macro_rules! fov_from_camera {
+    () => {
+        const CAMERA_KEYS: &'static [&'static str] = &["fov_deg"];
+
+        fn for_camera(self, camera: &crate::registry::CameraFacts) -> Self {
+            Self {
+                fov_deg: camera.fov_deg,
+                ..self
+            }
+        }
+    };
+}
 use crate::{DetectorError, EfferenceCopy, Frame};
 
 /// Result of [`PreviousFrame::begin`].

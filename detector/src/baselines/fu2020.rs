@@ -31,7 +31,7 @@ use serde::Deserialize;
 use super::common::{FrameStep, PreviousFrame, Range, check, check3, zeroed};
 use super::lowpass::LowPass;
 use super::stencil::{SymKernel, corr3_classes_rows, corr3_rows, max_abs};
-use crate::registry::{CameraFacts, DetectorConfig, Registration, Signal};
+use crate::registry::{DetectorConfig, Registration, Signal};
 use crate::{Detector, DetectorError, EfferenceCopy, Frame, Signals};
 
 /// Parameters of [`Fu2020`]. Defaults: docs/detectors.md, fu2020 §3 (all from `lgmd2OpenSource.cs`,
@@ -627,14 +627,7 @@ impl Detector for Fu2020 {
 }
 
 impl DetectorConfig for Fu2020Config {
-    const CAMERA_KEYS: &'static [&'static str] = &["fov_deg"];
-
-    fn for_camera(self, camera: &CameraFacts) -> Self {
-        Self {
-            fov_deg: camera.fov_deg,
-            ..self
-        }
-    }
+    fov_from_camera!();
 
     fn validate(&self) -> Result<(), DetectorError> {
         Fu2020Config::validate(self)

@@ -24,7 +24,7 @@ use serde::Deserialize;
 use super::common::{FrameStep, PreviousFrame, Range, check, zeroed};
 use super::lowpass::LowPass;
 use super::stencil::diffuse_step;
-use crate::registry::{CameraFacts, DetectorConfig, Registration, Signal};
+use crate::registry::{DetectorConfig, Registration, Signal};
 use crate::{Detector, DetectorError, EfferenceCopy, Frame, Signals};
 
 /// Parameters of [`Keil2004`]. Defaults: docs/detectors.md, keil2004 §3.
@@ -248,14 +248,7 @@ impl Detector for Keil2004 {
 }
 
 impl DetectorConfig for Keil2004Config {
-    const CAMERA_KEYS: &'static [&'static str] = &["fov_deg"];
-
-    fn for_camera(self, camera: &CameraFacts) -> Self {
-        Self {
-            fov_deg: camera.fov_deg,
-            ..self
-        }
-    }
+    fov_from_camera!();
 
     fn validate(&self) -> Result<(), DetectorError> {
         Keil2004Config::validate(self)

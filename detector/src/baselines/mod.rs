@@ -17,6 +17,7 @@
 //! Every model returns its output in [`crate::Signals::output`] and intermediate signals in
 //! `aux` (fixed names, the same on every frame).
 
+#[macro_use]
 mod common;
 mod lowpass;
 mod stencil;

@@ -8,7 +8,7 @@
 use serde::Deserialize;
 
 use super::common::{FrameStep, PreviousFrame, Range, check, zeroed};
-use crate::registry::{CameraFacts, DetectorConfig, Registration, Signal};
+use crate::registry::{DetectorConfig, Registration, Signal};
 use crate::{Detector, DetectorError, EfferenceCopy, Frame, Signals};
 
 /// How the absolute temporal contrast is pooled over the frame.
@@ -125,14 +125,7 @@ impl Detector for Soc {
 }
 
 impl DetectorConfig for SocConfig {
-    const CAMERA_KEYS: &'static [&'static str] = &["fov_deg"];
-
-    fn for_camera(self, camera: &CameraFacts) -> Self {
-        Self {
-            fov_deg: camera.fov_deg,
-            ..self
-        }
-    }
+    fov_from_camera!();
 
     fn validate(&self) -> Result<(), DetectorError> {
         SocConfig::validate(self)

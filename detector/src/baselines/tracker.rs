@@ -47,7 +47,7 @@ use serde::Deserialize;
 
 use super::common::{Range, check};
 use crate::compensation::CompensatedDifference;
-use crate::registry::{CameraFacts, DetectorConfig, Registration, Signal};
+use crate::registry::{DetectorConfig, Registration, Signal};
 use crate::{Detector, DetectorError, EfferenceCopy, Frame, ImageRegion, Signals};
 
 /// A region more than this many times wider than high is ignored: a thin horizontal band is the
@@ -840,14 +840,7 @@ impl Detector for Tracker {
 }
 
 impl DetectorConfig for TrackerConfig {
-    const CAMERA_KEYS: &'static [&'static str] = &["fov_deg"];
-
-    fn for_camera(self, camera: &CameraFacts) -> Self {
-        Self {
-            fov_deg: camera.fov_deg,
-            ..self
-        }
-    }
+    fov_from_camera!();
 
     fn validate(&self) -> Result<(), DetectorError> {
         TrackerConfig::validate(self)
