@@ -194,20 +194,20 @@ impl Warper {
         });
     }
 
-    /// [`Self::predict`], handing the prediction to `sink` in consecutive pieces instead of writing
-    /// a buffer: `sink(start, values)` receives the predictions of pixels `start..start +
-    /// values.len()` (one row at a time, in order), covering every pixel once. The values are bit-identical to [`Self::predict`]'s.
-    ///
-    /// How it is fast (the numbers are those of the plain per-pixel evaluation, bit for bit):
+    /// [`Self::predict`], handing the prediction to `sink` row by row instead of writing a buffer:
+    /// `sink(start, values)` receives the predictions of pixels `start..start + n` (one row, rows
+    /// in order). The values are bit-identical to those of the plain per-pixel evaluation (the
+    /// same IEEE operations in the same order; pinned by this module's tests). How it is fast:
     /// - along a row the ray `(1, a, b)` changes in `a` only, by a constant step, so `R·d` and
-    ///   `up·d` advance by constant increments (one addition each per pixel, in a short serial
-    ///   loop of their own);
+    ///   `up·d` advance by constant increments; [`ROWS`] rows advance side by side (independent
+    ///   additions instead of one serial chain);
     /// - the rest of a pixel's arithmetic (the ground point, the projection's division, the image
-    ///   coordinates and the bounds test) runs in a separate loop without branches that the
-    ///   compiler vectorises (AVX2 where the CPU has it, chosen at run time; the same IEEE
-    ///   operations in the same order, so the same numbers as the scalar code);
-    /// - the bilinear sample skips `floor` (a library call without SSE4.1): coordinates inside the
-    ///   image are non-negative, where truncation is the floor.
+    ///   coordinates, the bounds test, the sample's top-left pixel and weights) runs in a loop
+    ///   without branches that the compiler vectorises (AVX2 where the CPU has it, chosen at run
+    ///   time); coordinates inside the image are non-negative, so truncation replaces `floor` (a
+    ///   library call without SSE4.1);
+    /// - the bilinear samples of [`GROUP`] pixels whose top-left pixels are consecutive (the
+    ///   usual case: the static world's image moves smoothly) take contiguous loads.
     pub fn predict_rows(
         &self,
         earlier: &[f32],
@@ -221,9 +221,24 @@ impl Warper {
         if n == 0 {
             return;
         }
+        let setup = self.setup(r, t, ego);
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2 (checked just above).
+                unsafe { predict_avx2(&setup, &self.rays, earlier, sink) };
+                return;
+            }
+        }
+        predict_generic(&setup, &self.rays, earlier, sink);
+    }
+
+    /// The constants of one warp.
+    fn setup(&self, r: &Mat3, t: [f64; 3], ego: &EfferenceCopy) -> Setup {
+        let n = self.n;
         let up = ego.up_in_camera();
         let step_a = if n > 1 { self.rays[1][0] - self.rays[0][0] } else { 0.0 };
-        let setup = Setup {
+        Setup {
             n,
             nf: n as f64,
             max: (n - 1) as f64,
@@ -234,16 +249,7 @@ impl Warper {
             r: *r,
             t,
             step_a,
-        };
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU supports AVX2 (checked just above).
-                unsafe { predict_avx2(&setup, &self.rays, earlier, sink) };
-                return;
-            }
         }
-        predict_generic(&setup, &self.rays, earlier, sink);
     }
 }
 
@@ -271,8 +277,8 @@ fn predict_generic(setup: &Setup, rays: &[[f64; 2]], earlier: &[f32], sink: impl
     predict_kernel(setup, rays, earlier, sink);
 }
 
-/// Rows warped together, one per SIMD lane (their serial terms advance side by side).
-const ROWS: usize = 4;
+/// Rows warped together (their serial terms advance side by side).
+pub const ROWS: usize = 4;
 
 /// The warp of [`Warper::predict_rows`]; inlined into each instruction-set variant.
 #[inline(always)]
@@ -384,7 +390,7 @@ fn predict_kernel(setup: &Setup, rays: &[[f64; 2]], earlier: &[f32], mut sink: i
 
 /// Pixels sampled together where their top-left pixels are consecutive (the usual case: the
 /// static world's image moves smoothly).
-const GROUP: usize = 8;
+pub const GROUP: usize = 8;
 
 /// The bilinear samples of one row of an n×n image `img`: `corner[c]` the top-left pixel's index
 /// (−1: none, NaN; ≤ −2: `−2 − index` on the image's last row or column), `fi`, `fj` the weights.
@@ -659,8 +665,14 @@ mod tests {
                 let want = predict_rowwise(&w, &earlier, &r, t, &ego);
                 let mut got = vec![0.0f32; n * n];
                 w.predict(&earlier, &r, t, &ego, &mut got);
-                for (k, (a, b)) in got.iter().zip(&want).enumerate() {
+                // and the variant for CPUs without AVX2 (`predict` takes the AVX2 one where it can)
+                let mut generic = vec![0.0f32; n * n];
+                predict_generic(&w.setup(&r, t, &ego), &w.rays, &earlier, |start, pred| {
+                    generic[start..start + pred.len()].copy_from_slice(pred)
+                });
+                for (k, ((a, g), b)) in got.iter().zip(&generic).zip(&want).enumerate() {
                     assert_eq!(a.to_bits(), b.to_bits(), "n {n}, pixel {k}: {a} vs {b}");
+                    assert_eq!(g.to_bits(), b.to_bits(), "n {n}, pixel {k}, generic: {g} vs {b}");
                     nan_seen |= a.is_nan();
                     value_seen |= !a.is_nan();
                 }
