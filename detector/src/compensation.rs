@@ -188,21 +188,369 @@ impl Warper {
     /// with `ego` the current frame's pose above the ground; `NaN` where the prediction falls
     /// outside the earlier frame.
     pub fn predict(&self, earlier: &[f32], r: &Mat3, t: [f64; 3], ego: &EfferenceCopy, out: &mut [f32]) {
+        assert_eq!(out.len(), self.n * self.n, "prediction buffer of n·n pixels");
+        self.predict_rows(earlier, r, t, ego, |start, pred| {
+            out[start..start + pred.len()].copy_from_slice(pred);
+        });
+    }
+
+    /// [`Self::predict`], handing the prediction to `sink` row by row instead of writing a buffer:
+    /// `sink(start, values)` receives the predictions of pixels `start..start + n` (one row, rows
+    /// in order). The values are bit-identical to those of the plain per-pixel evaluation (the
+    /// same IEEE operations in the same order; pinned by this module's tests). How it is fast:
+    /// - along a row the ray `(1, a, b)` changes in `a` only, by a constant step, so `R·d` and
+    ///   `up·d` advance by constant increments; [`ROWS`] rows advance side by side (independent
+    ///   additions instead of one serial chain);
+    /// - the rest of a pixel's arithmetic (the ground point, the projection's division, the image
+    ///   coordinates, the bounds test, the sample's top-left pixel and weights) runs in a loop
+    ///   without branches that the compiler vectorises (AVX2 where the CPU has it, chosen at run
+    ///   time); coordinates inside the image are non-negative, so truncation replaces `floor` (a
+    ///   library call without SSE4.1);
+    /// - the bilinear samples of [`GROUP`] pixels whose top-left pixels are consecutive (the
+    ///   usual case: the static world's image moves smoothly) take contiguous loads.
+    pub fn predict_rows(
+        &self,
+        earlier: &[f32],
+        r: &Mat3,
+        t: [f64; 3],
+        ego: &EfferenceCopy,
+        sink: impl FnMut(usize, &[f32]),
+    ) {
         let n = self.n;
+        assert_eq!(earlier.len(), n * n, "earlier frame of n·n pixels");
+        if n == 0 {
+            return;
+        }
+        let setup = self.setup(r, t, ego);
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2 (checked just above).
+                unsafe { predict_avx2(&setup, &self.rays, earlier, sink) };
+                return;
+            }
+        }
+        predict_generic(&setup, &self.rays, earlier, sink);
+    }
+
+    /// The constants of one warp.
+    fn setup(&self, r: &Mat3, t: [f64; 3], ego: &EfferenceCopy) -> Setup {
+        let n = self.n;
+        let up = ego.up_in_camera();
+        let step_a = if n > 1 { self.rays[1][0] - self.rays[0][0] } else { 0.0 };
+        Setup {
+            n,
+            nf: n as f64,
+            max: (n - 1) as f64,
+            inv_t: 1.0 / self.tan_half_fov,
+            ground: ego.knows_ground(),
+            h: ego.height_m,
+            up,
+            r: *r,
+            t,
+            step_a,
+        }
+    }
+}
+
+/// The per-frame constants of one warp.
+struct Setup {
+    n: usize,
+    nf: f64,
+    max: f64,
+    inv_t: f64,
+    ground: bool,
+    h: f64,
+    up: [f64; 3],
+    r: Mat3,
+    t: [f64; 3],
+    step_a: f64,
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn predict_avx2(setup: &Setup, rays: &[[f64; 2]], earlier: &[f32], sink: impl FnMut(usize, &[f32])) {
+    predict_kernel(setup, rays, earlier, sink);
+}
+
+fn predict_generic(setup: &Setup, rays: &[[f64; 2]], earlier: &[f32], sink: impl FnMut(usize, &[f32])) {
+    predict_kernel(setup, rays, earlier, sink);
+}
+
+/// Rows warped together (their serial terms advance side by side).
+pub const ROWS: usize = 4;
+
+/// The warp of [`Warper::predict_rows`]; inlined into each instruction-set variant.
+#[inline(always)]
+fn predict_kernel(setup: &Setup, rays: &[[f64; 2]], earlier: &[f32], mut sink: impl FnMut(usize, &[f32])) {
+    let &Setup {
+        n,
+        nf,
+        max,
+        inv_t,
+        ground,
+        h,
+        up,
+        r,
+        t,
+        step_a,
+    } = setup;
+    let col = |c: usize| [r[0][c], r[1][c], r[2][c]];
+    let (r0, r1, r2) = (col(0), col(1), col(2));
+    let drd = [0, 1, 2].map(|k| step_a * r1[k]);
+    let ds = up[1] * step_a;
+    // Scratch of one block of ROWS rows, pixel (row l of the block, column c) at l·n + c: R·d and
+    // up·d, then the samples' top-left pixels and weights.
+    let m = ROWS * n;
+    let mut rx = vec![0.0f64; m];
+    let mut ry = vec![0.0f64; m];
+    let mut rz = vec![0.0f64; m];
+    let mut sv = vec![0.0f64; m];
+    let mut corner = vec![0i32; m];
+    let mut fiv = vec![0.0f32; m];
+    let mut fjv = vec![0.0f32; m];
+    let mut pred = vec![0.0f32; n];
+    let edge = (n - 1) as i32;
+    for block in (0..n).step_by(ROWS) {
+        // R·d and up·d at the rows' first pixels (rows past the end repeat the last row)
+        let mut x = [0.0; ROWS];
+        let mut y = [0.0; ROWS];
+        let mut z = [0.0; ROWS];
+        let mut s = [0.0; ROWS];
+        for l in 0..ROWS {
+            let [a0, b] = rays[(block + l).min(n - 1) * n];
+            x[l] = r0[0] + a0 * r1[0] + b * r2[0];
+            y[l] = r0[1] + a0 * r1[1] + b * r2[1];
+            z[l] = r0[2] + a0 * r1[2] + b * r2[2];
+            s[l] = up[0] + up[1] * a0 + up[2] * b;
+        }
+        // the serial part: one addition per term and pixel, the block's rows side by side
+        for c in 0..n {
+            for l in 0..ROWS {
+                let e = l * n + c;
+                rx[e] = x[l];
+                ry[e] = y[l];
+                rz[e] = z[l];
+                sv[e] = s[l];
+            }
+            for l in 0..ROWS {
+                x[l] += drd[0];
+                y[l] += drd[1];
+                z[l] += drd[2];
+                s[l] += ds;
+            }
+        }
+        // the geometry, without branches (vectorised)
+        for e in 0..m {
+            let s = sv[e];
+            let on_ground = ground & (s < -HORIZON_MARGIN);
+            let k = h / -s;
+            let (x, y, z) = if on_ground {
+                (k * rx[e] + t[0], k * ry[e] + t[1], k * rz[e] + t[2])
+            } else {
+                (rx[e], ry[e], rz[e])
+            };
+            let q = inv_t / x;
+            let jf = (1.0 - y * q) * nf / 2.0 - 0.5;
+            let i_f = (1.0 - z * q) * nf / 2.0 - 0.5;
+            let inside = (x > 1e-9) & (jf >= 0.0) & (jf <= max) & (i_f >= 0.0) & (i_f <= max);
+            // inside the image the coordinates are non-negative: truncation is the floor
+            let (i_in, j_in) = if inside { (i_f, jf) } else { (0.0, 0.0) };
+            // SAFETY: `i_in` and `j_in` lie in [0, n − 1] (checked just above), and n < 2³⁰
+            // (the n² rays of `Warper::new`, 16 bytes each, fit in memory), so their
+            // truncations are representable as i32.
+            let (i0, j0): (i32, i32) = unsafe { (i_in.to_int_unchecked(), j_in.to_int_unchecked()) };
+            // the top-left pixel's index; −1: no prediction; ≤ −2: on the last row or column
+            let index = i0 * n as i32 + j0;
+            corner[e] = if !inside {
+                -1
+            } else if (i0 < edge) & (j0 < edge) {
+                index
+            } else {
+                -2 - index
+            };
+            fiv[e] = (i_in - f64::from(i0)) as f32;
+            fjv[e] = (j_in - f64::from(j0)) as f32;
+        }
+        // the samples, row by row
+        for l in 0..ROWS.min(n - block) {
+            let row = l * n..(l + 1) * n;
+            sample_row(
+                earlier,
+                n,
+                &corner[row.clone()],
+                &fiv[row.clone()],
+                &fjv[row],
+                &mut pred,
+            );
+            sink((block + l) * n, &pred);
+        }
+    }
+}
+
+/// Pixels sampled together where their top-left pixels are consecutive (the usual case: the
+/// static world's image moves smoothly).
+pub const GROUP: usize = 8;
+
+/// The bilinear samples of one row of an n×n image `img`: `corner[c]` the top-left pixel's index
+/// (−1: none, NaN; ≤ −2: `−2 − index` on the image's last row or column), `fi`, `fj` the weights.
+/// Runs of [`GROUP`] consecutive top-left pixels inside take contiguous loads.
+#[inline(always)]
+fn sample_row(img: &[f32], n: usize, corner: &[i32], fi: &[f32], fj: &[f32], out: &mut [f32]) {
+    let mut c = 0;
+    while c < n {
+        if c + GROUP <= n {
+            let first = corner[c];
+            let run = &corner[c..c + GROUP];
+            // consecutive from a pixel inside: all inside, none on the last row or column
+            let consecutive = (0..GROUP).fold(true, |ok, k| ok & (run[k] == first.wrapping_add(k as i32)));
+            if first >= 0 && consecutive {
+                let b = first as usize;
+                let (top, top1) = (&img[b..b + GROUP], &img[b + 1..b + 1 + GROUP]);
+                let (bottom, bottom1) = (&img[b + n..b + n + GROUP], &img[b + n + 1..b + n + 1 + GROUP]);
+                let (wi, wj) = (&fi[c..c + GROUP], &fj[c..c + GROUP]);
+                for (k, o) in out[c..c + GROUP].iter_mut().enumerate() {
+                    let a = top[k] + (top1[k] - top[k]) * wj[k];
+                    let b = bottom[k] + (bottom1[k] - bottom[k]) * wj[k];
+                    *o = a + (b - a) * wi[k];
+                }
+                c += GROUP;
+                continue;
+            }
+        }
+        let end = (c + GROUP).min(n);
+        for k in c..end {
+            let index = corner[k];
+            out[k] = if index >= 0 {
+                let b = index as usize;
+                let (top, bottom) = (&img[b..b + 2], &img[b + n..b + n + 2]);
+                let a = top[0] + (top[1] - top[0]) * fj[k];
+                let b = bottom[0] + (bottom[1] - bottom[0]) * fj[k];
+                a + (b - a) * fi[k]
+            } else if index == -1 {
+                f32::NAN
+            } else {
+                let index = (-2 - index) as usize;
+                bilinear_at(img, n, index / n, index % n, fi[k], fj[k])
+            };
+        }
+        c = end;
+    }
+}
+
+/// Bilinear sample of an n×n image with top-left pixel (`i0`, `j0`) and weights `fi`, `fj` (the
+/// coordinates' fractional parts); the same numbers as [`bilinear`].
+#[inline(always)]
+fn bilinear_at(img: &[f32], n: usize, i0: usize, j0: usize, fi: f32, fj: f32) -> f32 {
+    let i1 = (i0 + 1).min(n - 1);
+    let j1 = (j0 + 1).min(n - 1);
+    let (top, bottom) = (&img[i0 * n..i0 * n + n], &img[i1 * n..i1 * n + n]);
+    let a = top[j0] + (top[j1] - top[j0]) * fj;
+    let b = bottom[j0] + (bottom[j1] - bottom[j0]) * fj;
+    a + (b - a) * fi
+}
+
+/// Bilinear sample of an n×n image at (row `i`, column `j`), both in `[0, n−1]`.
+#[cfg(test)]
+fn bilinear(img: &[f32], n: usize, i: f64, j: f64) -> f32 {
+    let i0 = (i.floor() as usize).min(n - 1);
+    let j0 = (j.floor() as usize).min(n - 1);
+    let i1 = (i0 + 1).min(n - 1);
+    let j1 = (j0 + 1).min(n - 1);
+    let fi = (i - i0 as f64) as f32;
+    let fj = (j - j0 as f64) as f32;
+    let a = img[i0 * n + j0] + (img[i0 * n + j1] - img[i0 * n + j0]) * fj;
+    let b = img[i1 * n + j0] + (img[i1 * n + j1] - img[i1 * n + j0]) * fj;
+    a + (b - a) * fi
+}
+
+/// The ego-motion-compensated temporal difference: the current frame minus the frame `baseline`
+/// frames earlier warped to the current view (see the module docs). Keeps the last `baseline`
+/// frames and their odometry poses.
+#[derive(Debug, Clone)]
+pub struct CompensatedDifference {
+    warper: Warper,
+    baseline: usize,
+    /// Ring of (frame, pose), oldest first.
+    history: std::collections::VecDeque<(Vec<f32>, OdometryPose)>,
+    pose: OdometryPose,
+}
+
+impl CompensatedDifference {
+    /// For n×n frames of a camera of `fov_deg`, comparing with the frame `baseline` (≥ 1) frames back.
+    pub fn new(n: usize, fov_deg: f64, baseline: usize) -> Self {
+        Self {
+            warper: Warper::new(n, fov_deg),
+            baseline: baseline.max(1),
+            history: std::collections::VecDeque::with_capacity(baseline.max(1) + 1),
+            pose: OdometryPose::default(),
+        }
+    }
+
+    /// Forgets every frame.
+    pub fn reset(&mut self) {
+        self.history.clear();
+        self.pose = OdometryPose::default();
+    }
+
+    /// Adds `frame` (n·n) with its efference copy; writes `current − predicted` into `residual`
+    /// (0 where there is no prediction) and returns false when there is no earlier frame yet
+    /// (residual all 0). Until `baseline` frames have been seen, the oldest frame is used.
+    pub fn step(&mut self, frame: &[f32], ego: &EfferenceCopy, residual: &mut [f32]) -> bool {
+        self.pose = self.pose.advanced(ego);
+        let have = match self.history.front() {
+            Some((earlier, earlier_pose)) => {
+                let (r, t) = self.pose.relative_to(earlier_pose);
+                let n2 = frame.len();
+                assert_eq!(residual.len(), n2, "residual buffer of n·n pixels");
+                self.warper.predict_rows(earlier, &r, t, ego, |start, pred| {
+                    let end = start + pred.len();
+                    for ((o, &c), &p) in residual[start..end].iter_mut().zip(&frame[start..end]).zip(pred) {
+                        *o = if p.is_nan() { 0.0 } else { c - p };
+                    }
+                });
+                true
+            }
+            None => {
+                residual.iter_mut().for_each(|o| *o = 0.0);
+                false
+            }
+        };
+        let recycled = if self.history.len() >= self.baseline {
+            self.history.pop_front().map(|(v, _)| v)
+        } else {
+            None
+        };
+        let mut buf = recycled.unwrap_or_default();
+        buf.clear();
+        buf.extend_from_slice(frame);
+        self.history.push_back((buf, self.pose));
+        have
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The warp as it was written before it was optimised (one pixel at a time, row-incremental
+    /// rays, `floor` in the bilinear sample): the optimised warp must give the same bits.
+    fn predict_rowwise(w: &Warper, earlier: &[f32], r: &Mat3, t: [f64; 3], ego: &EfferenceCopy) -> Vec<f32> {
+        let n = w.n;
         let nf = n as f64;
         let up = ego.up_in_camera();
         let ground = ego.knows_ground();
         let h = ego.height_m;
-        let inv_t = 1.0 / self.tan_half_fov;
+        let inv_t = 1.0 / w.tan_half_fov;
         let max = (n - 1) as f64;
-        // Along a row the ray (1, a, b) changes in a only, by a constant step: R·d and up·d are
-        // affine in a, so both advance by constant increments (the rays of `self.rays`, exactly).
         let col = |c: usize| [r[0][c], r[1][c], r[2][c]];
         let (r0, r1, r2) = (col(0), col(1), col(2));
-        let step_a = if n > 1 { self.rays[1][0] - self.rays[0][0] } else { 0.0 };
+        let step_a = if n > 1 { w.rays[1][0] - w.rays[0][0] } else { 0.0 };
+        let mut out = vec![0.0; n * n];
         for (row, orow) in out.chunks_exact_mut(n).enumerate() {
-            let [a0, b] = self.rays[row * n];
-            // R·d and up·d at the row's first pixel, and their steps along the row
+            let [a0, b] = w.rays[row * n];
             let mut rd = [0, 1, 2].map(|k| r0[k] + a0 * r1[k] + b * r2[k]);
             let drd = [0, 1, 2].map(|k| step_a * r1[k]);
             let mut s = up[0] + up[1] * a0 + up[2] * b;
@@ -230,81 +578,149 @@ impl Warper {
                 *o = bilinear(earlier, n, i_f, jf);
             }
         }
+        out
     }
-}
 
-/// Bilinear sample of an n×n image at (row `i`, column `j`), both in `[0, n−1]`.
-fn bilinear(img: &[f32], n: usize, i: f64, j: f64) -> f32 {
-    let i0 = (i.floor() as usize).min(n - 1);
-    let j0 = (j.floor() as usize).min(n - 1);
-    let i1 = (i0 + 1).min(n - 1);
-    let j1 = (j0 + 1).min(n - 1);
-    let fi = (i - i0 as f64) as f32;
-    let fj = (j - j0 as f64) as f32;
-    let a = img[i0 * n + j0] + (img[i0 * n + j1] - img[i0 * n + j0]) * fj;
-    let b = img[i1 * n + j0] + (img[i1 * n + j1] - img[i1 * n + j0]) * fj;
-    a + (b - a) * fi
-}
+    /// The module docs' formula evaluated literally for one pixel, each ray on its own: the
+    /// prediction, or `None` outside the earlier frame, and how far (in pixels, or in the ray's
+    /// terms) the pixel is from a case boundary (the image border, the horizon margin, the plane
+    /// x = 1e-9), where rounding may legitimately decide differently.
+    fn predict_literal(
+        n: usize,
+        fov_deg: f64,
+        earlier: &[f32],
+        r: &Mat3,
+        t: [f64; 3],
+        ego: &EfferenceCopy,
+        (i, j): (usize, usize),
+    ) -> (Option<f32>, f64) {
+        let tan = (fov_deg / 2.0).to_radians().tan();
+        let x = (2 * j + 1) as f64 / n as f64 - 1.0;
+        let y = 1.0 - (2 * i + 1) as f64 / n as f64;
+        let d = [1.0, -x * tan, y * tan];
+        let up = ego.up_in_camera();
+        let s = up[0] * d[0] + up[1] * d[1] + up[2] * d[2];
+        let mut margin = (s + HORIZON_MARGIN).abs();
+        let p = if ego.knows_ground() && s < -HORIZON_MARGIN {
+            let g = d.map(|v| v * ego.height_m / -s);
+            let rg = apply(r, g);
+            [rg[0] + t[0], rg[1] + t[1], rg[2] + t[2]]
+        } else {
+            apply(r, d)
+        };
+        margin = margin.min((p[0] - 1e-9).abs());
+        if p[0] <= 1e-9 {
+            return (None, margin);
+        }
+        let jf = (1.0 - p[1] / p[0] / tan) * n as f64 / 2.0 - 0.5;
+        let i_f = (1.0 - p[2] / p[0] / tan) * n as f64 / 2.0 - 0.5;
+        let max = (n - 1) as f64;
+        for v in [jf, i_f, max - jf, max - i_f] {
+            margin = margin.min(v.abs());
+        }
+        if !(jf >= 0.0 && jf <= max && i_f >= 0.0 && i_f <= max) {
+            return (None, margin);
+        }
+        (Some(bilinear(earlier, n, i_f, jf)), margin)
+    }
 
-/// The ego-motion-compensated temporal difference: the current frame minus the frame `baseline`
-/// frames earlier warped to the current view (see the module docs). Keeps the last `baseline`
-/// frames and their odometry poses.
-#[derive(Debug, Clone)]
-pub struct CompensatedDifference {
-    warper: Warper,
-    baseline: usize,
-    /// Ring of (frame, pose), oldest first.
-    history: std::collections::VecDeque<(Vec<f32>, OdometryPose)>,
-    pose: OdometryPose,
-    predicted: Vec<f32>,
-}
+    /// Random camera motions and poses: small and large rotations (parts of the view leave the
+    /// earlier frame or fall behind it), translations, pitch and roll, ground known or not.
+    fn cases(rng: &mut ChaCha8Rng) -> Vec<(Mat3, [f64; 3], EfferenceCopy)> {
+        (0..40)
+            .map(|k| {
+                let big = if k % 4 == 0 { 2.0 } else { 0.1 };
+                let w = [0, 1, 2].map(|_| rng.random_range(-big..big));
+                let t = [0, 1, 2].map(|_| rng.random_range(-0.3..0.3));
+                let ego = EfferenceCopy {
+                    dt_s: 1.0 / 120.0,
+                    height_m: if k % 5 == 1 { 0.0 } else { rng.random_range(0.05..1.5) },
+                    pitch_rad: rng.random_range(-0.6..0.6),
+                    roll_rad: if k % 3 == 0 { rng.random_range(-0.3..0.3) } else { 0.0 },
+                    ..EfferenceCopy::default()
+                };
+                (rotation_matrix(w), t, ego)
+            })
+            .collect()
+    }
 
-impl CompensatedDifference {
-    /// For n×n frames of a camera of `fov_deg`, comparing with the frame `baseline` (≥ 1) frames back.
-    pub fn new(n: usize, fov_deg: f64, baseline: usize) -> Self {
-        Self {
-            warper: Warper::new(n, fov_deg),
-            baseline: baseline.max(1),
-            history: std::collections::VecDeque::with_capacity(baseline.max(1) + 1),
-            pose: OdometryPose::default(),
-            predicted: vec![0.0; n * n],
+    #[test]
+    fn the_optimised_warp_gives_the_bits_of_the_per_pixel_warp() {
+        let mut rng = ChaCha8Rng::seed_from_u64(23);
+        // sizes around the piece length (64) and the suite's 96
+        for (n, fov) in [
+            (1, 60.0),
+            (2, 90.0),
+            (7, 60.0),
+            (63, 45.0),
+            (64, 60.0),
+            (96, 60.0),
+            (130, 100.0),
+        ] {
+            let w = Warper::new(n, fov);
+            let earlier: Vec<f32> = (0..n * n).map(|_| rng.random_range(0.0..1.0f32)).collect();
+            let mut nan_seen = false;
+            let mut value_seen = false;
+            for (r, t, ego) in cases(&mut rng) {
+                let want = predict_rowwise(&w, &earlier, &r, t, &ego);
+                let mut got = vec![0.0f32; n * n];
+                w.predict(&earlier, &r, t, &ego, &mut got);
+                // and the variant for CPUs without AVX2 (`predict` takes the AVX2 one where it can)
+                let mut generic = vec![0.0f32; n * n];
+                predict_generic(&w.setup(&r, t, &ego), &w.rays, &earlier, |start, pred| {
+                    generic[start..start + pred.len()].copy_from_slice(pred)
+                });
+                for (k, ((a, g), b)) in got.iter().zip(&generic).zip(&want).enumerate() {
+                    assert_eq!(a.to_bits(), b.to_bits(), "n {n}, pixel {k}: {a} vs {b}");
+                    assert_eq!(g.to_bits(), b.to_bits(), "n {n}, pixel {k}, generic: {g} vs {b}");
+                    nan_seen |= a.is_nan();
+                    value_seen |= !a.is_nan();
+                }
+                // the rows of predict_rows cover every pixel once, in order
+                let mut next = 0;
+                w.predict_rows(&earlier, &r, t, &ego, |start, pred| {
+                    assert_eq!(start, next);
+                    assert!(start % n == 0 && pred.len() == n);
+                    next += pred.len();
+                });
+                assert_eq!(next, n * n);
+            }
+            // (a 1- or 2-pixel camera is hit only by chance)
+            assert!(
+                n < 7 || (nan_seen && value_seen),
+                "n {n}: the cases reach both inside and outside the frame"
+            );
         }
     }
 
-    /// Forgets every frame.
-    pub fn reset(&mut self) {
-        self.history.clear();
-        self.pose = OdometryPose::default();
-    }
-
-    /// Adds `frame` (n·n) with its efference copy; writes `current − predicted` into `residual`
-    /// (0 where there is no prediction) and returns false when there is no earlier frame yet
-    /// (residual all 0). Until `baseline` frames have been seen, the oldest frame is used.
-    pub fn step(&mut self, frame: &[f32], ego: &EfferenceCopy, residual: &mut [f32]) -> bool {
-        self.pose = self.pose.advanced(ego);
-        let have = match self.history.front() {
-            Some((earlier, earlier_pose)) => {
-                let (r, t) = self.pose.relative_to(earlier_pose);
-                self.warper.predict(earlier, &r, t, ego, &mut self.predicted);
-                for ((o, &c), &p) in residual.iter_mut().zip(frame).zip(&self.predicted) {
-                    *o = if p.is_nan() { 0.0 } else { c - p };
+    #[test]
+    fn the_warp_agrees_with_the_literal_formula_of_every_pixel() {
+        let mut rng = ChaCha8Rng::seed_from_u64(25);
+        let (n, fov) = (96, 60.0);
+        let w = Warper::new(n, fov);
+        let earlier: Vec<f32> = (0..n * n).map(|_| rng.random_range(0.0..1.0f32)).collect();
+        let mut compared = 0;
+        for (r, t, ego) in cases(&mut rng) {
+            let mut got = vec![0.0f32; n * n];
+            w.predict(&earlier, &r, t, &ego, &mut got);
+            for i in 0..n {
+                for j in 0..n {
+                    let (want, margin) = predict_literal(n, fov, &earlier, &r, t, &ego, (i, j));
+                    if margin < 1e-6 {
+                        continue; // rounding may decide either way here
+                    }
+                    let v = got[i * n + j];
+                    match want {
+                        None => assert!(v.is_nan(), "pixel ({i}, {j}): {v}, literal: outside"),
+                        Some(want) => {
+                            // the incremental rays differ from the literal ones by rounding only
+                            assert!((v - want).abs() < 1e-5, "pixel ({i}, {j}): {v} vs literal {want}");
+                            compared += 1;
+                        }
+                    }
                 }
-                true
             }
-            None => {
-                residual.iter_mut().for_each(|o| *o = 0.0);
-                false
-            }
-        };
-        let recycled = if self.history.len() >= self.baseline {
-            self.history.pop_front().map(|(v, _)| v)
-        } else {
-            None
-        };
-        let mut buf = recycled.unwrap_or_default();
-        buf.clear();
-        buf.extend_from_slice(frame);
-        self.history.push_back((buf, self.pose));
-        have
+        }
+        assert!(compared > 100_000, "compared {compared} pixels");
     }
 }

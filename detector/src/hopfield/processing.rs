@@ -641,7 +641,8 @@ pub struct EgoHighPass {
     warper: crate::compensation::Warper,
     weight: f64,
     mean: Vec<f32>,
-    warped: Vec<f32>,
+    /// The next running mean while a frame is processed (swapped with `mean` after it).
+    next: Vec<f32>,
     out: Vec<f32>,
 }
 
@@ -652,7 +653,7 @@ impl EgoHighPass {
             warper: crate::compensation::Warper::new(n, fov_deg),
             weight,
             mean: Vec::new(),
-            warped: vec![0.0; n * n],
+            next: vec![0.0; n * n],
             out: vec![0.0; n * n],
         }
     }
@@ -665,30 +666,43 @@ impl EgoHighPass {
     /// G̃ = F̃ − warp(M̃) of the camera frame `frame` (n·n) with its efference copy, updating M̃
     /// (all zero on the first frame and on a uniform, dropped frame, which leaves M̃ unchanged).
     pub fn high_pass(&mut self, frame: &[f32], ego: &crate::EfferenceCopy) -> &[f32] {
-        let (lo, hi) = frame
-            .iter()
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
-        if self.mean.is_empty() || lo >= hi {
-            if self.mean.is_empty() && lo < hi {
+        // uniform: every pixel that is a number equal to the first (NaN pixels ignored, as by a
+        // min/max over the frame); stops at the first pixel that differs
+        let mut numbers = frame.iter().filter(|v| !v.is_nan());
+        let uniform = match numbers.next() {
+            Some(&first) => numbers.all(|&v| v == first),
+            None => true,
+        };
+        if self.mean.is_empty() || uniform {
+            if self.mean.is_empty() && !uniform {
                 self.mean = frame.to_vec();
             }
             self.out.fill(0.0);
             return &self.out;
         }
+        let w = self.weight as f32;
+        // G̃ and the next M̃ of the pixels `start..` from their predictions `pred` (NaN: none)
+        let update = |start: usize, pred: &[f32], out: &mut [f32], next: &mut [f32]| {
+            let end = start + pred.len();
+            let pixels = out[start..end].iter_mut().zip(&mut next[start..end]);
+            for (((o, m), &p), &f) in pixels.zip(pred).zip(&frame[start..end]) {
+                let prior = if p.is_nan() { f } else { p };
+                let g = f - prior;
+                *o = g;
+                *m = prior + w * g;
+            }
+        };
+        let (mean, out, next) = (&self.mean, &mut self.out, &mut self.next);
         if ego.knows_motion() {
             let r = crate::compensation::rotation_matrix(ego.rotation_rad);
             self.warper
-                .predict(&self.mean, &r, ego.translation_m, ego, &mut self.warped);
+                .predict_rows(mean, &r, ego.translation_m, ego, |start, pred| {
+                    update(start, pred, out, next)
+                });
         } else {
-            self.warped.copy_from_slice(&self.mean);
+            update(0, mean, out, next);
         }
-        let w = self.weight as f32;
-        for (((o, m), &p), &f) in self.out.iter_mut().zip(&mut self.mean).zip(&self.warped).zip(frame) {
-            let prior = if p.is_nan() { f } else { p };
-            let g = f - prior;
-            *o = g;
-            *m = prior + w * g;
-        }
+        std::mem::swap(&mut self.mean, &mut self.next);
         &self.out
     }
 }

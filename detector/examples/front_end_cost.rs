@@ -1,0 +1,86 @@
+//! Cost per frame of the Hopfield detector (fast, winner readout) behind the paper and the
+//! compensated front end, and of the compensation's warp alone, at n = 128 on the input of
+//! `benches/compensated.rs` (a growing checkerboard disk over a drifting grating, a camera turning
+//! at 0.3 rad/s and driving at 1 m/s). Prints the best of many 20-frame windows, which is steadier
+//! than a mean on a shared machine:
+//!
+//! `cargo run --profile release -p loomlab-detector --example front_end_cost [paper|compensated|warp] [FRAMES]`
+use loomlab_detector::hopfield::{FrontEnd, Readout};
+use loomlab_detector::{Detector, EfferenceCopy, Frame, Hopfield, HopfieldConfig};
+use std::hint::black_box;
+
+fn frame(n: usize, k: usize) -> Frame {
+    let c = n as f64 / 2.0;
+    let r = n as f64 * (0.05 + 0.012 * k as f64);
+    let data = (0..n * n)
+        .map(|p| {
+            let (i, j) = ((p / n) as f64 + 0.5, (p % n) as f64 + 0.5);
+            let (u, v) = ((j - c) / r, (i - c) / r);
+            let value = if u * u + v * v <= 1.0 {
+                (((2.0 * (u + 1.0)).floor() + (2.0 * (v + 1.0)).floor()) as i64).rem_euclid(2) as f64
+            } else {
+                0.5 + 0.5 * (2.0 * std::f64::consts::PI * (8.0 * i / n as f64 - 8.0 * k as f64 / 120.0)).sin()
+            };
+            value as f32
+        })
+        .collect();
+    Frame::from_f32(n, data).unwrap()
+}
+
+fn main() {
+    let which = std::env::args().nth(1).unwrap_or_default();
+    let iters: usize = std::env::args().nth(2).map(|s| s.parse().unwrap()).unwrap_or(3000);
+    let n = 128;
+    let dt = 1.0 / 120.0;
+    let e = EfferenceCopy {
+        forward_mps: 1.0,
+        yaw_rate_rps: 0.3,
+        dt_s: dt,
+        rotation_rad: [0.0, 0.0, 0.3 * dt],
+        translation_m: [dt, 0.0, 0.0],
+        height_m: 0.35,
+        pitch_rad: -0.03,
+        ..EfferenceCopy::default()
+    };
+    let frames: Vec<Frame> = (0..32).map(|k| frame(n, k)).collect();
+    for fe in ["paper", "compensated"] {
+        if !which.is_empty() && which != fe {
+            continue;
+        }
+        let cfg = HopfieldConfig {
+            front_end: if fe == "paper" {
+                FrontEnd::Paper
+            } else {
+                FrontEnd::Compensated
+            },
+            readout: Readout::Winner,
+            readout_alpha: 0.5,
+            ..HopfieldConfig::for_size(n)
+        };
+        let mut d = Hopfield::new(cfg).unwrap();
+        let mut best = f64::INFINITY;
+        for _rep in 0..iters / 20 {
+            let t0 = std::time::Instant::now();
+            for k in 0..20 {
+                black_box(d.step_moving(&frames[k % 32], &e).unwrap());
+            }
+            best = best.min(t0.elapsed().as_secs_f64() / 20.0);
+        }
+        println!("{fe}: best {:.1} µs", best * 1e6);
+    }
+    if which.is_empty() || which == "warp" {
+        let w = loomlab_detector::compensation::Warper::new(n, 60.0);
+        let r = loomlab_detector::compensation::rotation_matrix(e.rotation_rad);
+        let mut out = vec![0.0f32; n * n];
+        let mut best = f64::INFINITY;
+        for _rep in 0..iters / 20 {
+            let t0 = std::time::Instant::now();
+            for k in 0..20 {
+                w.predict(frames[k % 32].data(), &r, e.translation_m, &e, &mut out);
+                black_box(&out);
+            }
+            best = best.min(t0.elapsed().as_secs_f64() / 20.0);
+        }
+        println!("warp: best {:.1} µs", best * 1e6);
+    }
+}
