@@ -32,7 +32,9 @@
 //!    `confirm_frames` frames.
 //! 4. **Fit**: each frame's measurement — the object's size `s` (the square root of the region's
 //!    area when it is the object's current image and fills its box like a solid shape, else of its
-//!    box's area), centre and box shape — enters least-squares lines through `1/s`,
+//!    box's area; for the image of a disc, the middle of the range of sizes its pixels allow,
+//!    `Tracker::size_range`, with a disc's shape), centre and box shape — enters least-squares
+//!    lines through `1/s` (kept within those ranges, `fit_within_ranges`),
 //!    `cx/s` and `cy/s` against time with an exponentially fading memory of `fit_frames` frames:
 //!    for an object moving at a constant velocity these are exactly linear (its depth and its
 //!    offsets in units of its size), so the fit has no lag, while the renderer's whole-pixel edges
@@ -246,6 +248,9 @@ struct BoxSample {
     /// Frames since the track started.
     k: f64,
     inverse_size: f64,
+    /// The range `[low, high]` of `1/s` that the region's pixels allow (see
+    /// `Tracker::size_range`); `[1/s, 1/s]` when they give none: the measurement itself.
+    inverse_range: [f64; 2],
     x: f64,
     y: f64,
     width: f64,
@@ -263,6 +268,7 @@ impl BoxSample {
             current,
             k,
             inverse_size: 1.0 / s,
+            inverse_range: [1.0 / s, 1.0 / s],
             x: cj / s,
             y: ci / s,
             width: w / s,
@@ -281,8 +287,8 @@ fn fit_box(samples: &std::collections::VecDeque<BoxSample>, k: usize, memory: f6
         return fit_difference_box(samples, k, memory / DIFFERENCE_MEMORY_DIVISOR, n);
     }
     let lines = Lines::fit(samples, k as f64, memory, |s| [s.inverse_size, s.x, s.y, s.width, s.height]);
+    let inverse = fit_within_ranges(samples, k as f64, memory, &lines);
     // a fitted depth at or behind the camera (a box that grew explosively) keeps the last size
-    let inverse = lines.at(0);
     let inverse = if inverse > 1e-6 {
         inverse
     } else {
@@ -292,6 +298,79 @@ fn fit_box(samples: &std::collections::VecDeque<BoxSample>, k: usize, memory: f6
     let (cx, cy) = (lines.at(1) * size + n as f64 / 2.0, lines.at(2) * size + n as f64 / 2.0);
     let (w, h) = (lines.mean[3] * size, lines.mean[4] * size);
     [cy - h / 2.0, cy + h / 2.0, cx - w / 2.0, cx + w / 2.0]
+}
+
+/// Regions with more edge pixels than this (a disc some 60 pixels across) are not fitted as discs
+/// (`Tracker::size_range`): their area is accurate to a fraction of a per cent, and the search's
+/// cost grows with them.
+pub const MAX_DISC_EDGE_PIXELS: usize = 400;
+
+/// How far from a region's centroid `Tracker::size_range` looks for a disc's centre (pixels).
+pub const DISC_CENTRE_SEARCH_PX: f64 = 0.75;
+
+/// The grid step of that search (pixels).
+pub const DISC_CENTRE_STEP_PX: f64 = 0.05;
+
+/// How much a sample's measured `1/s` weighs against its range in `fit_within_ranges`: a line
+/// inside every range is the one nearest the measurements; one that leaves a range pays for the
+/// distance `1 / AREA_WEIGHT` = 10 times as much as for its distance from the measurement.
+pub const AREA_WEIGHT: f64 = 0.1;
+
+/// The fitted `1/s` at `now`: the line `1/s = a + b·(k − now)` that minimises, with the weights of
+/// `Lines::fit`, each sample's squared distance from its range
+/// (`BoxSample::inverse_range`) plus [`AREA_WEIGHT`] times its squared distance from the
+/// measured `1/s` — the plain least-squares line when that stays inside every range. The
+/// measured size of a small disc moves in steps of several pixels (module docs, step 4), and a
+/// line through such steps lags behind the object's growth between them by up to a step; the
+/// ranges say when the object's edge crossed each pixel centre. The objective is convex and
+/// piecewise quadratic in `(a, b)`: Newton steps over the set of ranges the line leaves, until
+/// that set stays the same.
+fn fit_within_ranges(samples: &std::collections::VecDeque<BoxSample>, now: f64, memory: f64, lines: &Lines) -> f64 {
+    let decay = (-1.0 / memory.max(1e-9)).exp();
+    let (mut a, mut b) = (lines.at(0), lines.slope[0]);
+    let mut previous: Option<Vec<i8>> = None;
+    let mut sides = Vec::with_capacity(samples.len());
+    for _ in 0..32 {
+        sides.clear();
+        let (mut s0, mut s1, mut s2, mut t0, mut t1) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        let mut w = 1.0;
+        let mut last_k = now;
+        for s in samples.iter().rev() {
+            w *= decay.powi((last_k - s.k).round() as i32);
+            last_k = s.k;
+            let k = s.k - now;
+            let y = a + b * k;
+            let [lo, hi] = s.inverse_range;
+            let (side, weight, target) = if y < lo {
+                (-1, w * (1.0 + AREA_WEIGHT), (lo + AREA_WEIGHT * s.inverse_size) / (1.0 + AREA_WEIGHT))
+            } else if y > hi {
+                (1, w * (1.0 + AREA_WEIGHT), (hi + AREA_WEIGHT * s.inverse_size) / (1.0 + AREA_WEIGHT))
+            } else {
+                (0, w * AREA_WEIGHT, s.inverse_size)
+            };
+            sides.push(side);
+            s0 += weight;
+            s1 += weight * k;
+            s2 += weight * k * k;
+            t0 += weight * target;
+            t1 += weight * k * target;
+        }
+        if previous.as_ref() == Some(&sides) {
+            break;
+        }
+        let det = s0 * s2 - s1 * s1;
+        if s0 <= 0.0 {
+            break;
+        }
+        if det > 1e-12 * s0 * s2.max(1.0) {
+            b = (s0 * t1 - s1 * t0) / det;
+            a = (t0 - b * s1) / s0;
+        } else {
+            (a, b) = (t0 / s0, 0.0);
+        }
+        previous = Some(sides.clone());
+    }
+    a
 }
 
 /// The box at frame `k` from boxes of the compensated difference: weighted least-squares lines
@@ -544,7 +623,82 @@ impl Tracker {
             return BoxSample::of(k, (w * h).sqrt(), [(i0 + i1 + 1) as f64 / 2.0 - c, (j0 + j1 + 1) as f64 / 2.0 - c], w, h, false);
         }
         let centroid = [b.sum_i / b.mass + 0.5 - c, b.sum_j / b.mass + 0.5 - c];
-        BoxSample::of(k, area.sqrt(), centroid, w, h, true)
+        let range = self.size_range(b, n);
+        // a disc's size: the middle of the range its pixels allow
+        let size = range.map_or(area.sqrt(), |[lo, hi]| (lo + hi) / 2.0);
+        // and its box: a disc's diameter, `2/√π` times its size (its pixels' box is whole pixels
+        // wide and high, which as a ratio to the size swings by a pixel over the size's steps)
+        let (w, h) = match range {
+            Some(_) => (size * 2.0 / std::f64::consts::PI.sqrt(), size * 2.0 / std::f64::consts::PI.sqrt()),
+            None => (w, h),
+        };
+        let mut sample = BoxSample::of(k, size, centroid, w, h, true);
+        if let Some([lo, hi]) = range {
+            sample.inverse_range = [1.0 / hi.max(1e-3), 1.0 / lo.max(1e-3)];
+        }
+        sample
+    }
+
+    /// The sizes a region of the object's current image allows, `[low, high]` (pixels, the
+    /// square root of an area like the measured size), when it is a disc's image; None for other
+    /// shapes, regions of more than [`MAX_DISC_EDGE_PIXELS`] edge pixels (their area is accurate)
+    /// and regions touching the image border (the object may be cut). The renderer marks a pixel
+    /// as the object's when its centre is inside the object, so a disc of radius `r` centred at
+    /// `c` holds every marked pixel centre and none of the unmarked ones around them. Over the
+    /// centres `c` within [`DISC_CENTRE_SEARCH_PX`] of the region's centroid (a grid of
+    /// [`DISC_CENTRE_STEP_PX`]) for which such a radius exists, `r` lies between the smallest
+    /// distance to the farthest marked centre and the largest distance to the nearest unmarked
+    /// one; the size is `√π · r`. A small disc's pixel count changes in steps of several pixels at
+    /// once (a disc centred on a pixel corner gains 4 or 8 at a time), and its centroid is off
+    /// its centre by a fraction of a pixel; the range holds the true size whatever the step.
+    fn size_range(&self, b: &Blob, n: usize) -> Option<[f64; 2]> {
+        let [i0, i1, j0, j1] = b.bbox;
+        if i0 == 0 || j0 == 0 || i1 + 1 >= n || j1 + 1 >= n {
+            return None;
+        }
+        let marked = |i: usize, j: usize| self.mask[i * n + j] != 0.0;
+        let (mut count, mut sum_i, mut sum_j) = (0.0, 0.0, 0.0);
+        // edge pixels: marked ones with an unmarked 4-neighbour, unmarked ones with a marked
+        // 8-neighbour (the farthest marked and the nearest unmarked centres are among them)
+        let (mut inside, mut outside) = (Vec::new(), Vec::new());
+        for i in i0 - 1..=i1 + 1 {
+            for j in j0 - 1..=j1 + 1 {
+                if marked(i, j) {
+                    count += 1.0;
+                    sum_i += i as f64;
+                    sum_j += j as f64;
+                    if !(marked(i - 1, j) && marked(i + 1, j) && marked(i, j - 1) && marked(i, j + 1)) {
+                        inside.push([i as f64, j as f64]);
+                    }
+                } else if (i.saturating_sub(1)..=(i + 1).min(n - 1))
+                    .any(|a| (j.saturating_sub(1)..=(j + 1).min(n - 1)).any(|c| marked(a, c)))
+                {
+                    outside.push([i as f64, j as f64]);
+                }
+                if inside.len() + outside.len() > MAX_DISC_EDGE_PIXELS {
+                    return None;
+                }
+            }
+        }
+        if count == 0.0 || outside.is_empty() {
+            return None;
+        }
+        let (ci, cj) = (sum_i / count, sum_j / count);
+        let steps = (DISC_CENTRE_SEARCH_PX / DISC_CENTRE_STEP_PX).round() as i32;
+        let (mut low, mut high) = (f64::INFINITY, f64::NEG_INFINITY);
+        for a in -steps..=steps {
+            for c in -steps..=steps {
+                let (pi, pj) = (ci + f64::from(a) * DISC_CENTRE_STEP_PX, cj + f64::from(c) * DISC_CENTRE_STEP_PX);
+                let d2 = |[i, j]: &[f64; 2]| (i - pi).powi(2) + (j - pj).powi(2);
+                let far = inside.iter().map(d2).fold(0.0, f64::max);
+                let near = outside.iter().map(d2).fold(f64::INFINITY, f64::min);
+                if far <= near {
+                    low = low.min(far);
+                    high = high.max(near);
+                }
+            }
+        }
+        (low <= high).then(|| [low.sqrt(), high.sqrt()].map(|r| r * std::f64::consts::PI.sqrt()))
     }
 
     /// A standing camera's object region `blob` without the background it uncovered: the model
