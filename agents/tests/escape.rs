@@ -472,6 +472,39 @@ mod strategies {
     }
 
     #[test]
+    fn a_one_frame_jump_of_theta_out_of_nothing_is_no_time_to_contact() {
+        // a detector whose θ̂ decays towards 0 (10⁻²⁹°) and jumps to 5° for one frame (the
+        // compensated Hopfield read-out in car_oncoming): no estimate followed by one, not an
+        // expansion; ln θ̂ across the jump would give τ̂ ≈ 1 ms and an alarm
+        let cfg = config(Course::Off);
+        let mut s = cfg.strategy();
+        let mut theta: f64 = 1e-3;
+        for k in 0..60 {
+            theta /= 2.0;
+            let d = s.update(
+                k as f64 * DT,
+                Percept {
+                    value: theta.max(1e-30),
+                    ..Percept::default()
+                },
+                Ego::default(),
+            );
+            assert_eq!(d.value, 0.0);
+        }
+        for (k, theta) in [(60, 5.0), (61, 2.5), (62, 1.25), (63, 0.6)] {
+            let d = s.update(
+                k as f64 * DT,
+                Percept {
+                    value: theta,
+                    ..Percept::default()
+                },
+                Ego::default(),
+            );
+            assert_eq!(d.value, 0.0, "frame {k}: θ̂ {theta}°, τ̂ {:?}", d.tau_s);
+        }
+    }
+
+    #[test]
     fn tau_alarm_comes_at_the_threshold_and_not_before() {
         let a = Approach {
             r: 0.2,
