@@ -1172,6 +1172,42 @@ mod tests {
     }
 
     #[test]
+    fn a_tracked_detector_counts_only_its_alarms_whose_region_overlaps_the_threat() {
+        // the threat: a ball on the axis, 5 m away (about ±1.7°); a car far right (id 1)
+        let threat = ball(5.0);
+        let car = ObjectTruth {
+            id: 1,
+            bearing_deg: 20.0,
+            azimuth_extent_deg: [15.0, 25.0],
+            ..ball(5.0)
+        };
+        let truth = vec![vec![threat.clone(), car.clone()]; 3];
+        let region = |x: [f64; 2]| ImageRegion {
+            centroid: [(x[0] + x[1]) / 2.0, 0.0],
+            x,
+            y: [-0.1, 0.1],
+            track: Some(1),
+        };
+        // frame 0: tracking the car (x 0.45..0.8 at a 60° view: 14.6°..24.8°); 1: the ball; 2: none
+        let regions = [Some(region([0.45, 0.8])), Some(region([-0.05, 0.05])), None];
+        let signal = [5.0, 6.0, 7.0];
+        let about = about_object(&signal, &regions, &truth, 0, 60.0, 0.0).expect("a tracker");
+        assert_eq!(about, vec![0.0, 6.0, 0.0]);
+        let about_car = about_object(&signal, &regions, &truth, 1, 60.0, 0.0).unwrap();
+        assert_eq!(about_car, vec![5.0, 0.0, 0.0]);
+        // a detector without tracks: its alarms are all taken to be about the threat
+        let untracked = [
+            Some(ImageRegion {
+                track: None,
+                ..region([-0.05, 0.05])
+            }),
+            None,
+            None,
+        ];
+        assert_eq!(about_object(&signal, &untracked, &truth, 0, 60.0, 0.0), None);
+    }
+
+    #[test]
     fn alarms_before_the_constant_approach_stay_out_of_the_lv_fit() {
         // 100 Hz: 6 m/s for 0.5 s, then 3 m/s until the centre is 0.2 m away (frame 150)
         let dt = 0.01;
