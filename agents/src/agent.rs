@@ -14,7 +14,10 @@
 //!    θ̂ or the output, per [`EscapeConfig::trigger`]), runs its decision strategy on it
 //!    ([`crate::strategy`]: θ̂ itself, or the urgency 1/τ̂, optionally gated by the collision-course
 //!    gate fed with the looming side as the object's azimuth) and returns the velocity command to
-//!    apply during the next camera period.
+//!    apply during the next camera period. When the driving detector numbers its tracks
+//!    ([`ImageRegion::track`](loomlab_detector::ImageRegion::track), `tracker`), the controller is
+//!    told which track the value is about ([`EscapeController::set_object`]): an alarm about
+//!    another track is dodged afresh instead of being taken for a re-trigger.
 //!
 //! The runner and the environment are orchestration around this type: they own the simulator,
 //! the ground truth and the scoring, and never restate this step.
@@ -167,7 +170,8 @@ impl EscapeAgent {
             },
         };
         let trigger_value = self.controller.perceive(t_s, percept, cruise).value;
-        let mut step = self.decide(t_s, looming_side, trigger_value, cruise);
+        let object = signals.first().and_then(|s| s.region).and_then(|r| r.track);
+        let mut step = self.decide_about(t_s, looming_side, trigger_value, object, cruise);
         step.signals = signals;
         self.applied = Some(step.command);
         Ok(step)

@@ -153,7 +153,8 @@ pub struct EscapeConfig {
     pub threshold: f64,
     /// [`TriggerSignal::Tau`]: alarm when the estimated time to contact τ̂ ≤ this (s, > 0).
     pub tau_threshold_s: f64,
-    /// [`TriggerSignal::Tau`]: the smallest θ̂ (degrees, ≥ 0) for an alarm.
+    /// [`TriggerSignal::Tau`]: the smallest θ̂ (degrees, ≥ 0; default 1) for an alarm, and for a
+    /// frame to enter the τ̂ fit ([`crate::strategy`]).
     pub min_angular_size_deg: f64,
     /// Length of the window over which τ̂ and the bearing rate are estimated (s, > 0).
     pub tau_window_s: f64,

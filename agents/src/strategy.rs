@@ -16,7 +16,9 @@
 //!
 //! # `trigger = "tau"`: time to contact from θ̂
 //! Each frame appends `(t, ln θ̂)` to a window of the last `tau_window_s` seconds (frames with
-//! θ̂ ≤ 0 or NaN are skipped). The least-squares slope `b` of ln θ̂ against t over the window is the
+//! θ̂ below `min_angular_size_deg`, ≤ 0 or NaN are skipped: a detector's θ̂ of 10⁻²⁹° that jumps to
+//! 5° in one frame is no estimate followed by one, not a relative expansion rate, and its ln θ̂
+//! slope would give a τ̂ of 1 ms). The least-squares slope `b` of ln θ̂ against t over the window is the
 //! relative expansion rate θ̇/θ at the window's mean time `t̄` (where the fit passes through
 //! `θ̄ = exp(mean ln θ̂)`). The optical τ = θ/θ̇ = 1/b is the time to contact of the object's
 //! *centre*; for a sphere (`sin(θ/2) = R/d`) the time until its *surface* reaches the camera is
@@ -139,7 +141,7 @@ pub struct Ego {
 pub struct StrategyParams {
     /// τ trigger (true) or stateless value (false).
     pub tau: bool,
-    /// Smallest θ̂ (degrees) for a τ alarm.
+    /// Smallest θ̂ (degrees) for a τ alarm, and for a frame to enter the τ̂ fit.
     pub min_angular_size_deg: f64,
     /// Length of the estimation window (s).
     pub window_s: f64,
@@ -369,6 +371,7 @@ impl Strategy {
         });
         let valid_theta = |s: &&Sample| s.theta_rad.is_finite() && s.theta_rad > 0.0;
         let tau_from = t_s - p.window_s - 1e-9;
+        let min_theta_rad = p.min_angular_size_deg.to_radians();
         let course_from = t_s - p.course_window_s - 1e-9;
         // τ̂ from the slope of ln θ, compensated for the window's lag.
         let tau_s = slope(
@@ -376,6 +379,7 @@ impl Strategy {
                 .iter()
                 .filter(|s| s.t >= tau_from)
                 .filter(valid_theta)
+                .filter(|s| s.theta_rad >= min_theta_rad)
                 .map(|s| (s.t, s.theta_rad.ln())),
         )
         .filter(|&(b, _, _)| b > 0.0)

@@ -472,6 +472,39 @@ mod strategies {
     }
 
     #[test]
+    fn a_one_frame_jump_of_theta_out_of_nothing_is_no_time_to_contact() {
+        // a detector whose θ̂ decays towards 0 (10⁻²⁹°) and jumps to 5° for one frame (the
+        // compensated Hopfield read-out in car_oncoming): no estimate followed by one, not an
+        // expansion; ln θ̂ across the jump would give τ̂ ≈ 1 ms and an alarm
+        let cfg = config(Course::Off);
+        let mut s = cfg.strategy();
+        let mut theta: f64 = 1e-3;
+        for k in 0..60 {
+            theta /= 2.0;
+            let d = s.update(
+                k as f64 * DT,
+                Percept {
+                    value: theta.max(1e-30),
+                    ..Percept::default()
+                },
+                Ego::default(),
+            );
+            assert_eq!(d.value, 0.0);
+        }
+        for (k, theta) in [(60, 5.0), (61, 2.5), (62, 1.25), (63, 0.6)] {
+            let d = s.update(
+                k as f64 * DT,
+                Percept {
+                    value: theta,
+                    ..Percept::default()
+                },
+                Ego::default(),
+            );
+            assert_eq!(d.value, 0.0, "frame {k}: θ̂ {theta}°, τ̂ {:?}", d.tau_s);
+        }
+    }
+
+    #[test]
     fn tau_alarm_comes_at_the_threshold_and_not_before() {
         let a = Approach {
             r: 0.2,
@@ -1064,4 +1097,83 @@ fn repeated_dodges_to_one_side_stop_at_the_maximum_offset() {
             ..
         })
     ));
+}
+
+/// The escape agent with a detector that numbers its tracks (`tracker`): an alarm about another
+/// track is dodged afresh, during the manoeuvre started for the first.
+mod named_tracks {
+    use loomlab_agents::{ControllerEvent, DodgeSide, EscapeAgent, EscapeConfig, VelocityCommand};
+    use loomlab_detector::{Detector, DetectorError, Frame, ImageRegion, Signals};
+
+    /// Replays a script of (θ̂ in degrees, region x extent, track number), one entry per frame.
+    struct Script(std::vec::IntoIter<(f64, [f64; 2], usize)>);
+
+    impl Detector for Script {
+        fn id(&self) -> &'static str {
+            "script"
+        }
+        fn reset(&mut self) {}
+        fn step(&mut self, _frame: &Frame) -> Result<Signals, DetectorError> {
+            let (theta, x, track) = self.0.next().expect("a scripted frame");
+            Ok(Signals {
+                output: theta,
+                angular_size_deg: Some(theta),
+                aux: Vec::new(),
+                region: Some(ImageRegion {
+                    centroid: [(x[0] + x[1]) / 2.0, 0.0],
+                    x,
+                    y: [-0.1, 0.1],
+                    track: Some(track),
+                }),
+            })
+        }
+    }
+
+    #[test]
+    fn an_alarm_about_another_track_preempts_the_manoeuvre_and_dodges_away_from_it() {
+        // track 1 (a passing car) on the right alarms: dodge left; 0.1 s into the manoeuvre track 2,
+        // on the left, alarms: dodged at once, to the right
+        let right = [0.4, 0.6];
+        let left = [-0.6, -0.4];
+        let script = vec![
+            (5.0, right, 1),
+            (20.0, right, 1),
+            (20.0, right, 1),
+            (20.0, left, 2),
+            (20.0, left, 2),
+        ];
+        let config = EscapeConfig {
+            threshold: 10.0,
+            duration_s: 0.6,
+            cooldown_s: 0.5,
+            ..EscapeConfig::default()
+        };
+        let mut agent = EscapeAgent::new(vec![Box::new(Script(script.into_iter()))], config).unwrap();
+        let frame = Frame::from_f32(8, vec![0.5; 64]).unwrap();
+        let cruise = VelocityCommand::forward(1.0);
+        let events: Vec<ControllerEvent> = (0..5)
+            .map(|k| agent.step(k as f64 * 0.05, &frame, cruise).unwrap().event)
+            .collect();
+        let triggered = |side| ControllerEvent::Triggered { side: Some(side) };
+        assert_eq!(events[0], ControllerEvent::Cruise);
+        assert_eq!(events[1], triggered(DodgeSide::Left));
+        assert_eq!(
+            events[2],
+            ControllerEvent::Manoeuvring {
+                side: Some(DodgeSide::Left)
+            }
+        );
+        assert_eq!(
+            events[3],
+            triggered(DodgeSide::Right),
+            "another track pre-empts the manoeuvre"
+        );
+        assert_eq!(
+            events[4],
+            ControllerEvent::Manoeuvring {
+                side: Some(DodgeSide::Right)
+            }
+        );
+        assert_eq!(agent.controller().triggers(), 2);
+    }
 }

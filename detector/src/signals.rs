@@ -28,6 +28,13 @@ pub struct ImageRegion {
     pub x: [f64; 2],
     /// Vertical extent `[bottom, top]` (y of the outer borders of its lowest and highest pixels).
     pub y: [f64; 2],
+    /// Which of the detector's tracks the region belongs to, for detectors that tell objects apart
+    /// (`tracker`: its tracks are numbered from 1 after a reset; a new number whenever it starts
+    /// following another blob). Perception only: which image region the detector follows, not
+    /// which object of the world it is (a lost and re-found object gets a new number). `None`: the
+    /// detector does not tell objects apart. The escape agent passes it to its controller, which
+    /// dodges an alarm about another track afresh (`EscapeController::set_object`, `agents`).
+    pub track: Option<usize>,
 }
 
 impl ImageRegion {

@@ -223,3 +223,51 @@ fn a_small_fast_ball_s_time_to_contact_is_right_from_its_first_reported_frames()
         );
     }
 }
+
+#[test]
+fn a_track_keeps_its_number_while_it_follows_one_ball_and_the_next_ball_gets_another() {
+    let mut d = Tracker::new(TrackerConfig::default()).unwrap();
+    let standing = EfferenceCopy {
+        dt_s: DT,
+        height_m: 0.35,
+        ..EfferenceCopy::default()
+    };
+    let background = Frame::from_f32(N, vec![0.6; N * N]).unwrap();
+    // ball A approaching on the right, 60 frames; nothing for 60 frames; ball B on the left
+    let mut tracks = Vec::new();
+    for k in 0..180 {
+        let t = (k % 60) as f64 * DT;
+        let f = match k / 60 {
+            0 => frame([5.0 - 3.0 * t, -0.8, 0.1], 0.2, 0.1, 0.6),
+            1 => background.clone(),
+            _ => frame([5.0 - 3.0 * t, 0.8, 0.1], 0.2, 0.1, 0.6),
+        };
+        let s = d.step_moving(&f, &standing).unwrap();
+        tracks.push(s.region.map(|r| r.track));
+    }
+    let numbers = |range: std::ops::Range<usize>| {
+        let reported: Vec<Option<usize>> = tracks[range].iter().flatten().copied().collect();
+        assert!(
+            reported.len() >= 20,
+            "the ball is reported once confirmed: {reported:?}"
+        );
+        assert!(
+            reported.iter().all(|&n| n.is_some() && n == reported[0]),
+            "{reported:?}"
+        );
+        reported[0].unwrap()
+    };
+    let (a, b) = (numbers(0..60), numbers(120..180));
+    assert_ne!(a, b, "another ball, another track");
+    // a reset numbers the tracks afresh
+    d.reset();
+    let mut first = None;
+    for k in 0..60 {
+        let t = k as f64 * DT;
+        let s = d
+            .step_moving(&frame([5.0 - 3.0 * t, -0.8, 0.1], 0.2, 0.1, 0.6), &standing)
+            .unwrap();
+        first = first.or(s.region.map(|r| r.track));
+    }
+    assert_eq!(first, Some(Some(a)));
+}

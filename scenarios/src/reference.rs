@@ -36,7 +36,9 @@
 //! manoeuvre or its cooldown at once ([`loomlab_agents::escape`], "Several objects"). In a threat
 //! episode an ideal row is scored on its alarms about the threat object alone: an alarm about a
 //! passing car before the threat looms is not a hit, though the row's closed loop starts with it
-//! (the runner's `about_threat` signal).
+//! (the runner's `about_threat` signal). A detector that numbers its tracks (`tracker`) is scored
+//! the same way: its alarms count only in frames whose tracked region overlaps the threat's true
+//! image extent (the scoring reads the truth; the detector and its agent never do).
 //!
 //! `ideal_tau` and `ideal_course` perceive an object only while its reference point is in view and
 //! its angular size fits in the field of view (`θ ≤ fov`): the image cannot show a larger angular

@@ -467,6 +467,7 @@ impl Runner {
         let contact_frame = episode_truth.contact.as_ref().map(|c| c.frame);
 
         // ---- scores and closed loops: the detectors, then the reference rows ----
+        let threat_object = episode_truth.contact.as_ref().map(|c| c.object_id);
         let mut rows: Vec<Row> = ep
             .detectors
             .iter()
@@ -475,15 +476,22 @@ impl Runner {
                 label: spec.label.clone(),
                 trigger: spec.trigger,
                 threshold: spec.threshold,
+                about_threat: threat_object.and_then(|id| {
+                    let fov_deg = spec.controller(&ep.controller).camera_fov_deg;
+                    let idle = if spec.trigger.reads_angular_size() {
+                        0.0
+                    } else {
+                        f64::NAN
+                    };
+                    about_object(&signal[i], &regions[i], &truth, id, fov_deg, idle)
+                }),
                 signal: std::mem::take(&mut signal[i]),
                 raw: raw_theta[i].take(),
-                about_threat: None,
                 output: std::mem::take(&mut output[i]),
                 tail: Tail::Detector(spec),
             })
             .collect();
         if self.references {
-            let threat_object = episode_truth.contact.as_ref().map(|c| c.object_id);
             rows.extend(reference_rows(ep, &truth, &t_s, deadline.as_ref(), threat_object));
         }
         let first_alarms: Vec<Option<usize>> = rows
@@ -849,6 +857,40 @@ fn ideal_tail(
     })
 }
 
+/// The signal of a detector that numbers its tracks ([`ImageRegion::track`], `tracker`) about
+/// object `id` alone (scoring only, which may read the ground truth): `signal` where the frame's
+/// tracked region overlaps the object's true image extent (`truth`, per frame; camera field of
+/// view `fov_deg`), `idle` elsewhere. `None` for a detector without tracks: its alarms are taken
+/// to be about the threat.
+fn about_object(
+    signal: &[f64],
+    regions: &[Option<ImageRegion>],
+    truth: &[Vec<ObjectTruth>],
+    id: usize,
+    fov_deg: f64,
+    idle: f64,
+) -> Option<Vec<f64>> {
+    if !regions.iter().flatten().any(|r| r.track.is_some()) {
+        return None;
+    }
+    let half = (fov_deg / 2.0).to_radians().tan();
+    let angle = |v: f64| (v * half).atan().to_degrees();
+    let overlaps = |[a0, a1]: [f64; 2], [b0, b1]: [f32; 2]| a0 <= f64::from(b1) && f64::from(b0) <= a1;
+    let covers = |k: usize| {
+        let (Some(Some(r)), Some(o)) = (regions.get(k), truth.get(k).and_then(|t| t.iter().find(|o| o.id == id)))
+        else {
+            return false;
+        };
+        // image y is up, as elevation; image x is right, as azimuth
+        o.in_view && overlaps(r.x.map(angle), o.azimuth_extent_deg) && overlaps(r.y.map(angle), o.elevation_extent_deg)
+    };
+    Some(
+        (0..signal.len())
+            .map(|k| if covers(k) { signal[k] } else { idle })
+            .collect(),
+    )
+}
+
 /// How a row's closed loop after its first alarm is run.
 enum Tail<'a> {
     /// The detector drives the escape agent on rendered frames.
@@ -867,10 +909,11 @@ struct Row<'a> {
     signal: Vec<f64>,
     /// θ̂ before the decision strategy, for rows whose signal is a strategy's decision value.
     raw: Option<Vec<f64>>,
-    /// For a row that names the object of each alarm (the ideal rows) in a threat episode: its
-    /// signal about the threat object alone. The row is scored on it — an alarm about another
-    /// object (a passing car) is not a hit — while its closed loop still starts at its first
-    /// alarm about anything.
+    /// For a row that names the object of each alarm in a threat episode (the ideal rows; a
+    /// detector that numbers its tracks, whose tracked region is matched with the threat's true
+    /// image by [`about_object`]): its signal about the threat object alone. The row is scored on
+    /// it — an alarm about another object (a passing car) is not a hit — while its closed loop
+    /// still starts at its first alarm about anything.
     about_threat: Option<Vec<f64>>,
     output: Vec<f64>,
     tail: Tail<'a>,
@@ -1126,6 +1169,42 @@ mod tests {
             in_view: true,
             in_contact: false,
         }
+    }
+
+    #[test]
+    fn a_tracked_detector_counts_only_its_alarms_whose_region_overlaps_the_threat() {
+        // the threat: a ball on the axis, 5 m away (about ±1.7°); a car far right (id 1)
+        let threat = ball(5.0);
+        let car = ObjectTruth {
+            id: 1,
+            bearing_deg: 20.0,
+            azimuth_extent_deg: [15.0, 25.0],
+            ..ball(5.0)
+        };
+        let truth = vec![vec![threat.clone(), car.clone()]; 3];
+        let region = |x: [f64; 2]| ImageRegion {
+            centroid: [(x[0] + x[1]) / 2.0, 0.0],
+            x,
+            y: [-0.1, 0.1],
+            track: Some(1),
+        };
+        // frame 0: tracking the car (x 0.45..0.8 at a 60° view: 14.6°..24.8°); 1: the ball; 2: none
+        let regions = [Some(region([0.45, 0.8])), Some(region([-0.05, 0.05])), None];
+        let signal = [5.0, 6.0, 7.0];
+        let about = about_object(&signal, &regions, &truth, 0, 60.0, 0.0).expect("a tracker");
+        assert_eq!(about, vec![0.0, 6.0, 0.0]);
+        let about_car = about_object(&signal, &regions, &truth, 1, 60.0, 0.0).unwrap();
+        assert_eq!(about_car, vec![5.0, 0.0, 0.0]);
+        // a detector without tracks: its alarms are all taken to be about the threat
+        let untracked = [
+            Some(ImageRegion {
+                track: None,
+                ..region([-0.05, 0.05])
+            }),
+            None,
+            None,
+        ];
+        assert_eq!(about_object(&signal, &untracked, &truth, 0, 60.0, 0.0), None);
     }
 
     #[test]

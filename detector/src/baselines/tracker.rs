@@ -29,7 +29,9 @@
 //!    model (its imprint is replaced by the background around it when that is uniform), and where
 //!    the object was, the frame shows background again. A track without a region keeps its last
 //!    box for `hold_frames` frames, then ends. A track is reported once it has lasted
-//!    `confirm_frames` frames.
+//!    `confirm_frames` frames. Each track has a number ([`ImageRegion::track`](crate::ImageRegion)):
+//!    a new one when a track starts, or when no region overlaps the tracked box and the largest is
+//!    taken instead (another blob).
 //! 4. **Fit**: each frame's measurement — the object's size `s` (the square root of the region's
 //!    area when it is the object's current image and fills its box like a solid shape, else of its
 //!    box's area; for the image of a disc, the middle of the range of sizes its pixels allow,
@@ -460,6 +462,8 @@ pub struct Tracker {
     stack: Vec<usize>,
     blobs: Vec<Blob>,
     track: Option<Blob>,
+    /// Tracks started since the last reset: the current track's number ([`ImageRegion::track`]).
+    tracks: usize,
     missed: usize,
     /// Frames the current track has lasted.
     age: usize,
@@ -490,6 +494,7 @@ impl Tracker {
             stack: Vec::new(),
             blobs: Vec::new(),
             track: None,
+            tracks: 0,
             missed: 0,
             age: 0,
             samples: std::collections::VecDeque::new(),
@@ -584,20 +589,21 @@ impl Tracker {
         }
     }
 
-    /// Chooses the tracked object among this frame's blobs (see the module docs, step 3).
-    fn choose(&mut self) -> Option<Blob> {
+    /// Chooses the tracked object among this frame's blobs (see the module docs, step 3), and
+    /// whether it is another blob than the tracked one (none overlaps the track's box: the largest
+    /// is taken instead).
+    fn choose(&mut self) -> Option<(Blob, bool)> {
         let by_mass = |a: &&Blob, b: &&Blob| a.mass.total_cmp(&b.mass);
-        let chosen = match &self.track {
+        let (chosen, other) = match &self.track {
             Some(t) => {
                 let [i0, i1, j0, j1] = t.bbox;
                 let margin = ((i1 - i0).max(j1 - j0) / 4).max(self.config.link_px);
-                self.blobs
-                    .iter()
-                    .filter(|b| b.overlaps(t.bbox, margin))
-                    .max_by(by_mass)
-                    .or_else(|| self.blobs.iter().max_by(by_mass))
+                match self.blobs.iter().filter(|b| b.overlaps(t.bbox, margin)).max_by(by_mass) {
+                    Some(b) => (Some(b), false),
+                    None => (self.blobs.iter().max_by(by_mass), true),
+                }
             }
-            None => self.blobs.iter().max_by(by_mass),
+            None => (self.blobs.iter().max_by(by_mass), false),
         };
         let mut chosen = *chosen?;
         let first = chosen;
@@ -606,7 +612,7 @@ impl Tracker {
                 chosen.merge(b);
             }
         }
-        Some(chosen)
+        Some((chosen, other))
     }
 
     /// The measurement of a region: its box, and — for the object's current image that fills its
@@ -863,6 +869,7 @@ impl Tracker {
             centroid: [x_of(cj), y_of(ci)],
             x: [x_of(left), x_of(right.max(left))],
             y: [y_of(bottom.max(top)), y_of(top)],
+            track: Some(self.tracks),
         };
         let [w, h] = region.angular_size_deg(self.config.fov_deg);
         let theta = w.max(h);
@@ -889,6 +896,7 @@ impl Detector for Tracker {
             d.reset();
         }
         self.track = None;
+        self.tracks = 0;
         self.missed = 0;
         self.age = 0;
         self.background.clear();
@@ -951,6 +959,11 @@ impl Detector for Tracker {
         };
         self.group(n, min_pixels);
         let chosen = self.choose();
+        // a new track, or the largest blob instead of the tracked one: another number
+        if chosen.is_some_and(|(_, other)| other || self.track.is_none()) {
+            self.tracks += 1;
+        }
+        let chosen = chosen.map(|(b, _)| b);
         let chosen = if standing {
             let starting = self.track.is_none();
             chosen.map(|b| self.refine_standing(frame.data(), n, b, starting))
