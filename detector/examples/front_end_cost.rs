@@ -9,27 +9,16 @@ use loomlab_detector::hopfield::{FrontEnd, Readout};
 use loomlab_detector::{Detector, EfferenceCopy, Frame, Hopfield, HopfieldConfig};
 use std::hint::black_box;
 
-fn frame(n: usize, k: usize) -> Frame {
-    let c = n as f64 / 2.0;
-    let r = n as f64 * (0.05 + 0.012 * k as f64);
-    let data = (0..n * n)
-        .map(|p| {
-            let (i, j) = ((p / n) as f64 + 0.5, (p % n) as f64 + 0.5);
-            let (u, v) = ((j - c) / r, (i - c) / r);
-            let value = if u * u + v * v <= 1.0 {
-                (((2.0 * (u + 1.0)).floor() + (2.0 * (v + 1.0)).floor()) as i64).rem_euclid(2) as f64
-            } else {
-                0.5 + 0.5 * (2.0 * std::f64::consts::PI * (8.0 * i / n as f64 - 8.0 * k as f64 / 120.0)).sin()
-            };
-            value as f32
-        })
-        .collect();
-    Frame::from_f32(n, data).unwrap()
-}
+#[path = "../benches/common/mod.rs"]
+mod common;
+use common::frame;
 
 fn main() {
     let which = std::env::args().nth(1).unwrap_or_default();
-    let iters: usize = std::env::args().nth(2).map(|s| s.parse().unwrap()).unwrap_or(3000);
+    let iters: usize = std::env::args()
+        .nth(2)
+        .map(|s| s.parse().expect("FRAMES must be a whole number"))
+        .unwrap_or(3000);
     let n = 128;
     let dt = 1.0 / 120.0;
     let e = EfferenceCopy {

@@ -328,19 +328,13 @@ pub const AREA_WEIGHT: f64 = 0.1;
 /// piecewise quadratic in `(a, b)`: Newton steps over the set of ranges the line leaves, until
 /// that set stays the same.
 fn fit_within_ranges(samples: &std::collections::VecDeque<BoxSample>, now: f64, memory: f64, lines: &Lines) -> f64 {
-    let decay = (-1.0 / memory.max(1e-9)).exp();
     let (mut a, mut b) = (lines.at(0), lines.slope[0]);
     let mut previous: Option<Vec<i8>> = None;
     let mut sides = Vec::with_capacity(samples.len());
     for _ in 0..32 {
         sides.clear();
         let (mut s0, mut s1, mut s2, mut t0, mut t1) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        let mut w = 1.0;
-        let mut last_k = now;
-        for s in samples.iter().rev() {
-            w *= decay.powi((last_k - s.k).round() as i32);
-            last_k = s.k;
-            let k = s.k - now;
+        for (w, k, s) in fading(samples, now, memory) {
             let y = a + b * k;
             let [lo, hi] = s.inverse_range;
             let (side, weight, target) = if y < lo {
@@ -390,6 +384,22 @@ fn fit_difference_box(samples: &std::collections::VecDeque<BoxSample>, k: usize,
     [cy - h / 2.0, cy + h / 2.0, cx - w / 2.0, cx + w / 2.0]
 }
 
+/// The samples newest first, each with its fading-memory weight (1 for a sample at `now`, times
+/// `exp(−1/memory)` per frame further back) and its frame relative to `now` (≤ 0).
+fn fading(
+    samples: &std::collections::VecDeque<BoxSample>,
+    now: f64,
+    memory: f64,
+) -> impl Iterator<Item = (f64, f64, &BoxSample)> {
+    let decay = (-1.0 / memory.max(1e-9)).exp();
+    let (mut w, mut last_k) = (1.0, now);
+    samples.iter().rev().map(move |s| {
+        w *= decay.powi((last_k - s.k).round() as i32);
+        last_k = s.k;
+        (w, s.k - now, s)
+    })
+}
+
 /// Weighted least-squares lines through five quantities of the samples against their frame, a
 /// sample `j` frames before `now` weighing `exp(−j/memory)`.
 struct Lines {
@@ -407,16 +417,10 @@ impl Lines {
         memory: f64,
         values: impl Fn(&BoxSample) -> [f64; 5],
     ) -> Self {
-        let decay = (-1.0 / memory.max(1e-9)).exp();
         // one pass: weighted sums of 1, k, k², v and k·v (k relative to now, newest first)
         let (mut sw, mut sk, mut skk) = (0.0, 0.0, 0.0);
         let (mut sv, mut skv) = ([0.0; 5], [0.0; 5]);
-        let mut w = 1.0;
-        let mut last_k = now;
-        for s in samples.iter().rev() {
-            w *= decay.powi((last_k - s.k).round() as i32);
-            last_k = s.k;
-            let k = s.k - now;
+        for (w, k, s) in fading(samples, now, memory) {
             let v = values(s);
             sw += w;
             sk += w * k;
