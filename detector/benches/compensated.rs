@@ -19,22 +19,7 @@ use loomlab_detector::hopfield::{FrontEnd, Readout};
 use loomlab_detector::{Detector, EfferenceCopy, Frame, Hopfield, HopfieldConfig, Registry};
 
 mod common;
-use common::frame;
-
-/// The efference copy of one 120 Hz camera period of a camera turning and driving.
-fn ego() -> EfferenceCopy {
-    let dt = 1.0 / 120.0;
-    EfferenceCopy {
-        forward_mps: 1.0,
-        yaw_rate_rps: 0.3,
-        dt_s: dt,
-        rotation_rad: [0.0, 0.0, 0.3 * dt],
-        translation_m: [dt, 0.0, 0.0],
-        height_m: 0.35,
-        pitch_rad: -0.03,
-        ..EfferenceCopy::default()
-    }
-}
+use common::{ego, frame};
 
 /// Frame k of a camera driving at `speed` (m/s), 0.35 m above a textured ground (pitch −3°), a
 /// ball of radius 0.2 m approaching from 8 m at 6 m/s, 60° field of view.

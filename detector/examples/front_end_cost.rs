@@ -6,12 +6,12 @@
 //!
 //! `cargo run --profile release -p loomlab-detector --example front_end_cost [paper|compensated|warp] [FRAMES]`
 use loomlab_detector::hopfield::{FrontEnd, Readout};
-use loomlab_detector::{Detector, EfferenceCopy, Frame, Hopfield, HopfieldConfig};
+use loomlab_detector::{Detector, Frame, Hopfield, HopfieldConfig};
 use std::hint::black_box;
 
 #[path = "../benches/common/mod.rs"]
 mod common;
-use common::frame;
+use common::{ego, frame};
 
 fn main() {
     let which = std::env::args().nth(1).unwrap_or_default();
@@ -20,17 +20,7 @@ fn main() {
         .map(|s| s.parse().expect("FRAMES must be a whole number"))
         .unwrap_or(3000);
     let n = 128;
-    let dt = 1.0 / 120.0;
-    let e = EfferenceCopy {
-        forward_mps: 1.0,
-        yaw_rate_rps: 0.3,
-        dt_s: dt,
-        rotation_rad: [0.0, 0.0, 0.3 * dt],
-        translation_m: [dt, 0.0, 0.0],
-        height_m: 0.35,
-        pitch_rad: -0.03,
-        ..EfferenceCopy::default()
-    };
+    let e = ego();
     let frames: Vec<Frame> = (0..32).map(|k| frame(n, k)).collect();
     for fe in ["paper", "compensated"] {
         if !which.is_empty() && which != fe {

@@ -1,6 +1,6 @@
 //! Input frames shared by the detector benches.
 
-use loomlab_detector::Frame;
+use loomlab_detector::{EfferenceCopy, Frame};
 
 /// Frame k of a checkerboard disk (radius growing with k) over a drifting sine grating.
 pub fn frame(n: usize, k: usize) -> Frame {
@@ -19,4 +19,20 @@ pub fn frame(n: usize, k: usize) -> Frame {
         })
         .collect();
     Frame::from_f32(n, data).expect("n*n pixels")
+}
+
+#[allow(dead_code)] // not every bench that includes this module drives a camera
+/// The efference copy of one 120 Hz camera period of a camera turning and driving.
+pub fn ego() -> EfferenceCopy {
+    let dt = 1.0 / 120.0;
+    EfferenceCopy {
+        forward_mps: 1.0,
+        yaw_rate_rps: 0.3,
+        dt_s: dt,
+        rotation_rad: [0.0, 0.0, 0.3 * dt],
+        translation_m: [dt, 0.0, 0.0],
+        height_m: 0.35,
+        pitch_rad: -0.03,
+        ..EfferenceCopy::default()
+    }
 }
