@@ -114,6 +114,15 @@ struct BgOut {
     @builtin(position) pos: vec4<f32>,
     // viewing ray with unit component along the optical axis (linear in screen space)
     @location(0) dir: vec3<f32>,
+    // The globals the fragment stage reads, passed as flat inputs: llvmpipe loads a storage
+    // buffer per pixel (and per lane), a flat input once per triangle.
+    @location(1) @interpolate(flat) camera: vec4<f32>,
+    @location(2) @interpolate(flat) dir_dx: vec4<f32>,
+    @location(3) @interpolate(flat) dir_dy: vec4<f32>,
+    @location(4) @interpolate(flat) ground_a: vec4<f32>,
+    @location(5) @interpolate(flat) ground_b: vec4<f32>,
+    @location(6) @interpolate(flat) ground_k: vec4<u32>,
+    @location(7) @interpolate(flat) near: f32,
 };
 
 // One triangle covering the screen, read from the mesh vertex buffer (NDC x, y in `pos.xy`).
@@ -123,6 +132,13 @@ fn vs_background(@location(0) pos: vec3<f32>) -> BgOut {
     o.pos = vec4<f32>(pos.xy, 0.0, 1.0);
     let tan_half = g.cam_fwd.w;
     o.dir = g.cam_fwd.xyz + tan_half * (pos.x * g.cam_right.xyz + pos.y * g.cam_up.xyz);
+    o.camera = g.camera;
+    o.dir_dx = g.dir_dx;
+    o.dir_dy = g.dir_dy;
+    o.ground_a = g.ground_a;
+    o.ground_b = g.ground_b;
+    o.ground_k = g.ground_k;
+    o.near = g.cam_right.w;
     return o;
 }
 
@@ -135,26 +151,26 @@ struct FragOut {
 @fragment
 fn fs_background(in: BgOut) -> FragOut {
     let dir = in.dir;
-    let cam_z = g.camera.z;
-    let hits = dir.z < -1e-7 && cam_z > 0.0 && g.ground_b.z > 0.5;
+    let cam_z = in.camera.z;
+    let hits = dir.z < -1e-7 && cam_z > 0.0 && in.ground_b.z > 0.5;
     // distance along the optical axis to the ground (dir has unit forward component)
     let t = select(1e7, min(cam_z / max(-dir.z, 1e-12), 1e7), hits);
-    let uv = dir.xy * t + g.camera.xy;
+    let uv = dir.xy * t + in.camera.xy;
     // analytic screen derivatives of uv (exact, and free of the quad artefacts that hardware-style
     // derivatives show along the edges of the clipped full-screen triangle)
     let q = max(-dir.z, 1e-12);
-    let duv_dx = g.dir_dx.xy * t + dir.xy * (t / q * g.dir_dx.z);
-    let duv_dy = g.dir_dy.xy * t + dir.xy * (t / q * g.dir_dy.z);
+    let duv_dx = in.dir_dx.xy * t + dir.xy * (t / q * in.dir_dx.z);
+    let duv_dy = in.dir_dy.xy * t + dir.xy * (t / q * in.dir_dy.z);
     // the texture only where the ground is hit: a CPU rasteriser skips the branch for blocks of
     // pixels that are all sky (the same arithmetic for ground pixels as without the branch)
     var ground = 0.0;
     if (hits) {
-        ground = texture_value(g.ground_k.y, g.ground_a, g.ground_b, uv, duv_dx, duv_dy);
+        ground = texture_value(in.ground_k.y, in.ground_a, in.ground_b, uv, duv_dx, duv_dy);
     }
     var o: FragOut;
     // reversed-Z infinite projection: depth = near / view distance
-    o.lum = select(g.camera.w, clamp(ground, 0.0, 1.0), hits);
-    o.depth = select(0.0, min(g.cam_right.w / t, 1.0), hits);
+    o.lum = select(in.camera.w, clamp(ground, 0.0, 1.0), hits);
+    o.depth = select(0.0, min(in.near / t, 1.0), hits);
     return o;
 }
 
@@ -184,6 +200,10 @@ struct ObjOut {
     @location(8) @interpolate(flat) r0: vec3<f32>,
     @location(9) @interpolate(flat) r1: vec3<f32>,
     @location(10) @interpolate(flat) r2: vec3<f32>,
+    // rows z and w of the view-projection (columns' z, w), for the sphere's depth (a flat input
+    // rather than a per-pixel storage-buffer load, see BgOut)
+    @location(11) @interpolate(flat) clip_z: vec4<f32>,
+    @location(12) @interpolate(flat) clip_w: vec4<f32>,
 };
 
 @vertex
@@ -204,6 +224,9 @@ fn vs_object(@location(0) pos: vec3<f32>, @location(1) normal: vec3<f32>, inst: 
     o.r0 = inst.m0.xyz;
     o.r1 = inst.m1.xyz;
     o.r2 = inst.m2.xyz;
+    let vp = g.view_proj;
+    o.clip_z = vec4<f32>(vp[0].z, vp[1].z, vp[2].z, vp[3].z);
+    o.clip_w = vec4<f32>(vp[0].w, vp[1].w, vp[2].w, vp[3].w);
     return o;
 }
 
@@ -261,9 +284,9 @@ fn fs_sphere(in: ObjOut) -> FragOut {
     if (disc < 0.0 || t <= 0.0) {
         discard;
     }
-    let clip = g.view_proj * vec4<f32>(hit, 1.0);
+    let h = vec4<f32>(hit, 1.0);
     var o: FragOut;
     o.lum = clamp(v, 0.0, 1.0);
-    o.depth = clamp(clip.z / clip.w, 0.0, 1.0);
+    o.depth = clamp(dot(in.clip_z, h) / dot(in.clip_w, h), 0.0, 1.0);
     return o;
 }
