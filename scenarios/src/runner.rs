@@ -55,7 +55,7 @@ use std::sync::{Arc, Mutex};
 use loomlab_agents::{
     Ego, EgoSensor, EscapeAgent, EscapeConfig, EscapeController, LoomingSideEstimator, TriggerSignal, VelocityCommand,
 };
-use loomlab_detector::{Detector, Frame, ImageRegion};
+use loomlab_detector::{Detector, Frame, ImageRegion, Signals};
 use loomlab_sim::{Camera, GpuContext, ObjectTruth, Renderer, Sim, SimError};
 use rayon::prelude::*;
 
@@ -345,10 +345,19 @@ impl Runner {
         let mut renderer = self.renderers.take(&self.ctx, n).map_err(|e| c.sim(e))?;
         let mut sim = Sim::new_physics_only(&ep.world, ep.seed).map_err(|e| c.sim(e))?;
         let objects = sim.objects();
-        let mut detectors: Vec<Box<dyn Detector>> = Vec::with_capacity(nd);
-        for d in &ep.detectors {
-            detectors.push(d.build(nn).map_err(|e| c.det(e))?);
+        // Rows that run the same detector (the same id and parameters, e.g. `hopfield` and
+        // `hopfield_tau`, which differ only in their decision rule) share one instance here: a
+        // detector's signals depend on nothing but its frames and efference copies.
+        let runs_as = same_detector_as(&ep.detectors);
+        let mut detectors: Vec<Option<Box<dyn Detector>>> = Vec::with_capacity(nd);
+        for (i, d) in ep.detectors.iter().enumerate() {
+            detectors.push(if runs_as[i] == i {
+                Some(d.build(nn).map_err(|e| c.det(e))?)
+            } else {
+                None
+            });
         }
+        let mut stepped: Vec<Signals> = vec![Signals::default(); nd];
         let mut frames: Vec<Frame> = Vec::with_capacity(total);
         let mut t_s = Vec::with_capacity(total);
         let mut signal = vec![Vec::with_capacity(total); nd];
@@ -391,8 +400,12 @@ impl Runner {
                     // up to the first alarm)
                     let ego = ego_sensor.sense(cmd, out.t_s, &camera_pose);
                     for (i, (d, spec)) in detectors.iter_mut().zip(&ep.detectors).enumerate() {
-                        let s = d.step_moving(&frame, &ego).map_err(|e| c.det(e))?;
-                        signal[i].push(spec.trigger.value(&s).unwrap_or(f64::NAN));
+                        stepped[i] = match d {
+                            Some(d) => d.step_moving(&frame, &ego).map_err(|e| c.det(e))?,
+                            None => stepped[runs_as[i]].clone(),
+                        };
+                        let s = &stepped[i];
+                        signal[i].push(spec.trigger.value(s).unwrap_or(f64::NAN));
                         output[i].push(s.output);
                         regions[i].push(s.region);
                     }
@@ -750,6 +763,18 @@ impl Runner {
             })
             .collect())
     }
+}
+
+/// For each detector entry, the first entry that runs the same detector (the same id and
+/// parameters; itself when none before it does).
+fn same_detector_as(specs: &[DetectorSpec]) -> Vec<usize> {
+    (0..specs.len())
+        .map(|i| {
+            (0..i)
+                .find(|&j| specs[j].id == specs[i].id && specs[j].params == specs[i].params)
+                .unwrap_or(i)
+        })
+        .collect()
 }
 
 /// The robot's own motion during the camera period that ends at open-loop frame `k`: the cruise
@@ -1169,6 +1194,44 @@ mod tests {
             in_view: true,
             in_contact: false,
         }
+    }
+
+    #[test]
+    fn rows_that_differ_only_in_their_decision_rule_share_one_detector() {
+        let text = r#"
+[world.camera]
+n = 32
+[[detectors]]
+id = "hopfield"
+[[detectors]]
+id = "soc"
+[[detectors]]
+id = "hopfield"
+label = "hopfield_tau"
+trigger = "tau"
+[[detectors]]
+id = "hopfield"
+label = "hopfield_adapted"
+params = { front_end = "adapted" }
+[[detectors]]
+id = "hopfield"
+label = "hopfield_adapted_tau"
+trigger = "tau"
+params = { front_end = "adapted" }
+[[detectors]]
+id = "soc"
+label = "soc_low"
+threshold = 1.0
+"#;
+        let scenario = crate::schema::parse_scenario(
+            text,
+            std::path::Path::new("shared.toml"),
+            None,
+            &crate::schema::LoadOptions::default(),
+        )
+        .unwrap();
+        let ep = scenario.episode(0).unwrap();
+        assert_eq!(same_detector_as(&ep.detectors), vec![0, 1, 0, 3, 3, 1]);
     }
 
     #[test]
