@@ -12,6 +12,7 @@ pub mod compensation;
 pub mod error;
 pub mod frame;
 pub mod hopfield;
+mod memo;
 pub mod registry;
 pub mod signals;
 pub mod stimulus;

@@ -19,10 +19,13 @@
 //! Laplacian with prefix sums, ~Σ s_i·n run lookups, one d-long dot product ξ(t−delay)ᵀξ(t),
 //! and a few (N+1)² products — all in f64.
 
-use super::config::{FrontEnd, HopfieldConfig};
+use std::sync::Arc;
+
+use super::config::{FrontEnd, HopfieldConfig, TemplateConfig};
 use super::processing::{Adaptation, FrameProcessor, LANES, camera_frame_is_blank, normalisation, undo_running_mean};
 use super::templates::TemplateBank;
 use super::{Retrieval, softmax_in_place};
+use crate::memo::Memo;
 
 /// Rows processed together when forming the row prefix sums of L·ξ (independent add chains).
 const ROW_BLOCK: usize = 4;
@@ -36,7 +39,7 @@ pub struct FastHopfield {
     tolerance: f64,
     max_iterations: usize,
     processor: FrameProcessor,
-    bank: TemplateBank,
+    bank: Arc<TemplateBank>,
     /// Current query ξ(t), row-major.
     query: Vec<f64>,
     /// L·ξ for one block of rows.
@@ -76,7 +79,9 @@ impl FastHopfield {
     pub fn new(cfg: &HopfieldConfig) -> Result<Self, crate::DetectorError> {
         let n = cfg.n;
         let d = n * n;
-        let bank = TemplateBank::new(n, &cfg.template)?;
+        // built once per process for each n and template configuration (`crate::memo`)
+        static BANKS: Memo<(usize, TemplateConfig), TemplateBank> = Memo::new();
+        let bank = BANKS.get_or_try_insert((n, cfg.template), || TemplateBank::new(n, &cfg.template))?;
         let count = bank.len();
         let m = count + 1;
         Ok(Self {

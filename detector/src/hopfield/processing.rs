@@ -41,6 +41,8 @@
 #[cfg(doc)]
 use super::config::HopfieldConfig;
 use super::config::{FrameBorder, MaskConfig};
+use crate::memo::Memo;
+use std::sync::Arc;
 
 /// The modified Sobel–Feldman kernel S_odd of eq. 3 (rows top to bottom).
 pub const S_ODD: [[f64; 3]; 3] = [
@@ -183,7 +185,7 @@ pub fn image_to_vector(image: &[f64], n: usize) -> Vec<f64> {
 pub struct FrameProcessor {
     n: usize,
     border: FrameBorder,
-    mask: Vec<f64>,
+    mask: Arc<Vec<f64>>,
     /// Three smoothed rows (rolling), n each.
     smooth: Vec<f64>,
     /// One frame row in f64 with one padding pixel at each end.
@@ -312,12 +314,19 @@ impl Adaptation {
 }
 
 impl FrameProcessor {
-    /// Builds the processor (computes the mask once).
+    /// Builds the processor (the mask is computed once per process for each `n` and mask
+    /// configuration, see `crate::memo`).
     pub fn new(n: usize, mask: Option<&MaskConfig>, border: FrameBorder) -> Self {
+        static MASKS: Memo<(usize, Option<[u64; 2]>), Vec<f64>> = Memo::new();
+        let key = (
+            n,
+            mask.map(|m| [m.radius_frac.to_bits(), m.blur_sigma_for(n).to_bits()]),
+        );
+        let Ok(mask) = MASKS.get_or_try_insert(key, || Ok::<_, std::convert::Infallible>(roi_mask(n, mask)));
         Self {
             n,
             border,
-            mask: roi_mask(n, mask),
+            mask,
             smooth: vec![0.0; 3 * n],
             row: vec![0.0; n + 2],
         }
