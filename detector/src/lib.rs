@@ -15,6 +15,7 @@ pub mod hopfield;
 mod memo;
 pub mod registry;
 pub mod signals;
+mod simd;
 pub mod stimulus;
 pub mod video;
 

@@ -32,6 +32,7 @@ use super::common::{FrameStep, PreviousFrame, Range, check, check3, zeroed};
 use super::lowpass::LowPass;
 use super::stencil::{SymKernel, corr3_classes_rows, corr3_rows, max_abs};
 use crate::registry::{DetectorConfig, Registration, Signal};
+use crate::simd::avx2_dispatch;
 use crate::{Detector, DetectorError, EfferenceCopy, Frame, Signals};
 
 /// Parameters of [`Fu2020`]. Defaults: docs/detectors.md, fu2020 §3 (all from `lgmd2OpenSource.cs`,
@@ -420,6 +421,19 @@ impl Lgmd2 {
         k: &Constants,
         s: &mut Scratch,
     ) -> InstanceOutput {
+        lgmd2_step(self, p, sign, mean_abs_p, n, k, s)
+    }
+
+    #[inline(always)]
+    fn step_kernel(
+        &mut self,
+        p: &[f64],
+        sign: f64,
+        mean_abs_p: f64,
+        n: usize,
+        k: &Constants,
+        s: &mut Scratch,
+    ) -> InstanceOutput {
         let (cfg, co) = (&k.cfg, &k.co);
         // 1. photoreceptor mediation and adaptive inhibition biases.
         let pm = co.a_pm * mean_abs_p + (1.0 - co.a_pm) * self.pm;
@@ -580,6 +594,19 @@ impl Fu2020 {
             region: None,
         }
     }
+}
+
+avx2_dispatch! {
+    /// [`Lgmd2::step`]'s kernel, with AVX2 where the CPU has it (`crate::simd`).
+    fn lgmd2_step(
+        lgmd: &mut Lgmd2,
+        p: &[f64],
+        sign: f64,
+        mean_abs_p: f64,
+        n: usize,
+        k: &Constants,
+        s: &mut Scratch,
+    ) -> InstanceOutput => Lgmd2::step_kernel
 }
 
 impl Detector for Fu2020 {

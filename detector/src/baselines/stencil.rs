@@ -6,6 +6,8 @@
 //! the FuHuPe20 reference code; the unit tests check that the row-slice implementations
 //! here give bit-identical results to naive per-pixel clamped loops.
 
+use crate::simd::avx2_dispatch;
+
 /// A symmetric 3×3 kernel given by position class.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct SymKernel {
@@ -71,12 +73,25 @@ fn corr_row(k: SymKernel, c_row: &[f64], n_rows: [&[f64]; 3], d_rows: [&[f64]; 3
     }
 }
 
-/// Correlation of a symmetric kernel where each position class reads its own map
-/// (`centre_map` for the centre, `near_map` for the 4 nearest neighbours, `diag_map` for
-/// the diagonals); with all three maps equal this is an ordinary correlation. Each
-/// output row is computed into `row` (length n) and handed to `emit(start, row)`, where
-/// `start = i·n` is the index of the row's first pixel, in row order.
-pub(crate) fn corr3_classes_rows(
+avx2_dispatch! {
+    /// Correlation of a symmetric kernel where each position class reads its own map
+    /// (`centre_map` for the centre, `near_map` for the 4 nearest neighbours, `diag_map` for
+    /// the diagonals); with all three maps equal this is an ordinary correlation. Each
+    /// output row is computed into `row` (length n) and handed to `emit(start, row)`, where
+    /// `start = i·n` is the index of the row's first pixel, in row order.
+    pub(crate) fn corr3_classes_rows(
+        n: usize,
+        k: SymKernel,
+        centre_map: &[f64],
+        near_map: &[f64],
+        diag_map: &[f64],
+        row: &mut [f64],
+        emit: impl FnMut(usize, &[f64]),
+    ) => corr3_classes_rows_kernel
+}
+
+#[inline(always)]
+fn corr3_classes_rows_kernel(
     n: usize,
     k: SymKernel,
     centre_map: &[f64],
@@ -127,9 +142,14 @@ pub(crate) fn max_abs(values: &[f64], start: f64) -> f64 {
     lanes.into_iter().fold(start, |m, v| if v > m { v } else { m })
 }
 
-/// One explicit-Euler diffusion step with the 5-point Laplacian and clamp-to-edge
-/// (zero-flux) borders: `dst = src + κ·(up + down + left + right − 4·src)`.
-pub(crate) fn diffuse_step(n: usize, kappa: f64, src: &[f64], dst: &mut [f64]) {
+avx2_dispatch! {
+    /// One explicit-Euler diffusion step with the 5-point Laplacian and clamp-to-edge
+    /// (zero-flux) borders: `dst = src + κ·(up + down + left + right − 4·src)`.
+    pub(crate) fn diffuse_step(n: usize, kappa: f64, src: &[f64], dst: &mut [f64]) => diffuse_step_kernel
+}
+
+#[inline(always)]
+fn diffuse_step_kernel(n: usize, kappa: f64, src: &[f64], dst: &mut [f64]) {
     assert!(src.len() == n * n && dst.len() == n * n);
     let cell = |u: f64, d: f64, l: f64, r: f64, c: f64| c + kappa * (u + d + l + r - 4.0 * c);
     if n == 1 {

@@ -1,0 +1,34 @@
+//! Hot loops with the CPU's wider vector instructions, chosen at run time.
+//!
+//! The release build targets baseline x86-64 (SSE2), so that one binary runs on every x86-64 CPU.
+//! [`avx2_dispatch!`] defines a function that calls an `#[inline(always)]` kernel through a copy
+//! compiled with AVX2 enabled when the CPU has it (the compiler then vectorises the kernel's loops
+//! four f64 wide instead of two), and the plain kernel otherwise. The results are bit-identical:
+//! Rust never fuses a multiplication and an addition into an FMA, nor reorders floating-point
+//! operations, whatever instructions are enabled (the kernels' tests compare them with naive
+//! loops bit for bit).
+
+/// `avx2_dispatch!(/// docs
+/// pub(crate) fn name(a: A, b: B) -> R => kernel)` defines `name`, which runs `kernel(a, b)`
+/// compiled for AVX2 where the CPU has it (see the module docs). `kernel` must be
+/// `#[inline(always)]`, as must everything it calls that should use AVX2.
+macro_rules! avx2_dispatch {
+    ($(#[$meta:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? => $kernel:path) => {
+        $(#[$meta])*
+        $vis fn $name($($arg: $ty),*) $(-> $ret)? {
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx2")]
+                unsafe fn avx2($($arg: $ty),*) $(-> $ret)? {
+                    $kernel($($arg),*)
+                }
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU supports AVX2 (checked just above).
+                    return unsafe { avx2($($arg),*) };
+                }
+            }
+            $kernel($($arg),*)
+        }
+    };
+}
+pub(crate) use avx2_dispatch;
