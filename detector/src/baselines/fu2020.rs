@@ -411,21 +411,10 @@ impl Lgmd2 {
         self.spike_run = 0;
     }
 
-    /// One frame of docs/detectors.md, fu2020 §2, with input `sign·p`.
-    fn step(
-        &mut self,
-        p: &[f64],
-        sign: f64,
-        mean_abs_p: f64,
-        n: usize,
-        k: &Constants,
-        s: &mut Scratch,
-    ) -> InstanceOutput {
-        lgmd2_step(self, p, sign, mean_abs_p, n, k, s)
-    }
-
+    /// One frame of docs/detectors.md, fu2020 §2, with input `sign·p` (called through
+    /// [`lgmd2_step`]).
     #[inline(always)]
-    fn step_kernel(
+    fn step(
         &mut self,
         p: &[f64],
         sign: f64,
@@ -597,7 +586,7 @@ impl Fu2020 {
 }
 
 avx2_dispatch! {
-    /// [`Lgmd2::step`]'s kernel, with AVX2 where the CPU has it (`crate::simd`).
+    /// [`Lgmd2::step`], with AVX2 where the CPU has it (`crate::simd`).
     fn lgmd2_step(
         lgmd: &mut Lgmd2,
         p: &[f64],
@@ -606,7 +595,7 @@ avx2_dispatch! {
         n: usize,
         k: &Constants,
         s: &mut Scratch,
-    ) -> InstanceOutput => Lgmd2::step_kernel
+    ) -> InstanceOutput => Lgmd2::step
 }
 
 impl Detector for Fu2020 {
@@ -645,8 +634,8 @@ impl Detector for Fu2020 {
         let k = &self.constants;
         let sum_abs = self.prev.contrast_into(frame, k.cfg.contrast_scale, &mut self.contrast);
         let mean_abs = sum_abs / (n * n) as f64;
-        let off = self.off.step(&self.contrast, 1.0, mean_abs, n, k, &mut self.scratch);
-        let on = self.on.step(&self.contrast, -1.0, mean_abs, n, k, &mut self.scratch);
+        let off = lgmd2_step(&mut self.off, &self.contrast, 1.0, mean_abs, n, k, &mut self.scratch);
+        let on = lgmd2_step(&mut self.on, &self.contrast, -1.0, mean_abs, n, k, &mut self.scratch);
         let (z_on, z_off) = (on.spikes, off.spikes);
         let z = self.output.update(z_on * z_off + k.cfg.epsilon * (z_on + z_off));
         Ok(Self::signals(z, on, off))

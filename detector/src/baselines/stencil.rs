@@ -87,30 +87,20 @@ avx2_dispatch! {
         diag_map: &[f64],
         row: &mut [f64],
         emit: impl FnMut(usize, &[f64]),
-    ) => corr3_classes_rows_kernel
-}
-
-#[inline(always)]
-fn corr3_classes_rows_kernel(
-    n: usize,
-    k: SymKernel,
-    centre_map: &[f64],
-    near_map: &[f64],
-    diag_map: &[f64],
-    row: &mut [f64],
-    mut emit: impl FnMut(usize, &[f64]),
-) {
-    assert!(centre_map.len() == n * n && near_map.len() == n * n && diag_map.len() == n * n && row.len() == n);
-    for i in 0..n {
-        let (_, c_row, _) = rows(centre_map, n, i);
-        let (nu, nm, nd) = rows(near_map, n, i);
-        let (du, dm, dd) = rows(diag_map, n, i);
-        if n == 1 {
-            row[0] = corr_at(k, c_row, [nu, nm, nd], [du, dm, dd], 0, 0, 0);
-        } else {
-            corr_row(k, c_row, [nu, nm, nd], [du, dm, dd], row);
+    ) {
+        let mut emit = emit;
+        assert!(centre_map.len() == n * n && near_map.len() == n * n && diag_map.len() == n * n && row.len() == n);
+        for i in 0..n {
+            let (_, c_row, _) = rows(centre_map, n, i);
+            let (nu, nm, nd) = rows(near_map, n, i);
+            let (du, dm, dd) = rows(diag_map, n, i);
+            if n == 1 {
+                row[0] = corr_at(k, c_row, [nu, nm, nd], [du, dm, dd], 0, 0, 0);
+            } else {
+                corr_row(k, c_row, [nu, nm, nd], [du, dm, dd], row);
+            }
+            emit(i * n, row);
         }
-        emit(i * n, row);
     }
 }
 
@@ -145,28 +135,25 @@ pub(crate) fn max_abs(values: &[f64], start: f64) -> f64 {
 avx2_dispatch! {
     /// One explicit-Euler diffusion step with the 5-point Laplacian and clamp-to-edge
     /// (zero-flux) borders: `dst = src + κ·(up + down + left + right − 4·src)`.
-    pub(crate) fn diffuse_step(n: usize, kappa: f64, src: &[f64], dst: &mut [f64]) => diffuse_step_kernel
-}
-
-#[inline(always)]
-fn diffuse_step_kernel(n: usize, kappa: f64, src: &[f64], dst: &mut [f64]) {
-    assert!(src.len() == n * n && dst.len() == n * n);
-    let cell = |u: f64, d: f64, l: f64, r: f64, c: f64| c + kappa * (u + d + l + r - 4.0 * c);
-    if n == 1 {
-        dst[0] = cell(src[0], src[0], src[0], src[0], src[0]);
-        return;
-    }
-    let m = n - 2;
-    for i in 0..n {
-        let (up, mid, dn) = rows(src, n, i);
-        let out = &mut dst[i * n..i * n + n];
-        out[0] = cell(up[0], dn[0], mid[0], mid[1], mid[0]);
-        out[n - 1] = cell(up[n - 1], dn[n - 1], mid[n - 2], mid[n - 1], mid[n - 1]);
-        // Interior as shifted slices of equal length (no bounds checks, vectorises).
-        let (u, d, l, r, c) = (&up[1..m + 1], &dn[1..m + 1], &mid[..m], &mid[2..m + 2], &mid[1..m + 1]);
-        let out = &mut out[1..m + 1];
-        for j in 0..m {
-            out[j] = cell(u[j], d[j], l[j], r[j], c[j]);
+    pub(crate) fn diffuse_step(n: usize, kappa: f64, src: &[f64], dst: &mut [f64]) {
+        assert!(src.len() == n * n && dst.len() == n * n);
+        let cell = |u: f64, d: f64, l: f64, r: f64, c: f64| c + kappa * (u + d + l + r - 4.0 * c);
+        if n == 1 {
+            dst[0] = cell(src[0], src[0], src[0], src[0], src[0]);
+            return;
+        }
+        let m = n - 2;
+        for i in 0..n {
+            let (up, mid, dn) = rows(src, n, i);
+            let out = &mut dst[i * n..i * n + n];
+            out[0] = cell(up[0], dn[0], mid[0], mid[1], mid[0]);
+            out[n - 1] = cell(up[n - 1], dn[n - 1], mid[n - 2], mid[n - 1], mid[n - 1]);
+            // Interior as shifted slices of equal length (no bounds checks, vectorises).
+            let (u, d, l, r, c) = (&up[1..m + 1], &dn[1..m + 1], &mid[..m], &mid[2..m + 2], &mid[1..m + 1]);
+            let out = &mut out[1..m + 1];
+            for j in 0..m {
+                out[j] = cell(u[j], d[j], l[j], r[j], c[j]);
+            }
         }
     }
 }
