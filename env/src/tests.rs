@@ -524,9 +524,9 @@ fn assert_features_in_bounds(env: &mut EscapeEnv, what: &str, numbers: &[usize])
             );
         }
     };
-    for index in 0..env.episodes().len() {
+    assert_eq!(numbers.len(), env.episodes().len(), "a number per episode");
+    for (index, &number) in numbers.iter().enumerate() {
         let (obs, _) = env.reset_to_episode(index, None).unwrap();
-        let number = numbers[index];
         check(&obs, &format!("{what} episode {number} reset"));
         for t in 0.. {
             // a different behaviour per episode: cruise, dodge left, right, stop, alternate

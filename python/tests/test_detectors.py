@@ -170,6 +170,7 @@ def test_bad_wrappers_are_refused_with_the_fix():
 
 
 MODULE = """
+import os
 import time
 import numpy as np
 
@@ -185,15 +186,16 @@ class NumpySoc:
         return 0.0 if previous is None else float(np.abs(f - previous).sum())
 
 class Slow(NumpySoc):
+    # slow enough to be interrupted after its first episode; SLOW_STEP_S=0 for the resumed run
     def step(self, frame):
-        time.sleep(0.01)
+        time.sleep(float(os.environ.get("SLOW_STEP_S", "0.01")))
         return super().step(frame)
 """
 
 
-def _cli(tmp_path: Path, *args: str, **kw) -> subprocess.Popen:
+def _cli(tmp_path: Path, *args: str, extra_env: dict[str, str] | None = None, **kw) -> subprocess.Popen:
     (tmp_path / "my_detectors.py").write_text(MODULE)
-    env = dict(os.environ, PYTHONPATH=str(tmp_path))
+    env = dict(os.environ, PYTHONPATH=str(tmp_path), **(extra_env or {}))
     return subprocess.Popen(
         [sys.executable, "-m", "loomlab", "run", str(SUITE), *args],
         cwd=tmp_path,
@@ -272,7 +274,7 @@ def test_ctrl_c_keeps_the_finished_episodes_and_resume_completes(tmp_path):
     assert manifest["state"] == "interrupted" and "--resume" in stderr
     saved = len(csv.read_text().splitlines())
     assert saved > 1
-    p = _cli(tmp_path, *args, "--resume")
+    p = _cli(tmp_path, *args, "--resume", extra_env={"SLOW_STEP_S": "0"})
     _, stderr = p.communicate(timeout=600)
     assert p.returncode == 0, stderr
     assert json.loads((out / "report.json").read_text())["episodes"] == 6
