@@ -8,43 +8,30 @@
 //! operations, whatever instructions are enabled (the kernels' tests compare them with naive
 //! loops bit for bit).
 
-/// Defines a function that runs its body compiled for AVX2 where the CPU has it (see the module
-/// docs), in one of two forms:
-/// - `avx2_dispatch! { /// docs
-///   pub(crate) fn name(a: A, b: B) -> R { body } }`: the body becomes an `#[inline(always)]`
-///   kernel (a parameter the body mutates is rebound inside it: `let mut b = b;`);
-/// - `avx2_dispatch! { fn name(a: A, b: B) -> R => kernel }`: an existing `#[inline(always)]`
-///   function or method (`Type::method`, `a` being the receiver) is the kernel.
-///
-/// Whatever the kernel calls that should use AVX2 must be `#[inline(always)]` too.
+/// `avx2_dispatch! { /// docs
+/// pub(crate) fn name(a: A, b: B) -> R { body } }` defines `name`, which runs its body compiled
+/// for AVX2 where the CPU has it (see the module docs). The body becomes an `#[inline(always)]`
+/// kernel; a parameter the body mutates is rebound inside it (`let mut b = b;`). Whatever the
+/// body calls that should use AVX2 must be `#[inline(always)]` too.
 macro_rules! avx2_dispatch {
     ($(#[$meta:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? $body:block) => {
         $(#[$meta])*
         $vis fn $name($($arg: $ty),*) $(-> $ret)? {
             #[inline(always)]
             fn kernel($($arg: $ty),*) $(-> $ret)? $body
-            $crate::simd::avx2_dispatch!(@call kernel, ($($arg: $ty),*) $(-> $ret)?)
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx2")]
+                unsafe fn avx2($($arg: $ty),*) $(-> $ret)? {
+                    kernel($($arg),*)
+                }
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU supports AVX2 (checked just above).
+                    return unsafe { avx2($($arg),*) };
+                }
+            }
+            kernel($($arg),*)
         }
     };
-    ($(#[$meta:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? => $kernel:path) => {
-        $(#[$meta])*
-        $vis fn $name($($arg: $ty),*) $(-> $ret)? {
-            $crate::simd::avx2_dispatch!(@call $kernel, ($($arg: $ty),*) $(-> $ret)?)
-        }
-    };
-    (@call $kernel:path, ($($arg:ident: $ty:ty),*) $(-> $ret:ty)?) => {{
-        #[cfg(target_arch = "x86_64")]
-        {
-            #[target_feature(enable = "avx2")]
-            unsafe fn avx2($($arg: $ty),*) $(-> $ret)? {
-                $kernel($($arg),*)
-            }
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU supports AVX2 (checked just above).
-                return unsafe { avx2($($arg),*) };
-            }
-        }
-        $kernel($($arg),*)
-    }};
 }
 pub(crate) use avx2_dispatch;

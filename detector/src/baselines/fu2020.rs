@@ -411,112 +411,6 @@ impl Lgmd2 {
         self.spike_run = 0;
     }
 
-    /// One frame of docs/detectors.md, fu2020 §2, with input `sign·p` (called through
-    /// [`lgmd2_step`]).
-    #[inline(always)]
-    fn step(
-        &mut self,
-        p: &[f64],
-        sign: f64,
-        mean_abs_p: f64,
-        n: usize,
-        k: &Constants,
-        s: &mut Scratch,
-    ) -> InstanceOutput {
-        let (cfg, co) = (&k.cfg, &k.co);
-        // 1. photoreceptor mediation and adaptive inhibition biases.
-        let pm = co.a_pm * mean_abs_p + (1.0 - co.a_pm) * self.pm;
-        let w_i_on = (pm / cfg.t_pm).max(cfg.w_i_on_base);
-        let w_i_off = (pm / cfg.t_pm).max(cfg.w_i_off_base);
-        // 2. ON/OFF half-wave rectifiers with residual term (asymmetric clip, as in the code).
-        let (clip, dc) = (cfg.clip_point, cfg.dc);
-        let rect = self
-            .on
-            .iter_mut()
-            .zip(self.off.iter_mut())
-            .zip(self.on_prev.iter().zip(&self.off_prev));
-        for (((on, off), (&on_p, &off_p)), &pv) in rect.zip(p) {
-            let q = sign * pv;
-            *on = if q >= clip { q + dc * on_p } else { dc * on_p };
-            *off = if q < clip { q.abs() + dc * off_p } else { dc * off_p };
-        }
-        // 3.–4. spatiotemporal lateral inhibition and local summation cells.
-        blend(&self.on, &self.on_prev, co.a_on, &mut s.blend);
-        {
-            let (on, summation) = (&self.on, &mut s.summation);
-            let [bc, bn, bd] = &s.blend;
-            corr3_classes_rows(n, k.kernel_on, bc, bn, bd, &mut s.row, |start, inh| {
-                let rows = summation[start..start + n].iter_mut().zip(&on[start..start + n]);
-                for ((s_on, &exc), &inh) in rows.zip(inh) {
-                    *s_on = s_cell(exc, inh, w_i_on);
-                }
-            });
-        }
-        blend(&self.off, &self.off_prev, co.a_off, &mut s.blend);
-        {
-            let (off, summation) = (&self.off, &mut s.summation);
-            let [bc, bn, bd] = &s.blend;
-            let (w_on, w_off, w_onoff) = (cfg.w_on, cfg.w_off, cfg.w_onoff);
-            corr3_classes_rows(n, k.kernel_off, bc, bn, bd, &mut s.row, |start, inh| {
-                let rows = summation[start..start + n].iter_mut().zip(&off[start..start + n]);
-                for ((sum, &exc), &inh) in rows.zip(inh) {
-                    let s_on = *sum;
-                    let s_off = s_cell(exc, inh, w_i_off);
-                    *sum = w_on * s_on + w_off * s_off + w_onoff * s_on * s_off;
-                }
-            });
-        }
-        // 5. grouping layer: C_e, ω, G, threshold; 6. membrane potential.
-        let mut max_ce = 0.0f64;
-        {
-            let excitation = &mut s.excitation;
-            let ninth = 1.0 / 9.0;
-            let box3 = SymKernel {
-                centre: ninth,
-                near: ninth,
-                diag: ninth,
-            };
-            corr3_rows(n, box3, &s.summation, &mut s.row, |start, ce| {
-                excitation[start..start + n].copy_from_slice(ce);
-                max_ce = max_abs(ce, max_ce);
-            });
-        }
-        let omega = cfg.delta_c + max_ce / cfg.c_w;
-        let mut mp = 0.0;
-        for (&sv, &ce) in s.summation.iter().zip(&s.excitation) {
-            let g = sv * ce / omega;
-            if g * cfg.c_de >= cfg.t_de {
-                mp += g;
-            }
-        }
-        let smp = 1.0 / (1.0 + (-mp / ((n * n) as f64 * cfg.c_sig)).exp());
-        // 7. spike-frequency adaptation.
-        let diff = smp - self.smp;
-        let sfa = if diff <= cfg.t_sfa {
-            co.h_sfa * (self.sfa + diff)
-        } else {
-            co.h_sfa * smp
-        };
-        let sfa = sfa.max(0.5);
-        // 8. spikes; 9. optional collision flag.
-        let spikes = (cfg.c_spi * (sfa - cfg.t_sp)).exp().floor();
-        if spikes == 0.0 {
-            self.spike_run = 0;
-        } else {
-            self.spike_run = self.spike_run.saturating_add(spikes as u64);
-        }
-        // 10. keep the state.
-        std::mem::swap(&mut self.on, &mut self.on_prev);
-        std::mem::swap(&mut self.off, &mut self.off_prev);
-        self.pm = pm;
-        self.smp = smp;
-        self.sfa = sfa;
-        InstanceOutput {
-            spikes,
-            sfa,
-            collision: self.spike_run >= u64::from(cfg.n_ts),
-        }
-    }
 }
 
 /// "FuHuPe20" looming model: two LGMD2 instances combined by Eq. `EqSigmaPi`, see the
@@ -586,7 +480,8 @@ impl Fu2020 {
 }
 
 avx2_dispatch! {
-    /// [`Lgmd2::step`], with AVX2 where the CPU has it (`crate::simd`).
+    /// One frame of docs/detectors.md, fu2020 §2, for the LGMD2 `lgmd` with input `sign·p`
+    /// (with AVX2 where the CPU has it, `crate::simd`).
     fn lgmd2_step(
         lgmd: &mut Lgmd2,
         p: &[f64],
@@ -595,7 +490,101 @@ avx2_dispatch! {
         n: usize,
         k: &Constants,
         s: &mut Scratch,
-    ) -> InstanceOutput => Lgmd2::step
+    ) -> InstanceOutput {
+        let (cfg, co) = (&k.cfg, &k.co);
+        // 1. photoreceptor mediation and adaptive inhibition biases.
+        let pm = co.a_pm * mean_abs_p + (1.0 - co.a_pm) * lgmd.pm;
+        let w_i_on = (pm / cfg.t_pm).max(cfg.w_i_on_base);
+        let w_i_off = (pm / cfg.t_pm).max(cfg.w_i_off_base);
+        // 2. ON/OFF half-wave rectifiers with residual term (asymmetric clip, as in the code).
+        let (clip, dc) = (cfg.clip_point, cfg.dc);
+        let rect = lgmd
+            .on
+            .iter_mut()
+            .zip(lgmd.off.iter_mut())
+            .zip(lgmd.on_prev.iter().zip(&lgmd.off_prev));
+        for (((on, off), (&on_p, &off_p)), &pv) in rect.zip(p) {
+            let q = sign * pv;
+            *on = if q >= clip { q + dc * on_p } else { dc * on_p };
+            *off = if q < clip { q.abs() + dc * off_p } else { dc * off_p };
+        }
+        // 3.–4. spatiotemporal lateral inhibition and local summation cells.
+        blend(&lgmd.on, &lgmd.on_prev, co.a_on, &mut s.blend);
+        {
+            let (on, summation) = (&lgmd.on, &mut s.summation);
+            let [bc, bn, bd] = &s.blend;
+            corr3_classes_rows(n, k.kernel_on, bc, bn, bd, &mut s.row, |start, inh| {
+                let rows = summation[start..start + n].iter_mut().zip(&on[start..start + n]);
+                for ((s_on, &exc), &inh) in rows.zip(inh) {
+                    *s_on = s_cell(exc, inh, w_i_on);
+                }
+            });
+        }
+        blend(&lgmd.off, &lgmd.off_prev, co.a_off, &mut s.blend);
+        {
+            let (off, summation) = (&lgmd.off, &mut s.summation);
+            let [bc, bn, bd] = &s.blend;
+            let (w_on, w_off, w_onoff) = (cfg.w_on, cfg.w_off, cfg.w_onoff);
+            corr3_classes_rows(n, k.kernel_off, bc, bn, bd, &mut s.row, |start, inh| {
+                let rows = summation[start..start + n].iter_mut().zip(&off[start..start + n]);
+                for ((sum, &exc), &inh) in rows.zip(inh) {
+                    let s_on = *sum;
+                    let s_off = s_cell(exc, inh, w_i_off);
+                    *sum = w_on * s_on + w_off * s_off + w_onoff * s_on * s_off;
+                }
+            });
+        }
+        // 5. grouping layer: C_e, ω, G, threshold; 6. membrane potential.
+        let mut max_ce = 0.0f64;
+        {
+            let excitation = &mut s.excitation;
+            let ninth = 1.0 / 9.0;
+            let box3 = SymKernel {
+                centre: ninth,
+                near: ninth,
+                diag: ninth,
+            };
+            corr3_rows(n, box3, &s.summation, &mut s.row, |start, ce| {
+                excitation[start..start + n].copy_from_slice(ce);
+                max_ce = max_abs(ce, max_ce);
+            });
+        }
+        let omega = cfg.delta_c + max_ce / cfg.c_w;
+        let mut mp = 0.0;
+        for (&sv, &ce) in s.summation.iter().zip(&s.excitation) {
+            let g = sv * ce / omega;
+            if g * cfg.c_de >= cfg.t_de {
+                mp += g;
+            }
+        }
+        let smp = 1.0 / (1.0 + (-mp / ((n * n) as f64 * cfg.c_sig)).exp());
+        // 7. spike-frequency adaptation.
+        let diff = smp - lgmd.smp;
+        let sfa = if diff <= cfg.t_sfa {
+            co.h_sfa * (lgmd.sfa + diff)
+        } else {
+            co.h_sfa * smp
+        };
+        let sfa = sfa.max(0.5);
+        // 8. spikes; 9. optional collision flag.
+        let spikes = (cfg.c_spi * (sfa - cfg.t_sp)).exp().floor();
+        if spikes == 0.0 {
+            lgmd.spike_run = 0;
+        } else {
+            lgmd.spike_run = lgmd.spike_run.saturating_add(spikes as u64);
+        }
+        // 10. keep the state.
+        std::mem::swap(&mut lgmd.on, &mut lgmd.on_prev);
+        std::mem::swap(&mut lgmd.off, &mut lgmd.off_prev);
+        lgmd.pm = pm;
+        lgmd.smp = smp;
+        lgmd.sfa = sfa;
+        InstanceOutput {
+            spikes,
+            sfa,
+            collision: lgmd.spike_run >= u64::from(cfg.n_ts),
+        }
+    }
 }
 
 impl Detector for Fu2020 {
