@@ -27,7 +27,7 @@
 //! given looming side without any frame (physics-only replays) through [`EscapeAgent::decide`];
 //! the controller is the same.
 
-use loomlab_detector::{Detector, DetectorError, Frame, Signals};
+use loomlab_detector::{Detector, DetectorError, EfferenceCopy, Frame, Signals};
 use loomlab_sim::trajectory::Pose64;
 
 use crate::strategy::Percept;
@@ -151,15 +151,48 @@ impl EscapeAgent {
         cruise: VelocityCommand,
         camera: Option<&Pose64>,
     ) -> Result<AgentStep, DetectorError> {
+        let ego = self.efference_copy(t_s, cruise, camera);
         let mut signals = Vec::with_capacity(self.detectors.len());
-        let applied = self.applied.unwrap_or(cruise);
-        let ego = match camera {
-            Some(pose) => self.ego.sense(applied, t_s, pose),
-            None => applied.efference_copy(),
-        };
         for d in &mut self.detectors {
             signals.push(d.step_moving(frame, &ego)?);
         }
+        Ok(self.step_on_signals(t_s, frame, cruise, signals))
+    }
+
+    /// [`Self::step_posed`] with this frame's signals of the agent's detectors already known: the
+    /// signals that detectors identical to the agent's, stepped on the same frames with the same
+    /// efference copies, gave (the scenario runner's open-loop pass, replayed up to an alarm). The
+    /// detectors are not stepped; the efference copy, looming side, decision strategy and
+    /// controller advance exactly as in [`Self::step_posed`].
+    pub fn step_posed_with_signals(
+        &mut self,
+        t_s: f64,
+        frame: &Frame,
+        cruise: VelocityCommand,
+        camera: Option<&Pose64>,
+        signals: Vec<Signals>,
+    ) -> AgentStep {
+        self.efference_copy(t_s, cruise, camera);
+        self.step_on_signals(t_s, frame, cruise, signals)
+    }
+
+    /// The efference copy of the camera period that ends at `t_s` (advances the ego sensor).
+    fn efference_copy(&mut self, t_s: f64, cruise: VelocityCommand, camera: Option<&Pose64>) -> EfferenceCopy {
+        let applied = self.applied.unwrap_or(cruise);
+        match camera {
+            Some(pose) => self.ego.sense(applied, t_s, pose),
+            None => applied.efference_copy(),
+        }
+    }
+
+    /// Everything of a step after the detectors: looming side, decision strategy, controller.
+    fn step_on_signals(
+        &mut self,
+        t_s: f64,
+        frame: &Frame,
+        cruise: VelocityCommand,
+        signals: Vec<Signals>,
+    ) -> AgentStep {
         let contrast_side = self.side.update(frame);
         let looming_side = signals.first().and_then(region_side).or(contrast_side);
         let percept = match signals.first() {
@@ -174,7 +207,7 @@ impl EscapeAgent {
         let mut step = self.decide_about(t_s, looming_side, trigger_value, object, cruise);
         step.signals = signals;
         self.applied = Some(step.command);
-        Ok(step)
+        step
     }
 
     /// The decision on `frame` from a decision value that does not come from the agent's detectors

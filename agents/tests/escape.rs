@@ -1177,3 +1177,72 @@ mod named_tracks {
         assert_eq!(agent.controller().triggers(), 2);
     }
 }
+
+/// The scenario runner's closed-loop tails: an agent replayed on the signals its detector gave up
+/// to the alarm frame, then handed a copy of that detector taken there, continues exactly like the
+/// agent that stepped its detector all along.
+mod replay_on_signals {
+    use loomlab_agents::{ControllerEvent, EscapeAgent, EscapeConfig, TriggerSignal, VelocityCommand};
+    use loomlab_detector::{DetectorSet, Frame};
+
+    const N: usize = 32;
+
+    /// A dark disc growing in front of a uniform background, its centre drifting left.
+    fn frame(k: usize) -> Frame {
+        let radius = 1.5 + 0.25 * k as f64;
+        let (ci, cj) = (N as f64 / 2.0, N as f64 / 2.0 - 0.05 * k as f64);
+        let data = (0..N * N)
+            .map(|p| {
+                let (i, j) = ((p / N) as f64 + 0.5, (p % N) as f64 + 0.5);
+                if (i - ci).hypot(j - cj) < radius { 0.1 } else { 0.8 }
+            })
+            .collect();
+        Frame::from_f32(N, data).unwrap()
+    }
+
+    #[test]
+    fn an_agent_replayed_on_signals_then_given_a_detector_copy_continues_identically() {
+        let config = EscapeConfig {
+            trigger: TriggerSignal::AngularSizeDeg,
+            threshold: 12.0,
+            ..EscapeConfig::default()
+        };
+        let cruise = VelocityCommand::forward(1.0);
+        let dt = 1.0 / 120.0;
+        let build = || DetectorSet::default().build("tracker", N).unwrap();
+        let mut stepping = EscapeAgent::new(vec![build()], config.clone()).unwrap();
+        let steps: Vec<_> = (0..80)
+            .map(|k| stepping.step_posed(k as f64 * dt, &frame(k), cruise, None).unwrap())
+            .collect();
+        let alarm = steps
+            .iter()
+            .position(|s| matches!(s.event, ControllerEvent::Triggered { .. }))
+            .expect("the growing disc alarms");
+        // the same detector stepped on the same frames, copied right after the alarm frame
+        // (until the alarm the agent applies the cruise command: that is its efference copy)
+        let mut open_loop = build();
+        for (k, step) in steps.iter().enumerate().take(alarm + 1) {
+            let signals = open_loop.step_moving(&frame(k), &cruise.efference_copy()).unwrap();
+            // (Debug strings: bit for bit, NaN included)
+            let (bare, agents) = (format!("{signals:?}"), format!("{:?}", step.signals[0]));
+            assert_eq!(
+                bare, agents,
+                "frame {k}: the agent's detector sees what a bare one sees"
+            );
+        }
+        let copy = open_loop.snapshot().expect("the tracker copies itself");
+        let mut replayed = EscapeAgent::new(vec![copy], config).unwrap();
+        for (k, step) in steps.iter().enumerate() {
+            let got = if k <= alarm {
+                replayed.step_posed_with_signals(k as f64 * dt, &frame(k), cruise, None, step.signals.clone())
+            } else {
+                replayed.step_posed(k as f64 * dt, &frame(k), cruise, None).unwrap()
+            };
+            assert_eq!(
+                format!("{got:?}"),
+                format!("{step:?}"),
+                "frame {k} (alarm at frame {alarm})"
+            );
+        }
+    }
+}

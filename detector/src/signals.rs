@@ -124,4 +124,12 @@ pub trait Detector: Send {
         let _ = ego;
         self.step(frame)
     }
+    /// An independent copy of this detector in its current state (its history included), when it
+    /// can make one: stepping the copy on the next frames gives exactly the signals this detector
+    /// would give. The scenario runner starts a closed-loop tail from the copy taken at the alarm
+    /// frame instead of stepping a fresh detector through the whole open-loop prefix again. The
+    /// default, `None`, is always correct: callers then replay the frames.
+    fn snapshot(&self) -> Option<Box<dyn Detector>> {
+        None
+    }
 }

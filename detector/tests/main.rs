@@ -5,6 +5,7 @@ mod compensation;
 mod hopfield_clutter;
 mod hopfield_stimuli;
 mod paper_findings;
+mod snapshot;
 mod stimulus;
 mod tracker;
 mod video;

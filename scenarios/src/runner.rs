@@ -20,8 +20,12 @@
 //!    - a row that never alarms collides iff the episode is a threat;
 //!    - one that first alarms at or after the contact frame collides;
 //!    - otherwise a detector's tail rebuilds the world without rendering, replays physics up to
-//!      the alarm frame while feeding a fresh [`EscapeAgent`] the cached open-loop frames (so its
-//!      state is exactly the open-loop state), then continues with rendering, the agent driving
+//!      the alarm frame while feeding an [`EscapeAgent`] the cached open-loop frames (so its
+//!      state is exactly the open-loop state): its agent gets a copy of the row's detector taken
+//!      in the open-loop pass right after the alarm frame ([`Detector::snapshot`]) and replays
+//!      the open-loop signals instead of stepping a detector through the prefix again
+//!      ([`EscapeAgent::step_posed_with_signals`]; a detector that cannot copy itself is stepped
+//!      from a fresh build, as before); then it continues with rendering, the agent driving
 //!      the robot until the first contact (**collision**) or the end of the episode (**evaded**).
 //!      Re-triggers (the controller is level-triggered after its cooldown) are simulated. The
 //!      rendered parts of an episode's tails run in lockstep: each frame index renders the views
@@ -53,7 +57,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
 use loomlab_agents::{
-    Ego, EgoSensor, EscapeAgent, EscapeConfig, EscapeController, LoomingSideEstimator, TriggerSignal, VelocityCommand,
+    Ego, EgoSensor, EscapeAgent, EscapeConfig, EscapeController, LoomingSideEstimator, Strategy, TriggerSignal,
+    VelocityCommand,
 };
 use loomlab_detector::{Detector, Frame, ImageRegion, Signals};
 use loomlab_sim::{Camera, GpuContext, ObjectTruth, Renderer, Sim, SimError};
@@ -363,6 +368,29 @@ impl Runner {
         let mut signal = vec![Vec::with_capacity(total); nd];
         let mut output = vec![Vec::with_capacity(total); nd];
         let mut regions: Vec<Vec<Option<ImageRegion>>> = vec![Vec::with_capacity(total); nd];
+        // Each detector instance's signals per frame: a closed-loop tail's agent replays them up
+        // to its alarm instead of stepping a detector through the prefix again.
+        let mut history: Vec<Vec<Signals>> = vec![Vec::new(); nd];
+        // Rows with a stateful strategy (τ, course gate): their decision value frame by frame,
+        // exactly as the escape agent computes it (the raw trigger signal is kept as `raw`).
+        let mut strategies: Vec<Option<(EscapeConfig, Strategy)>> = ep
+            .detectors
+            .iter()
+            .map(|spec| {
+                spec.is_strategy().then(|| {
+                    let config = spec.controller(&ep.controller);
+                    let strategy = config.strategy();
+                    (config, strategy)
+                })
+            })
+            .collect();
+        let mut decided: Vec<Vec<f64>> = vec![Vec::new(); nd];
+        // Per row, its first alarm frame and a copy of its detector right after that frame
+        // (`Detector::snapshot`; `None` when the detector cannot copy itself): its tail starts there.
+        let mut alarmed_at: Vec<Option<usize>> = vec![None; nd];
+        let mut snapshots: Vec<Option<Box<dyn Detector>>> = (0..nd).map(|_| None).collect();
+        let mut side = LoomingSideEstimator::default();
+        let mut sides: Vec<Option<f32>> = Vec::with_capacity(total);
         let mut ego_sensor = EgoSensor::default();
         let mut truth: Vec<Vec<ObjectTruth>> = Vec::with_capacity(total);
         let mut recorder = TruthRecorder::new(&sim);
@@ -408,8 +436,28 @@ impl Runner {
                         signal[i].push(spec.trigger.value(s).unwrap_or(f64::NAN));
                         output[i].push(s.output);
                         regions[i].push(s.region);
+                        if runs_as[i] == i {
+                            history[i].push(s.clone());
+                        }
                     }
                     t_s.push(out.t_s);
+                    let k = t_s.len() - 1;
+                    sides.push(side.update(&frame));
+                    for (i, spec) in ep.detectors.iter().enumerate() {
+                        let value = match &mut strategies[i] {
+                            Some((config, strategy)) => {
+                                let percept = config.percept_of(signal[i][k], sides[k], regions[i][k].as_ref());
+                                let value = strategy.update(t_s[k], percept, open_loop_ego(ep, &t_s, k)).value;
+                                decided[i].push(value);
+                                value
+                            }
+                            None => signal[i][k],
+                        };
+                        if alarmed_at[i].is_none() && value >= spec.threshold {
+                            alarmed_at[i] = Some(k);
+                            snapshots[i] = detectors[runs_as[i]].as_ref().and_then(|d| d.snapshot());
+                        }
+                    }
                     frames.push(frame);
                     let contact = recorder.record(&out).is_some();
                     truth.push(std::mem::take(&mut out.truth));
@@ -434,22 +482,10 @@ impl Runner {
         let ref_theta: Vec<f64> = (0..t_s.len())
             .map(|k| ref_truth(k).map_or(f64::NAN, |o| f64::from(o.angular_size_deg)))
             .collect();
-        let mut side = LoomingSideEstimator::default();
-        let sides: Vec<Option<f32>> = frames.iter().map(|f| side.update(f)).collect();
-        // Rows with a stateful strategy (τ, course gate): their decision value, exactly as the
-        // escape agent computes it on these frames (the raw trigger signal is kept as `raw`).
         let mut raw_theta: Vec<Option<Vec<f64>>> = vec![None; nd];
-        for (i, spec) in ep.detectors.iter().enumerate() {
-            if spec.is_strategy() {
-                let decided = strategy_signal(
-                    &spec.controller(&ep.controller),
-                    ep,
-                    &t_s,
-                    &signal[i],
-                    &sides,
-                    &regions[i],
-                );
-                raw_theta[i] = Some(std::mem::replace(&mut signal[i], decided));
+        for (i, strategy) in strategies.iter().enumerate() {
+            if strategy.is_some() {
+                raw_theta[i] = Some(std::mem::replace(&mut signal[i], std::mem::take(&mut decided[i])));
             }
         }
         let escape = EscapeController::new(ep.controller.clone()).map_err(|source| RunError::Controller {
@@ -512,20 +548,28 @@ impl Runner {
             .map(|row| row.signal.iter().position(|&s| s >= row.threshold))
             .collect();
         // the detectors' post-alarm tails, stepped in lockstep (one render batch per frame)
-        let tail_jobs: Vec<(usize, &DetectorSpec, usize)> = rows
-            .iter()
-            .zip(&first_alarms)
-            .enumerate()
-            .filter_map(|(r, (row, &alarm))| match (&row.tail, alarm) {
-                (Tail::Detector(spec), Some(ka)) if contact_frame.is_none_or(|kc| ka < kc) => Some((r, *spec, ka)),
-                _ => None,
-            })
-            .collect();
-        let tail_runs = self.closed_loop_tails(&c, &tail_jobs, &frames)?;
+        let mut tail_jobs: Vec<TailJob<'_>> = Vec::new();
+        for (r, (row, &alarm)) in rows.iter().zip(&first_alarms).enumerate() {
+            if let (Tail::Detector(spec), Some(ka)) = (&row.tail, alarm)
+                && contact_frame.is_none_or(|kc| ka < kc)
+            {
+                // detector rows come first: row r is detector entry r
+                let start = snapshots[r].take().filter(|_| alarmed_at[r] == Some(ka));
+                tail_jobs.push(TailJob {
+                    row: r,
+                    spec,
+                    alarm: ka,
+                    start,
+                    signals: &history[runs_as[r]],
+                });
+            }
+        }
+        let tail_rows: Vec<usize> = tail_jobs.iter().map(|j| j.row).collect();
+        let tail_runs = self.closed_loop_tails(&c, tail_jobs, &frames)?;
         let mut tail_runs: Vec<Option<ClosedLoop>> = {
             let mut by_row: Vec<Option<ClosedLoop>> = (0..rows.len()).map(|_| None).collect();
-            for ((r, _, _), cl) in tail_jobs.iter().zip(tail_runs) {
-                by_row[*r] = Some(cl);
+            for (r, cl) in tail_rows.into_iter().zip(tail_runs) {
+                by_row[r] = Some(cl);
             }
             by_row
         };
@@ -644,16 +688,19 @@ impl Runner {
         })
     }
 
-    /// Closed loops of the detectors `jobs` = (row, spec, first alarm `ka`), each alarm before
-    /// any contact: each a physics-only replay to its alarm frame with its agent on the cached
-    /// frames, then rendering with the agent in the loop (see the module docs). The rendered parts
+    /// Closed loops of the detectors `jobs`, each alarm before any contact: each a physics-only
+    /// replay to its alarm frame with its agent on the cached frames, then rendering with the
+    /// agent in the loop (see the module docs). A job that starts from a copy of its detector
+    /// taken at the alarm ([`TailJob::start`]) replays its agent on the open-loop signals instead
+    /// of stepping a fresh detector through the prefix: the same state, without the detector
+    /// work. The rendered parts
     /// run in lockstep: every frame index renders the views of all tails still running in one
     /// batch (each view bit-identical to rendering it alone), so the tails' results are those of
     /// running them one after the other. Returns one [`ClosedLoop`] per job, in order.
     fn closed_loop_tails(
         &self,
         c: &Ctx<'_>,
-        jobs: &[(usize, &DetectorSpec, usize)],
+        jobs: Vec<TailJob<'_>>,
         frames: &[Frame],
     ) -> Result<Vec<ClosedLoop>, RunError> {
         struct TailRun {
@@ -672,10 +719,17 @@ impl Runner {
         let nn = n as usize;
         let total = ep.frames();
         let mut runs = Vec::with_capacity(jobs.len());
-        for &(_, spec, ka) in jobs {
+        let alarms: Vec<usize> = jobs.iter().map(|j| j.alarm).collect();
+        let labels: Vec<String> = jobs.iter().map(|j| j.spec.label.clone()).collect();
+        for job in jobs {
+            let (spec, ka) = (job.spec, job.alarm);
             let mut sim = Sim::new_physics_only(&ep.world, ep.seed).map_err(|e| c.sim(e))?;
             sim.set_ground_truth(false);
-            let detector = spec.build(nn).map_err(|e| c.det(e))?;
+            let from_snapshot = job.start.is_some();
+            let detector = match job.start {
+                Some(snapshot) => snapshot,
+                None => spec.build(nn).map_err(|e| c.det(e))?,
+            };
             let mut agent = EscapeAgent::new(vec![detector], spec.controller(&ep.controller)).map_err(|source| {
                 RunError::Controller {
                     scenario: ep.scenario.clone(),
@@ -685,12 +739,17 @@ impl Runner {
             })?;
             // Replay up to and including the alarm frame: physics only, the agent on the cached frames.
             let mut cmd = ep.cruise.command_at(0.0);
-            for frame in &frames[..=ka] {
+            for (k, frame) in frames[..=ka].iter().enumerate() {
                 let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
-                cmd = agent
-                    .step_posed(out.t_s, frame, ep.cruise.command_at(out.t_s), Some(&sim.camera_pose()))
-                    .map_err(|e| c.det(e))?
-                    .command;
+                let (cruise, pose) = (ep.cruise.command_at(out.t_s), sim.camera_pose());
+                cmd = if from_snapshot {
+                    agent.step_posed_with_signals(out.t_s, frame, cruise, Some(&pose), vec![job.signals[k].clone()])
+                } else {
+                    agent
+                        .step_posed(out.t_s, frame, cruise, Some(&pose))
+                        .map_err(|e| c.det(e))?
+                }
+                .command;
             }
             runs.push(TailRun {
                 sim,
@@ -704,7 +763,7 @@ impl Runner {
         // Continue with rendering, the agents in the loop: frame k of every tail whose alarm came
         // before it, in one batch.
         let mut renderer = self.renderers.take(&self.ctx, n).map_err(|e| c.sim(e))?;
-        let first = jobs.iter().map(|j| j.2).min().unwrap_or(0);
+        let first = alarms.iter().copied().min().unwrap_or(0);
         let tails = (|| -> Result<(), RunError> {
             for k in first + 1..total {
                 if self.cancelled() {
@@ -712,8 +771,8 @@ impl Runner {
                 }
                 let mut active: Vec<&mut TailRun> = runs
                     .iter_mut()
-                    .zip(jobs)
-                    .filter(|(run, job)| !run.done && job.2 < k)
+                    .zip(&alarms)
+                    .filter(|(run, alarm)| !run.done && **alarm < k)
                     .map(|(run, _)| run)
                     .collect();
                 if active.is_empty() {
@@ -753,9 +812,9 @@ impl Runner {
         tails?;
         Ok(runs
             .into_iter()
-            .zip(jobs)
-            .map(|(run, (_, spec, _))| ClosedLoop {
-                label: spec.label.clone(),
+            .zip(labels)
+            .map(|(run, label)| ClosedLoop {
+                label,
                 simulated: true,
                 triggers: run.agent.controller().triggers(),
                 collision: run.collision,
@@ -763,6 +822,19 @@ impl Runner {
             })
             .collect())
     }
+}
+
+/// A detector row's closed-loop tail to simulate (`Runner::closed_loop_tails`).
+struct TailJob<'a> {
+    /// The row (detector entry) index.
+    row: usize,
+    spec: &'a DetectorSpec,
+    /// The first alarm's open-loop frame.
+    alarm: usize,
+    /// A copy of the row's detector right after the alarm frame, when it could make one.
+    start: Option<Box<dyn Detector>>,
+    /// The signals of the row's detector instance on each open-loop frame.
+    signals: &'a [Signals],
 }
 
 /// For each detector entry, the first entry that runs the same detector (the same id and
@@ -798,27 +870,6 @@ fn with_camera_rotation(ego: Ego, camera: Option<&Camera>, t_s: f64) -> Ego {
         camera_pitch_rad: pitch,
         ..ego
     }
-}
-
-/// The decision value of a detector row with a stateful strategy over the open-loop frames: the
-/// raw trigger signal `raw` (θ̂), the looming sides and the detector's image regions (`tracker`)
-/// through the controller's strategy, as [`EscapeAgent::step`] computes it.
-fn strategy_signal(
-    config: &EscapeConfig,
-    ep: &EpisodeSpec,
-    t_s: &[f64],
-    raw: &[f64],
-    sides: &[Option<f32>],
-    regions: &[Option<ImageRegion>],
-) -> Vec<f64> {
-    let mut strategy = config.strategy();
-    (0..raw.len())
-        .map(|k| {
-            let region = regions.get(k).copied().flatten();
-            let percept = config.percept_of(raw[k], sides[k], region.as_ref());
-            strategy.update(t_s[k], percept, open_loop_ego(ep, t_s, k)).value
-        })
-        .collect()
 }
 
 /// The closed loop of an ideal reference row (see [`crate::reference`]) whose first alarm is

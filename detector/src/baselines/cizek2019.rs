@@ -176,6 +176,10 @@ impl Detector for Cizek2019 {
         "cizek2019"
     }
 
+    fn snapshot(&self) -> Option<Box<dyn Detector>> {
+        Some(Box::new(self.clone()))
+    }
+
     fn reset(&mut self) {
         self.prev.reset();
         self.cell_threshold.reset();

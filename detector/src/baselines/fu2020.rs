@@ -592,6 +592,10 @@ impl Detector for Fu2020 {
         "fu2020"
     }
 
+    fn snapshot(&self) -> Option<Box<dyn Detector>> {
+        Some(Box::new(self.clone()))
+    }
+
     fn reset(&mut self) {
         self.prev.reset();
         self.output.reset();

@@ -212,6 +212,10 @@ impl Detector for Keil2004 {
         "keil2004"
     }
 
+    fn snapshot(&self) -> Option<Box<dyn Detector>> {
+        Some(Box::new(self.clone()))
+    }
+
     fn reset(&mut self) {
         self.prev.reset();
         self.output.reset();

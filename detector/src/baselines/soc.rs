@@ -97,6 +97,10 @@ impl Detector for Soc {
         "soc"
     }
 
+    fn snapshot(&self) -> Option<Box<dyn Detector>> {
+        Some(Box::new(self.clone()))
+    }
+
     fn reset(&mut self) {
         self.prev.reset();
     }

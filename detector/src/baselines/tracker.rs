@@ -895,6 +895,10 @@ impl Detector for Tracker {
         "tracker"
     }
 
+    fn snapshot(&self) -> Option<Box<dyn Detector>> {
+        Some(Box::new(self.clone()))
+    }
+
     fn reset(&mut self) {
         if let Some(d) = &mut self.diff {
             d.reset();

@@ -376,6 +376,10 @@ impl Detector for Hopfield {
         "hopfield"
     }
 
+    fn snapshot(&self) -> Option<Box<dyn Detector>> {
+        Some(Box::new(self.clone()))
+    }
+
     fn reset(&mut self) {
         self.z_on = 1.0;
         self.z_off = 1.0;
