@@ -159,11 +159,12 @@ impl EscapeAgent {
         Ok(self.step_on_signals(t_s, frame, cruise, signals))
     }
 
-    /// [`Self::step_posed`] with this frame's signals of the agent's detectors already known: the
-    /// signals that detectors identical to the agent's, stepped on the same frames with the same
-    /// efference copies, gave (the scenario runner's open-loop pass, replayed up to an alarm). The
-    /// detectors are not stepped; the efference copy, looming side, decision strategy and
-    /// controller advance exactly as in [`Self::step_posed`].
+    /// [`Self::step_posed`] with what the agent's perception gives on this frame already known:
+    /// `signals`, those of detectors identical to the agent's stepped on the same frames with the
+    /// same efference copies, and `contrast_side`, what a [`LoomingSideEstimator`] gave on the same
+    /// frames (the scenario runner's open-loop pass, replayed up to an alarm). The detectors are
+    /// not stepped and the estimator only remembers the frame; the efference copy, decision
+    /// strategy and controller advance exactly as in [`Self::step_posed`].
     pub fn step_posed_with_signals(
         &mut self,
         t_s: f64,
@@ -171,9 +172,11 @@ impl EscapeAgent {
         cruise: VelocityCommand,
         camera: Option<&Pose64>,
         signals: Vec<Signals>,
+        contrast_side: Option<f32>,
     ) -> AgentStep {
         self.efference_copy(t_s, cruise, camera);
-        self.step_on_signals(t_s, frame, cruise, signals)
+        self.side.remember(frame);
+        self.decide_on_signals(t_s, cruise, signals, contrast_side)
     }
 
     /// The efference copy of the camera period that ends at `t_s` (advances the ego sensor).
@@ -194,6 +197,17 @@ impl EscapeAgent {
         signals: Vec<Signals>,
     ) -> AgentStep {
         let contrast_side = self.side.update(frame);
+        self.decide_on_signals(t_s, cruise, signals, contrast_side)
+    }
+
+    /// The decision strategy and the controller on this frame's signals and contrast side.
+    fn decide_on_signals(
+        &mut self,
+        t_s: f64,
+        cruise: VelocityCommand,
+        signals: Vec<Signals>,
+        contrast_side: Option<f32>,
+    ) -> AgentStep {
         let looming_side = signals.first().and_then(region_side).or(contrast_side);
         let percept = match signals.first() {
             Some(s) => self.controller.percept(s, looming_side),

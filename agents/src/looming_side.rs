@@ -60,6 +60,12 @@ impl LoomingSideEstimator {
         self.previous = None;
     }
 
+    /// Take `frame` as the previous frame without estimating: for a caller that already knows
+    /// this frame's estimate (it ran an identical estimator on the same frames).
+    pub fn remember(&mut self, frame: &Frame) {
+        self.previous = Some(frame.clone());
+    }
+
     /// Estimate the looming side from this frame and the previous one (`None` on the first frame).
     pub fn update(&mut self, frame: &Frame) -> Option<f32> {
         let side = self

@@ -1182,7 +1182,9 @@ mod named_tracks {
 /// to the alarm frame, then handed a copy of that detector taken there, continues exactly like the
 /// agent that stepped its detector all along.
 mod replay_on_signals {
-    use loomlab_agents::{ControllerEvent, EscapeAgent, EscapeConfig, TriggerSignal, VelocityCommand};
+    use loomlab_agents::{
+        ControllerEvent, EscapeAgent, EscapeConfig, LoomingSideEstimator, TriggerSignal, VelocityCommand,
+    };
     use loomlab_detector::{DetectorSet, Frame};
 
     const N: usize = 32;
@@ -1221,6 +1223,8 @@ mod replay_on_signals {
         // the same detector stepped on the same frames, copied right after the alarm frame
         // (until the alarm the agent applies the cruise command: that is its efference copy)
         let mut open_loop = build();
+        let mut side = LoomingSideEstimator::default();
+        let sides: Vec<Option<f32>> = (0..=alarm).map(|k| side.update(&frame(k))).collect();
         for (k, step) in steps.iter().enumerate().take(alarm + 1) {
             let signals = open_loop.step_moving(&frame(k), &cruise.efference_copy()).unwrap();
             // (Debug strings: bit for bit, NaN included)
@@ -1234,7 +1238,8 @@ mod replay_on_signals {
         let mut replayed = EscapeAgent::new(vec![copy], config).unwrap();
         for (k, step) in steps.iter().enumerate() {
             let got = if k <= alarm {
-                replayed.step_posed_with_signals(k as f64 * dt, &frame(k), cruise, None, step.signals.clone())
+                let signals = step.signals.clone();
+                replayed.step_posed_with_signals(k as f64 * dt, &frame(k), cruise, None, signals, sides[k])
             } else {
                 replayed.step_posed(k as f64 * dt, &frame(k), cruise, None).unwrap()
             };

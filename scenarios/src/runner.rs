@@ -565,7 +565,7 @@ impl Runner {
             }
         }
         let tail_rows: Vec<usize> = tail_jobs.iter().map(|j| j.row).collect();
-        let tail_runs = self.closed_loop_tails(&c, tail_jobs, &frames)?;
+        let tail_runs = self.closed_loop_tails(&c, tail_jobs, &frames, &sides)?;
         let mut tail_runs: Vec<Option<ClosedLoop>> = {
             let mut by_row: Vec<Option<ClosedLoop>> = (0..rows.len()).map(|_| None).collect();
             for (r, cl) in tail_rows.into_iter().zip(tail_runs) {
@@ -692,8 +692,8 @@ impl Runner {
     /// replay to its alarm frame with its agent on the cached frames, then rendering with the
     /// agent in the loop (see the module docs). A job that starts from a copy of its detector
     /// taken at the alarm ([`TailJob::start`]) replays its agent on the open-loop signals instead
-    /// of stepping a fresh detector through the prefix: the same state, without the detector
-    /// work. The rendered parts
+    /// of stepping a fresh detector through the prefix, and the open-loop looming sides `sides`
+    /// instead of estimating them again: the same state, without the work. The rendered parts
     /// run in lockstep: every frame index renders the views of all tails still running in one
     /// batch (each view bit-identical to rendering it alone), so the tails' results are those of
     /// running them one after the other. Returns one [`ClosedLoop`] per job, in order.
@@ -702,6 +702,7 @@ impl Runner {
         c: &Ctx<'_>,
         jobs: Vec<TailJob<'_>>,
         frames: &[Frame],
+        sides: &[Option<f32>],
     ) -> Result<Vec<ClosedLoop>, RunError> {
         struct TailRun {
             sim: Sim,
@@ -743,7 +744,8 @@ impl Runner {
                 let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
                 let (cruise, pose) = (ep.cruise.command_at(out.t_s), sim.camera_pose());
                 cmd = if from_snapshot {
-                    agent.step_posed_with_signals(out.t_s, frame, cruise, Some(&pose), vec![job.signals[k].clone()])
+                    let signals = vec![job.signals[k].clone()];
+                    agent.step_posed_with_signals(out.t_s, frame, cruise, Some(&pose), signals, sides[k])
                 } else {
                     agent
                         .step_posed(out.t_s, frame, cruise, Some(&pose))
