@@ -156,7 +156,8 @@ impl EscapeAgent {
         for d in &mut self.detectors {
             signals.push(d.step_moving(frame, &ego)?);
         }
-        Ok(self.step_on_signals(t_s, frame, cruise, signals))
+        let contrast_side = self.side.update(frame);
+        Ok(self.decide_on_signals(t_s, cruise, signals, contrast_side))
     }
 
     /// [`Self::step_posed`] with what the agent's perception gives on this frame already known:
@@ -188,19 +189,8 @@ impl EscapeAgent {
         }
     }
 
-    /// Everything of a step after the detectors: looming side, decision strategy, controller.
-    fn step_on_signals(
-        &mut self,
-        t_s: f64,
-        frame: &Frame,
-        cruise: VelocityCommand,
-        signals: Vec<Signals>,
-    ) -> AgentStep {
-        let contrast_side = self.side.update(frame);
-        self.decide_on_signals(t_s, cruise, signals, contrast_side)
-    }
-
-    /// The decision strategy and the controller on this frame's signals and contrast side.
+    /// Everything of a step after the detectors and the contrast side: looming side, decision
+    /// strategy, controller.
     fn decide_on_signals(
         &mut self,
         t_s: f64,
