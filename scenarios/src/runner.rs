@@ -554,7 +554,9 @@ impl Runner {
                 && contact_frame.is_none_or(|kc| ka < kc)
             {
                 // detector rows come first: row r is detector entry r
-                let start = snapshots[r].take().filter(|_| alarmed_at[r] == Some(ka));
+                // the open-loop pass found the same first alarm (same values, same comparison)
+                debug_assert_eq!(alarmed_at[r], Some(ka));
+                let start = snapshots[r].take();
                 tail_jobs.push(TailJob {
                     row: r,
                     spec,
