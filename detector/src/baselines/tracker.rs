@@ -589,9 +589,11 @@ impl Tracker {
     /// `link_px` each side, overlap (a union-find over runs). On a textured scene most changed
     /// pixels lie in long runs, so this visits each pixel once instead of scanning each one's
     /// neighbourhood. The regions equal those of a flood fill over the same neighbourhood (unit
-    /// test `runs_group_like_a_flood_fill`); a region's sums are the same too: each term is an
-    /// `f32` residual times a pixel index, an exact `f64` product, and their sums are exact for
-    /// residuals above thresholds of about 1e-5, so the order of summation does not matter.
+    /// test `runs_group_like_a_flood_fill`), and so are a region's sums, added in another order:
+    /// each term is an `f32` residual times a pixel index, an exact `f64` product and a multiple
+    /// of the threshold's last bit, and their sums stay exact while they are below 2⁵³ such bits
+    /// (at the default threshold 0.06, for frames up to 256²; at smaller thresholds and larger
+    /// frames they may differ from the fill's in the last bits).
     fn group(&mut self, n: usize, min_pixels: usize) {
         let link = self.config.link_px;
         let mask = &self.mask[..n * n];
