@@ -63,7 +63,10 @@ impl LoomingSideEstimator {
     /// Take `frame` as the previous frame without estimating: for a caller that already knows
     /// this frame's estimate (it ran an identical estimator on the same frames).
     pub fn remember(&mut self, frame: &Frame) {
-        self.previous = Some(frame.clone());
+        match &mut self.previous {
+            Some(previous) => previous.clone_from(frame),
+            None => self.previous = Some(frame.clone()),
+        }
     }
 
     /// Estimate the looming side from this frame and the previous one (`None` on the first frame).
@@ -72,7 +75,7 @@ impl LoomingSideEstimator {
             .previous
             .as_ref()
             .and_then(|p| temporal_contrast_centroid_x(p, frame, self.min_mean_change));
-        self.previous = Some(frame.clone());
+        self.remember(frame);
         side
     }
 }

@@ -18,11 +18,29 @@ pub enum NonSquare {
 /// Constructors clamp values into [0, 1] and read non-finite values (NaN, ±inf)
 /// as black (0.0), the same as a dropped-out pixel; [`Frame::invalid_pixels`]
 /// tells how many were replaced so callers can warn about broken input.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub struct Frame {
     n: usize,
     data: Vec<f32>,
     invalid: usize,
+}
+
+impl Clone for Frame {
+    fn clone(&self) -> Self {
+        Self {
+            n: self.n,
+            data: self.data.clone(),
+            invalid: self.invalid,
+        }
+    }
+
+    /// Reuses this frame's pixel buffer (a caller that keeps the previous frame copies one per
+    /// step without allocating).
+    fn clone_from(&mut self, source: &Self) {
+        self.n = source.n;
+        self.data.clone_from(&source.data);
+        self.invalid = source.invalid;
+    }
 }
 
 impl Frame {

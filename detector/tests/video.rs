@@ -186,3 +186,14 @@ fn unsupported_file_type_is_an_error() {
     let msg = io_error(&path);
     assert!(msg.contains("clip.mp4") && msg.contains("ffmpeg"), "{msg}");
 }
+
+#[test]
+fn a_frame_copied_into_another_equals_its_source() {
+    // `clone_from` reuses the destination's buffer, whatever its size and invalid-pixel count
+    let source = loomlab_detector::Frame::from_f32(3, vec![0.1, f32::NAN, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9]).unwrap();
+    let mut copy = loomlab_detector::Frame::uniform(5, 0.5);
+    copy.clone_from(&source);
+    assert_eq!(copy, source);
+    assert_eq!((copy.n(), copy.invalid_pixels()), (3, 1));
+    assert_eq!(source.clone(), source);
+}

@@ -558,24 +558,35 @@ impl Tracker {
         &self.config
     }
 
-    /// Marks changed pixels (`mask` = |residual| where changed, else 0).
+    /// Marks changed pixels (`mask` = |residual| where changed, else 0): a residual above the
+    /// threshold, and above it by more than `tolerance_px` times the frame's local gradient (the
+    /// larger of its central differences, one-sided at the border), is a change.
     fn segment(&mut self, frame: &[f32], n: usize, tolerance_px: f64) {
         let thr = self.config.threshold as f32;
         let tol = tolerance_px as f32;
+        let mark = |r: f32, gx: f32, gy: f32| {
+            let g = gx.abs().max(gy.abs());
+            if (r > thr) & (r > thr + tol * g) { r } else { 0.0 }
+        };
         for i in 0..n {
             let (iu, id) = (i.saturating_sub(1), (i + 1).min(n - 1));
-            for j in 0..n {
-                let r = self.residual[i * n + j].abs();
-                if r <= thr {
-                    // below the threshold whatever the gradient
-                    self.mask[i * n + j] = 0.0;
-                    continue;
-                }
+            let dy = (id - iu).max(1) as f32;
+            let row = &frame[i * n..(i + 1) * n];
+            let (above, below) = (&frame[iu * n..(iu + 1) * n], &frame[id * n..(id + 1) * n]);
+            let residual = &self.residual[i * n..(i + 1) * n];
+            let mask = &mut self.mask[i * n..(i + 1) * n];
+            // the border columns: one-sided differences (or none in a one-pixel frame)
+            for j in [0, n - 1] {
                 let (jl, jr) = (j.saturating_sub(1), (j + 1).min(n - 1));
-                let gx = (frame[i * n + jr] - frame[i * n + jl]) / (jr - jl).max(1) as f32;
-                let gy = (frame[id * n + j] - frame[iu * n + j]) / (id - iu).max(1) as f32;
-                let g = gx.abs().max(gy.abs());
-                self.mask[i * n + j] = if r > thr + tol * g { r } else { 0.0 };
+                let gx = (row[jr] - row[jl]) / (jr - jl).max(1) as f32;
+                mask[j] = mark(residual[j].abs(), gx, (below[j] - above[j]) / dy);
+            }
+            // the inner columns, without branches (vectorised)
+            if n > 2 {
+                let inner = mask[1..n - 1].iter_mut().zip(&residual[1..n - 1]).zip(row.windows(3));
+                for (((m, &r), w), (&a, &b)) in inner.zip(above[1..n - 1].iter().zip(&below[1..n - 1])) {
+                    *m = mark(r.abs(), (w[2] - w[0]) / 2.0, (b - a) / dy);
+                }
             }
         }
     }
@@ -1164,6 +1175,58 @@ mod tests {
             }
         }
         blobs
+    }
+
+    /// The segmentation as first written (a branch per pixel), the reference of
+    /// [`Tracker::segment`].
+    fn segment_per_pixel(frame: &[f32], residual: &[f32], n: usize, thr: f32, tol: f32) -> Vec<f32> {
+        let mut mask = vec![0.0; n * n];
+        for i in 0..n {
+            let (iu, id) = (i.saturating_sub(1), (i + 1).min(n - 1));
+            for j in 0..n {
+                let r = residual[i * n + j].abs();
+                if r <= thr {
+                    continue;
+                }
+                let (jl, jr) = (j.saturating_sub(1), (j + 1).min(n - 1));
+                let gx = (frame[i * n + jr] - frame[i * n + jl]) / (jr - jl).max(1) as f32;
+                let gy = (frame[id * n + j] - frame[iu * n + j]) / (id - iu).max(1) as f32;
+                let g = gx.abs().max(gy.abs());
+                mask[i * n + j] = if r > thr + tol * g { r } else { 0.0 };
+            }
+        }
+        mask
+    }
+
+    #[test]
+    fn segment_gives_the_bits_of_the_per_pixel_version() {
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = move || {
+            state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut changed = 0;
+        for (case, n) in [1, 2, 3, 17, 96].into_iter().enumerate() {
+            for tolerance_px in [0.0, 0.5, 3.0] {
+                let mut frame: Vec<f32> = (0..n * n).map(|_| next()).collect();
+                let mut residual: Vec<f32> = (0..n * n).map(|_| (next() - 0.5) * 0.4).collect();
+                // NaN pixels in the frame and the residual take the same path
+                if n > 2 {
+                    frame[n + 1] = f32::NAN;
+                    residual[case] = f32::NAN;
+                }
+                let mut tracker = Tracker::new(TrackerConfig::default()).expect("valid");
+                tracker.residual = residual.clone();
+                tracker.mask = vec![1.0; n * n];
+                tracker.segment(&frame, n, tolerance_px);
+                let want = segment_per_pixel(&frame, &residual, n, 0.06, tolerance_px as f32);
+                for (k, (a, b)) in tracker.mask.iter().zip(&want).enumerate() {
+                    assert_eq!(a.to_bits(), b.to_bits(), "n {n}, tolerance {tolerance_px}, pixel {k}: {a} vs {b}");
+                }
+                changed += want.iter().filter(|&&m| m != 0.0).count();
+            }
+        }
+        assert!(changed > 1000, "the cases mark changes ({changed})");
     }
 
     #[test]
