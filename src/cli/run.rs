@@ -74,7 +74,8 @@ pub struct RunArgs {
     /// reruns that point. Combines with --detectors (filters the file's entries by id).
     #[arg(long, value_name = "FILE")]
     pub detectors_file: Option<PathBuf>,
-    /// Episodes run in parallel (default: number of CPUs).
+    /// Episodes run in parallel (default and most: the number of CPUs, twice that when frames are
+    /// rendered on the CPU, e.g. by lavapipe without a GPU).
     #[arg(long, short)]
     pub jobs: Option<usize>,
     /// Suite seed mixed into every scenario's seed (0: the files' seeds as written).
@@ -348,7 +349,10 @@ pub fn run_with(args: RunArgs, context: RunContext) -> anyhow::Result<i32> {
         && jobs > runner.jobs()
         && !args.quiet
     {
-        errln!("note: --jobs {jobs} clamped to {} (the number of CPUs)", runner.jobs());
+        errln!(
+            "note: --jobs {jobs} clamped to {} (the number of CPUs, twice that when rendering on the CPU)",
+            runner.jobs()
+        );
     }
     let csv = Mutex::new(csv);
     let bar = if args.quiet {

@@ -85,6 +85,11 @@ impl GpuContext {
         }))
     }
 
+    /// Whether the adapter renders on the CPU (a software rasterizer such as Mesa's lavapipe).
+    pub fn renders_on_cpu(&self) -> bool {
+        self.adapter_info.device_type == wgpu::DeviceType::Cpu
+    }
+
     /// A one-line description of the adapter (name, backend, driver).
     pub fn describe(&self) -> String {
         let i = &self.adapter_info;
