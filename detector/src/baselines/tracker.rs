@@ -657,9 +657,8 @@ impl Tracker {
         slot.clear();
         slot.resize(runs.len(), u32::MAX);
         found.clear();
-        for r in 0..runs.len() {
+        for (r, &Run { i, j0, j1 }) in runs.iter().enumerate() {
             let root = find(parent, r);
-            let Run { i, j0, j1 } = runs[r];
             if slot[root] == u32::MAX {
                 slot[root] = found.len() as u32;
                 found.push(Blob {
