@@ -149,6 +149,19 @@ fn render_validates_everything_before_writing() {
         "the error names the file and the key as written: {err}"
     );
     assert!(!out.exists(), "no frames, truth.csv or GIF may be left behind");
+
+    // a cruise the drive cannot reach would be clamped silently by the dynamic physics
+    let fast = tmp.join("fast_command.toml");
+    std::fs::write(&fast, format!("[robot_command]\nforward_mps = 3.0\n\n{SMALL_SCENE}")).unwrap();
+    let (code, err) = render_no_gpu(&fast, &out, &[]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("fast_command.toml") && err.contains("robot_command.forward_mps = 3") && err.contains("max_speed_mps"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    let (code, err) = render_no_gpu(&fast, &out, &["--physics", "analytic"]);
+    assert_eq!(code, Some(0), "closed-form motion has no drive limits: {err}");
 }
 
 #[test]

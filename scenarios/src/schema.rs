@@ -169,7 +169,9 @@ impl CruiseDesc {
         c
     }
 
-    fn validate(&self) -> Result<(), (String, String)> {
+    /// Checks every value; with dynamic physics also that no command exceeds the drive's limits
+    /// (`limits`: `world.robot`), which the physics would silently clamp it to.
+    fn validate(&self, limits: Option<&loomlab_sim::RobotDesc>) -> Result<(), (String, String)> {
         let base = [
             ("robot.forward_mps", self.forward_mps),
             ("robot.yaw_rate_rps", self.yaw_rate_rps),
@@ -199,6 +201,23 @@ impl CruiseDesc {
                 ));
             }
             last = s.at_s;
+        }
+        let Some(robot) = limits else { return Ok(()) };
+        let commands = [(String::from("robot"), self.forward_mps, self.yaw_rate_rps, self.lateral_mps)]
+            .into_iter()
+            .chain(self.schedule.iter().enumerate().map(|(i, s)| {
+                (format!("robot.schedule[{i}]"), s.forward_mps, s.yaw_rate_rps, s.lateral_mps)
+            }));
+        for (key, forward, yaw, lateral) in commands {
+            if let Some((name, value, limit_key, limit)) = robot.exceeded_limit(forward, yaw, lateral) {
+                return Err((
+                    format!("{key}.{name}"),
+                    format!(
+                        "{value} exceeds world.robot.{limit_key} ({limit}), the drive's limit: the physics would \
+                         run the robot at {limit} instead; lower it or raise world.robot.{limit_key}"
+                    ),
+                ));
+            }
         }
         Ok(())
     }
@@ -825,7 +844,8 @@ fn resolve(doc: &ScenarioDoc, opts: &LoadOptions) -> Result<(WorldDesc, Vec<Dete
         loomlab_sim::SimError::Duration { key, value, reason } => (key, format!("{value}: {reason}")),
         other => ("episode.duration_s".into(), other.to_string()),
     })?;
-    doc.robot.validate()?;
+    let dynamic = world.physics == loomlab_sim::PhysicsMode::Dynamic;
+    doc.robot.validate(dynamic.then_some(&world.robot))?;
     doc.controller
         .validate()
         .map_err(|e| ("controller".to_string(), e.to_string()))?;

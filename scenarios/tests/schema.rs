@@ -280,6 +280,33 @@ fn cruise_schedule_changes_the_command() {
 }
 
 #[test]
+fn a_cruise_command_beyond_the_drives_limits_is_refused() {
+    // the dynamic physics clamps commands to world.robot's limits: a 3 m/s cruise would silently
+    // run at 2 m/s (the default max_speed_mps)
+    let fast = BASE.replace("forward_mps = 1.0", "forward_mps = 3.0");
+    let e = err(&fast);
+    assert!(e.contains("robot.forward_mps") && e.contains("world.robot.max_speed_mps (2)"), "{e}");
+    let e = err(&format!("{BASE}
+[[robot.schedule]]
+at_s = 0.5
+yaw_rate_rps = -2.5
+"));
+    assert!(e.contains("robot.schedule[0].yaw_rate_rps") && e.contains("max_yaw_rate_rps"), "{e}");
+    // a swept value names its episode
+    let e = err(&format!("{BASE}
+[sweep]
+\"robot.forward_mps\" = [2.0, 3.0]
+"));
+    assert!(e.contains("episode 1") && e.contains("max_speed_mps"), "{e}");
+    // raising the limit, or closed-form physics (no drive model), accepts it
+    parse(&format!("{fast}
+[world.robot]
+max_speed_mps = 3.0
+")).unwrap();
+    parse(&fast.replace("[world]\n", "[world]\nphysics = \"analytic\"\n")).unwrap();
+}
+
+#[test]
 fn load_options_override_size_and_detectors() {
     let text = format!("{BASE}\n[[detectors]]\nid = \"soc\"\nthreshold = 3.0\n[[detectors]]\nid = \"hopfield\"\n");
     let opts = LoadOptions {
@@ -579,8 +606,10 @@ fn an_invalid_sweep_point_names_its_episode_and_parameters_at_any_key() {
 fn a_million_episode_scenario_loads_lazily() {
     let values: Vec<String> = (0..1000).map(|i| format!("{}", 5.0 + f64::from(i) * 0.001)).collect();
     let list = values.join(", ");
-    let text =
-        format!("{BASE}\n[sweep]\n\"world.projectiles.0.speed_mps\" = [{list}]\n\"robot.forward_mps\" = [{list}]\n");
+    // cruises up to 6 m/s: within the drive's limit
+    let text = format!(
+        "{BASE}\n[world.robot]\nmax_speed_mps = 6.0\n[sweep]\n\"world.projectiles.0.speed_mps\" = [{list}]\n\"robot.forward_mps\" = [{list}]\n"
+    );
     let started = std::time::Instant::now();
     let s = parse_scenario(&text, Path::new("big.toml"), None, &LoadOptions::default()).unwrap();
     assert_eq!(s.len(), 1_000_000);

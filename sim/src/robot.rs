@@ -183,6 +183,25 @@ impl RobotDesc {
         Ok(prim)
     }
 
+    /// The first of a command's speeds that exceeds the drive's limits, which the dynamic physics
+    /// would silently clamp it to: `(command key, value, limit key, limit)`, e.g.
+    /// `("forward_mps", 3.0, "max_speed_mps", 2.0)`.
+    pub fn exceeded_limit(
+        &self,
+        forward_mps: f64,
+        yaw_rate_rps: f64,
+        lateral_mps: f64,
+    ) -> Option<(&'static str, f64, &'static str, f64)> {
+        [
+            ("forward_mps", forward_mps, "max_speed_mps", self.max_speed_mps),
+            ("lateral_mps", lateral_mps, "max_speed_mps", self.max_speed_mps),
+            ("yaw_rate_rps", yaw_rate_rps, "max_yaw_rate_rps", self.max_yaw_rate_rps),
+        ]
+        .into_iter()
+        .map(|(key, value, limit_key, limit)| (key, value, limit_key, f64::from(limit)))
+        .find(|&(_, value, _, limit)| value.abs() > limit + 1e-9)
+    }
+
     /// The drive's limits.
     pub fn limits(&self) -> DriveLimits {
         DriveLimits {
