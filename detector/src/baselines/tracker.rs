@@ -325,9 +325,9 @@ impl BoxSample {
 /// `exp(−j/memory)`: an exponentially fading memory changes the fit smoothly as samples age,
 /// where a window of equal weights jumps whenever a sample leaves it. The samples' mean when they
 /// span a single frame.
-fn fit_box(samples: &std::collections::VecDeque<BoxSample>, k: usize, memory: f64, n: usize) -> [f64; 4] {
+fn fit_box(samples: &std::collections::VecDeque<BoxSample>, k: usize, memory: f64, n: usize, baseline: f64) -> [f64; 4] {
     if samples.back().is_some_and(|s| !s.current) {
-        return fit_difference_box(samples, k, memory / DIFFERENCE_MEMORY_DIVISOR, n);
+        return fit_difference_box(samples, k, memory / DIFFERENCE_MEMORY_DIVISOR, n, baseline);
     }
     let lines = Lines::fit(samples, k as f64, memory, |s| [s.inverse_size, s.x, s.y, s.width, s.height]);
     let inverse = fit_within_ranges(samples, k as f64, memory, &lines);
@@ -414,7 +414,20 @@ fn fit_within_ranges(samples: &std::collections::VecDeque<BoxSample>, now: f64, 
 /// through the size `s`, the centre and the mean shape themselves (memory `memory` frames). Such a
 /// box holds where the object was as well as where it is, so `1/s` is not linear in time and its
 /// line would overshoot as the object nears; a line through `s` lags a little instead.
-fn fit_difference_box(samples: &std::collections::VecDeque<BoxSample>, k: usize, memory: f64, n: usize) -> [f64; 4] {
+///
+/// The box is then cut down to where the object is now. The difference spans `baseline` frames: an
+/// image whose centre moves by `Δc` and whose extent grows by `Δw` over them leaves a union box
+/// wider than its current extent by `excess = max(|Δc| − Δw/2, 0)` on the trailing side (`Δc` and
+/// `Δw` from the fitted lines' slopes). Without this cut, the box's trailing edge is where the
+/// object was `baseline` frames ago, and an object passing beside the robot, whose image moves
+/// outwards while it grows, looks as if its near edge stood still or moved towards the axis.
+fn fit_difference_box(
+    samples: &std::collections::VecDeque<BoxSample>,
+    k: usize,
+    memory: f64,
+    n: usize,
+    baseline: f64,
+) -> [f64; 4] {
     let lines = Lines::fit(samples, k as f64, memory, |s| {
         let size = 1.0 / s.inverse_size;
         [size, s.x * size, s.y * size, s.width, s.height]
@@ -422,6 +435,16 @@ fn fit_difference_box(samples: &std::collections::VecDeque<BoxSample>, k: usize,
     let size = lines.at(0).max(1e-3);
     let (cx, cy) = (lines.at(1) + n as f64 / 2.0, lines.at(2) + n as f64 / 2.0);
     let (w, h) = (lines.mean[3] * size, lines.mean[4] * size);
+    // the part of the union box that is where the object was: (extent, centre) now
+    let current = |extent: f64, centre: f64, centre_rate: f64, extent_rate: f64| {
+        // at most down to one pixel (and never a negative cut)
+        let excess = (centre_rate.abs() * baseline - extent_rate.max(0.0) * baseline / 2.0)
+            .min(extent - 1.0)
+            .max(0.0);
+        (extent - excess, centre + centre_rate.signum() * excess / 2.0)
+    };
+    let (w, cx) = current(w, cx, lines.slope[1], lines.mean[3] * lines.slope[0]);
+    let (h, cy) = current(h, cy, lines.slope[2], lines.mean[4] * lines.slope[0]);
     [cy - h / 2.0, cy + h / 2.0, cx - w / 2.0, cx + w / 2.0]
 }
 
@@ -1098,7 +1121,13 @@ impl Detector for Tracker {
             None => {}
         }
         if self.track.is_some() {
-            self.edges = fit_box(&self.samples, self.clock, self.config.fit_frames as f64, n);
+            self.edges = fit_box(
+                &self.samples,
+                self.clock,
+                self.config.fit_frames as f64,
+                n,
+                self.config.baseline_frames as f64,
+            );
             self.clock += 1;
         }
         if standing {
@@ -1135,6 +1164,40 @@ pub(crate) fn registration() -> Registration {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The difference boxes (the union of the object's image now and `baseline` frames ago) of a
+    /// square image `[top, bottom, left, right]` at frame `k` given by `at(k)`.
+    fn union_samples(frames: usize, baseline: usize, at: impl Fn(f64) -> [f64; 4]) -> std::collections::VecDeque<BoxSample> {
+        (baseline..frames)
+            .map(|k| {
+                let (now, then) = (at(k as f64), at((k - baseline) as f64));
+                let [t, b, l, r] = [now[0].min(then[0]), now[1].max(then[1]), now[2].min(then[2]), now[3].max(then[3])];
+                let (h, w) = (b - t, r - l);
+                BoxSample::of(k as f64, (w * h).sqrt(), [(t + b) / 2.0 - 48.0, (l + r) / 2.0 - 48.0], w, h, false)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_difference_box_is_cut_to_where_the_object_is_now() {
+        let (frames, baseline) = (60, 8);
+        let k = frames - 1;
+        // an 8-pixel image moving right by 0.5 px per frame: its union box is 4 pixels too wide
+        let moving = |k: f64| [40.0, 48.0, 20.0 + 0.5 * k, 28.0 + 0.5 * k];
+        let got = fit_difference_box(&union_samples(frames, baseline, moving), k, 7.5, 96, baseline as f64);
+        let want = moving(k as f64);
+        for (g, w) in got.iter().zip(want) {
+            assert!((g - w).abs() < 1e-6, "{got:?} vs {want:?}");
+        }
+        // without the cut the left edge would be where the object was 8 frames ago
+        let uncut = fit_difference_box(&union_samples(frames, baseline, moving), k, 7.5, 96, 0.0);
+        assert!((uncut[2] - (want[2] - 4.0)).abs() < 1e-6, "{uncut:?}");
+        // an image growing about a fixed centre: its union box is its image now, left as it is
+        let growing = |k: f64| [40.0 - 0.1 * k, 48.0 + 0.1 * k, 20.0 - 0.1 * k, 28.0 + 0.1 * k];
+        let got = fit_difference_box(&union_samples(frames, baseline, growing), k, 7.5, 96, baseline as f64);
+        let uncut = fit_difference_box(&union_samples(frames, baseline, growing), k, 7.5, 96, 0.0);
+        assert_eq!(got, uncut);
+    }
 
     /// The grouping as first written (the reference [`Tracker::group`] is checked against): a
     /// flood fill from each unlabelled changed pixel in raster order over the `link`-neighbourhood.
