@@ -156,7 +156,9 @@ fn render_validates_everything_before_writing() {
     let (code, err) = render_no_gpu(&fast, &out, &[]);
     assert_eq!(code, Some(2), "{err}");
     assert!(
-        err.contains("fast_command.toml") && err.contains("robot_command.forward_mps = 3") && err.contains("max_speed_mps"),
+        err.contains("fast_command.toml")
+            && err.contains("robot_command.forward_mps = 3")
+            && err.contains("max_speed_mps"),
         "{err}"
     );
     assert!(!out.exists());

@@ -203,11 +203,21 @@ impl CruiseDesc {
             last = s.at_s;
         }
         let Some(robot) = limits else { return Ok(()) };
-        let commands = [(String::from("robot"), self.forward_mps, self.yaw_rate_rps, self.lateral_mps)]
-            .into_iter()
-            .chain(self.schedule.iter().enumerate().map(|(i, s)| {
-                (format!("robot.schedule[{i}]"), s.forward_mps, s.yaw_rate_rps, s.lateral_mps)
-            }));
+        let commands = [(
+            String::from("robot"),
+            self.forward_mps,
+            self.yaw_rate_rps,
+            self.lateral_mps,
+        )]
+        .into_iter()
+        .chain(self.schedule.iter().enumerate().map(|(i, s)| {
+            (
+                format!("robot.schedule[{i}]"),
+                s.forward_mps,
+                s.yaw_rate_rps,
+                s.lateral_mps,
+            )
+        }));
         for (key, forward, yaw, lateral) in commands {
             if let Some((name, value, limit_key, limit)) = robot.exceeded_limit(forward, yaw, lateral) {
                 return Err((

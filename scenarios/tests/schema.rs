@@ -285,24 +285,37 @@ fn a_cruise_command_beyond_the_drives_limits_is_refused() {
     // run at 2 m/s (the default max_speed_mps)
     let fast = BASE.replace("forward_mps = 1.0", "forward_mps = 3.0");
     let e = err(&fast);
-    assert!(e.contains("robot.forward_mps") && e.contains("world.robot.max_speed_mps (2)"), "{e}");
-    let e = err(&format!("{BASE}
+    assert!(
+        e.contains("robot.forward_mps") && e.contains("world.robot.max_speed_mps (2)"),
+        "{e}"
+    );
+    let e = err(&format!(
+        "{BASE}
 [[robot.schedule]]
 at_s = 0.5
 yaw_rate_rps = -2.5
-"));
-    assert!(e.contains("robot.schedule[0].yaw_rate_rps") && e.contains("max_yaw_rate_rps"), "{e}");
+"
+    ));
+    assert!(
+        e.contains("robot.schedule[0].yaw_rate_rps") && e.contains("max_yaw_rate_rps"),
+        "{e}"
+    );
     // a swept value names its episode
-    let e = err(&format!("{BASE}
+    let e = err(&format!(
+        "{BASE}
 [sweep]
 \"robot.forward_mps\" = [2.0, 3.0]
-"));
+"
+    ));
     assert!(e.contains("episode 1") && e.contains("max_speed_mps"), "{e}");
     // raising the limit, or closed-form physics (no drive model), accepts it
-    parse(&format!("{fast}
+    parse(&format!(
+        "{fast}
 [world.robot]
 max_speed_mps = 3.0
-")).unwrap();
+"
+    ))
+    .unwrap();
     parse(&fast.replace("[world]\n", "[world]\nphysics = \"analytic\"\n")).unwrap();
 }
 

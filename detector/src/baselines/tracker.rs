@@ -1126,7 +1126,9 @@ impl Detector for Tracker {
                 self.clock,
                 self.config.fit_frames as f64,
                 n,
-                self.config.baseline_frames as f64,
+                // only the compensated difference (a moving camera) spans baseline_frames: a
+                // standing camera's residual is the object's image now
+                if self.moving { self.config.baseline_frames as f64 } else { 0.0 },
             );
             self.clock += 1;
         }
