@@ -30,6 +30,14 @@
 //! `min_angular_size_deg`, `b > 0` and the window holds at least [`MIN_SAMPLES`] frames, else 0;
 //! the controller alarms when the urgency is ≥ `1 / tau_threshold_s`, i.e. τ̂ ≤ `tau_threshold_s`.
 //!
+//! **Jumps.** A θ̂ that changes by more than [`JUMP_RATIO`] (1.3) from one frame to the next
+//! empties the window (of the τ fit and of the course gate): such a step is a relative expansion
+//! rate whose τ (a frame period over ln 1.3: 32 ms at 120 Hz) no escape could answer, so it is no
+//! object's growth but another percept — a tracked region that merged with another one or split,
+//! a read-out that switched objects. Fitted across the step, ln θ̂ gives a τ̂ of a few frames and
+//! the edges' rates a course through the body (in the default suite: cars braking short, static
+//! obstacles beside the path, receding objects).
+//!
 //! # `course = "image"`: the collision-course gate
 //! The gate lets an alarm through only when the object's image says it will touch the robot's
 //! body. It reads the object's image over the last `course_window_s` seconds (longer than the τ
@@ -84,6 +92,10 @@
 use std::collections::VecDeque;
 
 use serde::{Deserialize, Serialize};
+
+/// A θ̂ that changes by more than this factor from one frame to the next starts the window afresh
+/// (module docs, "Jumps").
+pub const JUMP_RATIO: f64 = 1.3;
 
 /// Fewest frames in the window for a τ or bearing-rate estimate.
 pub const MIN_SAMPLES: usize = 3;
@@ -342,6 +354,18 @@ impl Strategy {
         }
         if !t_s.is_finite() {
             return Decision::unestimated(if p.angle_valued { 0.0 } else { f64::NAN }, false);
+        }
+        // a θ̂ that jumps by more than JUMP_RATIO in one frame is another percept, not growth
+        // (module docs, "Jumps"): the window starts afresh
+        if let Some(last) = self.window.back() {
+            let theta_now = percept.value.to_radians();
+            if (p.tau || p.angle_valued)
+                && last.theta_rad > 0.0
+                && theta_now > 0.0
+                && (theta_now / last.theta_rad).ln().abs() > JUMP_RATIO.ln()
+            {
+                self.window.clear();
+            }
         }
         let keep_s = p.window_s.max(p.course_window_s);
         while self.window.front().is_some_and(|s| s.t < t_s - keep_s - 1e-9) {

@@ -505,6 +505,59 @@ mod strategies {
     }
 
     #[test]
+    fn a_jump_of_theta_starts_the_window_afresh() {
+        // a tracked region that merges with another one: θ̂ grows slowly (τ ≈ 3 s), then doubles
+        // in one frame. Across the jump ln θ̂ would give τ̂ of a few frames and an alarm; after it
+        // the window holds only the new hypothesis's frames
+        let cfg = config(Course::Off);
+        let mut s = cfg.strategy();
+        let theta = |k: usize| 5.0 * (k as f64 * DT / 3.0).exp();
+        for k in 0..40 {
+            let d = s.update(
+                k as f64 * DT,
+                Percept {
+                    value: theta(k),
+                    ..Percept::default()
+                },
+                Ego::default(),
+            );
+            assert!(d.value < cfg.alarm_threshold(), "frame {k}: τ̂ {:?}", d.tau_s);
+        }
+        for k in 40..80 {
+            let d = s.update(
+                k as f64 * DT,
+                Percept {
+                    value: 2.0 * theta(k),
+                    ..Percept::default()
+                },
+                Ego::default(),
+            );
+            assert!(d.value < cfg.alarm_threshold(), "frame {k}: τ̂ {:?}", d.tau_s);
+            if k >= 40 + loomlab_agents::strategy::MIN_SAMPLES + 2 {
+                let tau = d.tau_s.expect("an estimate from the new frames");
+                assert!((tau - 3.0).abs() < 0.5, "frame {k}: τ̂ {tau}");
+            }
+        }
+        // a jump just below the ratio is growth: it is fitted (τ̂ of a few frames)
+        let mut s = cfg.strategy();
+        let mut last = f64::NAN;
+        for k in 0..45 {
+            let value = if k < 40 { theta(k) } else { theta(k) * 1.25 };
+            last = s
+                .update(
+                    k as f64 * DT,
+                    Percept {
+                        value,
+                        ..Percept::default()
+                    },
+                    Ego::default(),
+                )
+                .value;
+        }
+        assert!(last >= cfg.alarm_threshold(), "urgency {last}");
+    }
+
+    #[test]
     fn tau_alarm_comes_at_the_threshold_and_not_before() {
         let a = Approach {
             r: 0.2,
