@@ -290,32 +290,17 @@ fn a_cruise_command_beyond_the_drives_limits_is_refused() {
         "{e}"
     );
     let e = err(&format!(
-        "{BASE}
-[[robot.schedule]]
-at_s = 0.5
-yaw_rate_rps = -2.5
-"
+        "{BASE}\n[[robot.schedule]]\nat_s = 0.5\nyaw_rate_rps = -2.5\n"
     ));
     assert!(
         e.contains("robot.schedule[0].yaw_rate_rps") && e.contains("max_yaw_rate_rps"),
         "{e}"
     );
     // a swept value names its episode
-    let e = err(&format!(
-        "{BASE}
-[sweep]
-\"robot.forward_mps\" = [2.0, 3.0]
-"
-    ));
+    let e = err(&format!("{BASE}\n[sweep]\n\"robot.forward_mps\" = [2.0, 3.0]\n"));
     assert!(e.contains("episode 1") && e.contains("max_speed_mps"), "{e}");
     // raising the limit, or closed-form physics (no drive model), accepts it
-    parse(&format!(
-        "{fast}
-[world.robot]
-max_speed_mps = 3.0
-"
-    ))
-    .unwrap();
+    parse(&format!("{fast}\n[world.robot]\nmax_speed_mps = 3.0\n")).unwrap();
     parse(&fast.replace("[world]\n", "[world]\nphysics = \"analytic\"\n")).unwrap();
 }
 

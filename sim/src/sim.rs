@@ -66,6 +66,7 @@ impl StepOutput {
     }
 }
 
+#[derive(Clone)]
 struct SimObject {
     spec: ObjectSpec,
     shape: SharedShape,
@@ -83,6 +84,7 @@ struct SimObject {
 }
 
 /// Dynamic physics: the robot's and the projectiles' predicted motions from the start of a substep.
+#[derive(Clone)]
 struct SubstepStart {
     t_s: f64,
     robot: Segment,
@@ -229,6 +231,52 @@ impl Sim {
     /// Gives the renderer back (to reuse it for the next episode).
     pub fn into_renderer(self) -> Option<Renderer> {
         self.renderer
+    }
+
+    /// A physics-only copy of this simulator as it stands (no renderer: its steps return empty
+    /// frames): stepping the copy gives exactly what stepping this simulator would (test
+    /// `a_fork_steps_as_its_original`). Replays that share a prefix (the escape deadline's search)
+    /// fork from it instead of simulating it again. rapier's pipelines are workspaces rebuilt each
+    /// step and start fresh; every piece of state (bodies, colliders, broad and narrow phase with
+    /// their contact caches, islands) is cloned.
+    pub fn fork_physics_only(&self) -> Sim {
+        let p = &self.physics;
+        let mut physics = PhysicsWorld::new();
+        physics.gravity = p.gravity;
+        physics.integration_parameters = p.integration_parameters;
+        physics.islands = p.islands.clone();
+        physics.broad_phase = p.broad_phase.clone();
+        physics.narrow_phase = p.narrow_phase.clone();
+        physics.bodies = p.bodies.clone();
+        physics.colliders = p.colliders.clone();
+        physics.impulse_joints = p.impulse_joints.clone();
+        physics.multibody_joints = p.multibody_joints.clone();
+        physics.soft_bodies = p.soft_bodies.clone();
+        let pending = self.events.0.lock().unwrap_or_else(|e| e.into_inner()).clone();
+        Sim {
+            desc: self.desc.clone(),
+            seed: self.seed,
+            world: self.world.clone(),
+            step_index: self.step_index,
+            t: self.t,
+            robot_pose: self.robot_pose,
+            robot_velocity: self.robot_velocity,
+            previous_substep: self.previous_substep.clone(),
+            command: self.command,
+            robot_shape: self.robot_shape.clone(),
+            robot_local: self.robot_local,
+            robot_radius: self.robot_radius,
+            physics,
+            robot_body: self.robot_body,
+            robot_collider: self.robot_collider,
+            objects: self.objects.clone(),
+            events: EventLog(Mutex::new(pending)),
+            renderer: None,
+            frame: Vec::new(),
+            instances: Vec::new(),
+            contacts: self.contacts.clone(),
+            ground_truth: self.ground_truth,
+        }
     }
 
     /// Takes the renderer out, leaving a physics-only simulator (later steps return empty frames).

@@ -87,3 +87,40 @@ fn renderer_size_mismatch_is_an_error() {
     let err = Sim::with_renderer(&other, 0, r).unwrap_err();
     assert!(err.to_string().contains("n = 128"), "{err}");
 }
+
+#[test]
+fn a_fork_steps_as_its_original() {
+    // dynamic physics with a ball that bounces off the ground and hits the robot while it drives
+    // and turns: a fork taken mid-flight (contacts and warm-start caches alive) must continue
+    // exactly as the original
+    let mut desc = world();
+    desc.projectiles.push(loomlab_sim::ProjectileDesc {
+        name: Some("ball".into()),
+        speed_mps: 6.0,
+        launch_distance_m: 5.0,
+        launch_elevation_deg: 12.0,
+        ..Default::default()
+    });
+    let mut original = Sim::new_physics_only(&desc, 7).unwrap();
+    for k in 0..40 {
+        original.step(&commands(k)).unwrap();
+    }
+    let mut fork = original.fork_physics_only();
+    let mut contacts = 0;
+    for k in 40..240 {
+        let (a, b) = (original.step(&commands(k)).unwrap(), fork.step(&commands(k)).unwrap());
+        assert_eq!(a, b, "step {k}");
+        contacts += a.contacts.len();
+    }
+    assert!(contacts > 0, "the ball reached the robot");
+    // a fork of a fork, and forks taken at every step, too
+    let mut again = fork.fork_physics_only();
+    for k in 240..260 {
+        let mut each = again.fork_physics_only();
+        assert_eq!(
+            again.step(&commands(k)).unwrap(),
+            each.step(&commands(k)).unwrap(),
+            "step {k}"
+        );
+    }
+}
