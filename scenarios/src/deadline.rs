@@ -170,7 +170,7 @@ fn replay_from(
     Ok(Some(None))
 }
 
-/// Most checkpoints of the cruise prefix one deadline search keeps (see [`checkpoints`]).
+/// Most checkpoints of the cruise prefix one deadline search keeps (module docs, "Search").
 pub const MAX_CHECKPOINTS: usize = 256;
 
 /// Checkpoints of the cruise prefix of frames `0..end`, every `interval` frames (at least
@@ -208,7 +208,7 @@ fn checkpoints(
     Ok(Some((interval, kept)))
 }
 
-/// Frames between two checkpoints of the cruise prefix (the fewest; see [`checkpoints`]).
+/// Frames between two checkpoints of the cruise prefix (the fewest; module docs, "Search").
 pub const CHECKPOINT_INTERVAL: usize = 8;
 
 /// The escape deadline of a threat (episode `ep`, simulator seed `seed`) whose open-loop contact
