@@ -355,27 +355,22 @@ impl Strategy {
         if !t_s.is_finite() {
             return Decision::unestimated(if p.angle_valued { 0.0 } else { f64::NAN }, false);
         }
-        // a θ̂ that jumps by more than JUMP_RATIO in one frame is another percept, not growth
-        // (module docs, "Jumps"): the window starts afresh
-        if let Some(last) = self.window.back() {
-            let theta_now = percept.value.to_radians();
-            if (p.tau || p.angle_valued)
-                && last.theta_rad > 0.0
-                && theta_now > 0.0
-                && (theta_now / last.theta_rad).ln().abs() > JUMP_RATIO.ln()
-            {
-                self.window.clear();
-            }
-        }
-        let keep_s = p.window_s.max(p.course_window_s);
-        while self.window.front().is_some_and(|s| s.t < t_s - keep_s - 1e-9) {
-            self.window.pop_front();
-        }
         let theta_rad = if p.tau || p.angle_valued {
             percept.value.to_radians()
         } else {
             f64::NAN
         };
+        // a θ̂ that jumps by more than JUMP_RATIO in one frame is another percept, not growth
+        // (module docs, "Jumps"): the window starts afresh
+        if self.window.back().is_some_and(|last| {
+            last.theta_rad > 0.0 && theta_rad > 0.0 && (theta_rad / last.theta_rad).ln().abs() > JUMP_RATIO.ln()
+        }) {
+            self.window.clear();
+        }
+        let keep_s = p.window_s.max(p.course_window_s);
+        while self.window.front().is_some_and(|s| s.t < t_s - keep_s - 1e-9) {
+            self.window.pop_front();
+        }
         let finite = |v: Option<f64>| v.filter(|x| x.is_finite()).map(f64::to_radians);
         // directions in the camera mount's frame: the camera's own rotation removed
         let (yaw, pitch) = (ego.camera_yaw_rad, ego.camera_pitch_rad);

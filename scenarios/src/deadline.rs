@@ -114,14 +114,14 @@ fn replay(
     side: Option<f32>,
     cancel: &AtomicBool,
 ) -> Result<Option<Option<Impact>>, SimError> {
-    let mut sim = Sim::new_physics_only(&ep.world, seed)?;
-    sim.set_ground_truth(false);
-    let start = Checkpoint {
-        frame: 0,
-        sim,
-        command: ep.cruise.command_at(0.0),
-    };
-    replay_from(ep, start, controller, trigger_frame, side, cancel)
+    replay_from(
+        ep,
+        Checkpoint::start(ep, seed)?,
+        controller,
+        trigger_frame,
+        side,
+        cancel,
+    )
 }
 
 /// The cruise prefix's state before open-loop frame `frame` is stepped: the simulator after
@@ -130,6 +130,19 @@ struct Checkpoint {
     frame: usize,
     sim: Sim,
     command: VelocityCommand,
+}
+
+impl Checkpoint {
+    /// The start of the episode: a physics-only simulator without ground-truth predictions.
+    fn start(ep: &EpisodeSpec, seed: u64) -> Result<Self, SimError> {
+        let mut sim = Sim::new_physics_only(&ep.world, seed)?;
+        sim.set_ground_truth(false);
+        Ok(Self {
+            frame: 0,
+            sim,
+            command: ep.cruise.command_at(0.0),
+        })
+    }
 }
 
 /// Continues a replay from `start` (a point of the cruise prefix at or before `trigger_frame`):
@@ -183,9 +196,11 @@ fn checkpoints(
     cancel: &AtomicBool,
 ) -> Result<Option<(usize, Vec<Checkpoint>)>, SimError> {
     let interval = CHECKPOINT_INTERVAL.max(end.div_ceil(MAX_CHECKPOINTS));
-    let mut sim = Sim::new_physics_only(&ep.world, seed)?;
-    sim.set_ground_truth(false);
-    let mut cmd = ep.cruise.command_at(0.0);
+    let Checkpoint {
+        mut sim,
+        command: mut cmd,
+        ..
+    } = Checkpoint::start(ep, seed)?;
     let mut kept = Vec::with_capacity(end / interval + 1);
     for k in 0..end {
         if k % CANCEL_CHECK_STEPS == 0 && cancel.load(Ordering::Relaxed) {
@@ -247,7 +262,7 @@ pub fn escape_deadline_cancellable(
         replays += 1;
         // the cruise prefix up to k from its latest checkpoint (a fork of it: the checkpoint may
         // serve the next frames down too)
-        let Some(c) = kept.get(k / interval).filter(|c| c.frame <= k) else {
+        let Some(c) = kept.get(k / interval) else {
             // the cruise collided before frame k: no trigger at or after it evades
             continue;
         };

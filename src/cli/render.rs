@@ -163,16 +163,11 @@ fn plan(args: &RenderArgs) -> anyhow::Result<Plan> {
     scene.world.validate().map_err(|e| scene_error(file, e))?;
     scene.robot_command.validate().map_err(|e| scene_error(file, e))?;
     let c = scene.robot_command;
-    let limited = scene.world.physics == PhysicsMode::Dynamic;
-    if let Some((name, value, limit_key, limit)) = limited
-        .then(|| {
-            scene
-                .world
-                .robot
-                .exceeded_limit(c.forward_mps.into(), c.yaw_rate_rps.into(), c.lateral_mps.into())
-        })
-        .flatten()
-    {
+    let exceeded = scene
+        .world
+        .robot
+        .exceeded_limit(c.forward_mps.into(), c.yaw_rate_rps.into(), c.lateral_mps.into());
+    if let (PhysicsMode::Dynamic, Some((name, value, limit_key, limit))) = (scene.world.physics, exceeded) {
         bail!(
             "{}: robot_command.{name} = {value} exceeds world.robot.{limit_key} ({limit}), the drive's limit: the \
              dynamic physics would run the robot at {limit} instead; lower it, raise world.robot.{limit_key} or \
