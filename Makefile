@@ -76,13 +76,17 @@ lint-python: python-env
 
 ## Compile every test binary and the CLI (what CI overlaps with the installs). The binding is in
 ## the selection (its lib has no tests: nothing links libpython) so that its dependencies' features
-## are unified with the tests', and maturin reuses what this compiled.
+## are unified with the tests', and maturin reuses what this compiled. `--tests` leaves out the
+## examples (plain `cargo test` would also compile and link them; clippy --all-targets still checks
+## them in lint).
+TEST_TARGETS = --workspace --tests
 rust-build:
-	$(CARGO) test $(CARGO_PROFILE) --workspace --no-run
+	$(CARGO) test $(CARGO_PROFILE) $(TEST_TARGETS) --no-run
 
-## All Rust tests (unit, integration, doc).
+## All Rust tests (unit and integration, then the doc tests).
 rust-test: deps
-	$(CARGO) test $(CARGO_PROFILE) --workspace
+	$(CARGO) test $(CARGO_PROFILE) $(TEST_TARGETS)
+	$(CARGO) test $(CARGO_PROFILE) --workspace --doc
 
 ## The binding alone (maturin's build) must resolve the same dependency features as the workspace's
 ## test build, or maturin compiles ~60 crates a second time: compares `cargo tree -e features` of

@@ -547,8 +547,8 @@ fn assert_features_in_bounds(env: &mut EscapeEnv, what: &str, numbers: &[usize])
 
 /// The env's default scenario set (`escape_default`, the scenario of `loomlab/Escape-v0`), with a
 /// few random expansions, and the default suite of `loomlab run` at n = 32 (every scenario's first
-/// episode and every third episode of the suite, a third of its episodes: each scenario and each of
-/// the five behaviours is walked; the whole suite took 80 s of the CI's test time): every
+/// episode and every eleventh episode of the suite: each scenario and each of the five behaviours is
+/// walked; the whole suite took 80 s of the CI's test time, every third episode 34 s): every
 /// normalized feature stays within its declared bounds.
 #[test]
 fn normalized_features_stay_in_bounds_on_the_default_scenarios() {
@@ -583,7 +583,7 @@ fn normalized_features_stay_in_bounds_on_the_default_scenarios() {
     let walked: Vec<(usize, _)> = episodes
         .into_iter()
         .enumerate()
-        .filter(|(k, e)| k % 3 == 0 || e.index == 0)
+        .filter(|(k, e)| k % 11 == 0 || e.index == 0)
         .collect();
     let walked_scenarios: std::collections::BTreeSet<&String> = walked.iter().map(|(_, e)| &e.scenario).collect();
     assert_eq!(

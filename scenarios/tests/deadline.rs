@@ -38,7 +38,9 @@
 use std::path::Path;
 
 use loomlab_agents::EscapeController;
-use loomlab_scenarios::deadline::{EscapeDeadline, escape_deadline, escape_deadline_exhaustive, replay_trigger};
+use loomlab_scenarios::deadline::{
+    CHECKPOINT_INTERVAL, EscapeDeadline, MAX_CHECKPOINTS, escape_deadline, escape_deadline_exhaustive, replay_trigger,
+};
 use loomlab_scenarios::truth::open_loop_truth;
 use loomlab_scenarios::{EpisodeSpec, LoadOptions, parse_scenario};
 use loomlab_sim::ShapeDesc;
@@ -401,11 +403,14 @@ fn the_backward_search_finds_an_unavoidable_threat_as_the_scan_does() {
 
 #[test]
 fn a_long_episode_with_a_late_contact_gets_the_exhaustive_deadline() {
-    // 60 s, the ball launched 33 s in from 40 m at 1.1 m/s: contact at about 36 s. The backward
+    // 60 s, the ball launched 33 s in from 4 m at 1.1 m/s: contact at about 36 s. The backward
     // search replays only the frames between the deadline and the contact; the exhaustive scan
-    // (every frame before contact, about 4300) gives the same deadline.
+    // (every frame before contact, about 2200 at 60 Hz, each replayed from t = 0) gives the same
+    // deadline. More frames than MAX_CHECKPOINTS × CHECKPOINT_INTERVAL (2048): the checkpoints
+    // are spread further apart.
     let mut ep = episode(0.15, 1.1, 4.0, 1);
     ep.world.projectiles[0].launch_time_s = Some(33.0);
+    ep.world.camera_hz = 60.0;
     ep.duration_s = 60.0;
     let (fast, all) = both(&ep, |_| Some(0.5));
     let t_c = open_loop_truth(&ep, ep.seed).unwrap().contact.unwrap().t_s;
@@ -413,4 +418,9 @@ fn a_long_episode_with_a_late_contact_gets_the_exhaustive_deadline() {
     assert_eq!(fast.frame, all.frame);
     assert!(fast.frame.is_some());
     assert!(fast.replays * 20 < all.replays, "{} vs {}", fast.replays, all.replays);
+    assert!(
+        all.replays > MAX_CHECKPOINTS * CHECKPOINT_INTERVAL,
+        "{} frames",
+        all.replays
+    );
 }
