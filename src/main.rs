@@ -6,6 +6,7 @@
 use loomlab::cli;
 
 use clap::{Parser, Subcommand};
+use loomlab_sim::render::{LLVMPIPE_THREADS_ENV, llvmpipe_threads};
 
 /// loomlab: a closed-loop testbed for vision-based looming (collision) detectors.
 #[derive(Parser)]
@@ -32,31 +33,15 @@ enum Command {
     Table(cli::table::TableArgs),
 }
 
-/// Most CPUs on which `loomlab run` has llvmpipe rasterise on its queue thread (see
-/// [`llvmpipe_threads`]): rendering is about a sixth of a run's CPU time, so one queue thread keeps
-/// up with the workers of a few CPUs, not with those of many.
-const MAX_CPUS_FOR_QUEUE_RASTERIZER: usize = 4;
-
-/// The `LP_NUM_THREADS` that `loomlab run` sets on a machine of `cpus` CPUs when the user has not
-/// set it and asked for more than one worker (`None`: leave it alone). On Mesa's llvmpipe
-/// (lavapipe, the software Vulkan of a machine without a GPU) every render pass otherwise hands
-/// its tiles to llvmpipe's own rasterizer threads, one per CPU, while the run already keeps every
-/// CPU busy with its workers: the hand-offs and wake-ups cost more than they save (default suite,
-/// 2 workers on 2 CPUs: 155 → 132 s wall, 244 → 216 s CPU, the same pixels and report). `0` has
-/// llvmpipe rasterise on its queue thread; other drivers ignore the variable.
-fn llvmpipe_threads(cpus: usize, jobs: Option<usize>, user_set: bool) -> Option<&'static str> {
-    let several_workers = jobs != Some(1);
-    (!user_set && several_workers && cpus <= MAX_CPUS_FOR_QUEUE_RASTERIZER).then_some("0")
-}
-
 fn main() {
     let cli = Cli::parse();
     if let Command::Run(args) = &cli.command {
         let cpus = loomlab_scenarios::runner::cpus();
-        if let Some(value) = llvmpipe_threads(cpus, args.jobs, std::env::var_os("LP_NUM_THREADS").is_some()) {
+        let user_set = std::env::var_os(LLVMPIPE_THREADS_ENV).is_some();
+        if let Some(value) = llvmpipe_threads(cpus, args.jobs != Some(1), user_set) {
             // SAFETY: no other thread exists yet (clap parsed on this one, nothing was started),
             // so nothing reads the environment concurrently.
-            unsafe { std::env::set_var("LP_NUM_THREADS", value) };
+            unsafe { std::env::set_var(LLVMPIPE_THREADS_ENV, value) };
         }
     }
     let result: anyhow::Result<i32> = match cli.command {
@@ -69,21 +54,5 @@ fn main() {
     match result {
         Ok(code) => std::process::exit(code),
         Err(e) => std::process::exit(cli::report_error(&e)),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::llvmpipe_threads;
-
-    #[test]
-    fn llvmpipe_rasterises_on_its_queue_thread_on_a_few_cpus_unless_the_user_chose() {
-        assert_eq!(llvmpipe_threads(2, None, false), Some("0"));
-        assert_eq!(llvmpipe_threads(4, Some(8), false), Some("0"));
-        // one worker: llvmpipe's threads use the CPUs the run leaves idle
-        assert_eq!(llvmpipe_threads(2, Some(1), false), None);
-        // many CPUs: one queue thread would not keep up with their workers' renders
-        assert_eq!(llvmpipe_threads(16, None, false), None);
-        assert_eq!(llvmpipe_threads(2, None, true), None);
     }
 }

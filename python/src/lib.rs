@@ -594,9 +594,24 @@ fn snake_name(a: &DiscreteAction) -> PyResult<String> {
     }
 }
 
+/// On a machine of a few CPUs, has Mesa's llvmpipe rasterise on its queue thread unless the user
+/// set `LP_NUM_THREADS` (`loomlab_sim::render::llvmpipe_threads`, the rule of `loomlab run`): the
+/// vector env and `run_suite` keep every CPU busy. Set through `os.environ` at import, before any
+/// environment creates the GPU context (Mesa reads it then), so Python sees the value too.
+fn set_llvmpipe_threads(py: Python<'_>) -> PyResult<()> {
+    use loomlab_sim::render::{LLVMPIPE_THREADS_ENV, llvmpipe_threads};
+    let environ = py.import("os")?.getattr("environ")?;
+    let user_set = environ.contains(LLVMPIPE_THREADS_ENV)?;
+    if let Some(value) = llvmpipe_threads(loomlab_scenarios::runner::cpus(), true, user_set) {
+        environ.set_item(LLVMPIPE_THREADS_ENV, value)?;
+    }
+    Ok(())
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
+    set_llvmpipe_threads(py)?;
     m.add_class::<PyEscapeEnv>()?;
     m.add_class::<PyEscapeVectorEnv>()?;
     m.add_class::<sweep::SweepPlan>()?;

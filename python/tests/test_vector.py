@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import os
 import pickle
 import re
+import subprocess
+import sys
 
 import gymnasium as gym
 import numpy as np
@@ -149,3 +152,20 @@ def test_vector_pickle_round_trip_continues_every_environment(short_kwargs, acti
     # a fresh (never reset) vector environment pickles too: same observations for the same seed
     fresh = pickle.loads(pickle.dumps(EscapeVectorEnv(3, **kwargs)))
     np.testing.assert_equal(fresh.reset(seed=4), EscapeVectorEnv(3, **kwargs).reset(seed=4))
+
+
+def _lp_num_threads_after_import(env: dict[str, str]) -> str | None:
+    code = "import os, loomlab; print(os.environ.get('LP_NUM_THREADS', 'unset'))"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    value = out.stdout.strip()
+    return None if value == "unset" else value
+
+
+def test_import_has_llvmpipe_rasterise_on_its_queue_thread_on_a_few_cpus_only():
+    # The rule of `loomlab run` (loomlab_sim::render::llvmpipe_threads): on at most 4 CPUs the
+    # vector env's members keep every CPU busy, and llvmpipe's own rasterizer threads cost more
+    # than they save. A value the user set is kept.
+    env = {k: v for k, v in os.environ.items() if k != "LP_NUM_THREADS"}
+    few_cpus = len(os.sched_getaffinity(0)) <= 4
+    assert _lp_num_threads_after_import(env) == ("0" if few_cpus else None)
+    assert _lp_num_threads_after_import(dict(env, LP_NUM_THREADS="3")) == "3"

@@ -8,6 +8,29 @@ use crate::SimError;
 /// `LOOMLAB_ADAPTER=llvmpipe` to force Mesa lavapipe on a machine with a GPU.
 pub const ADAPTER_ENV: &str = "LOOMLAB_ADAPTER";
 
+/// Mesa's llvmpipe (lavapipe, the software Vulkan of a machine without a GPU) setting for its
+/// rasterizer threads; other drivers ignore it.
+pub const LLVMPIPE_THREADS_ENV: &str = "LP_NUM_THREADS";
+
+/// Most CPUs on which a process that keeps every CPU busy has llvmpipe rasterise on its queue
+/// thread (see [`llvmpipe_threads`]): rendering is about a sixth of a suite run's CPU time, so one
+/// queue thread keeps up with the workers of a few CPUs, not with those of many.
+pub const MAX_CPUS_FOR_QUEUE_RASTERIZER: usize = 4;
+
+/// The [`LLVMPIPE_THREADS_ENV`] value for a process on `cpus` CPUs that runs `several_threads`
+/// (workers, or a vector environment's parallel members) when the user has not set it
+/// (`user_set`); `None`: leave it alone. Read before the first [`GpuContext`] is created: `loomlab
+/// run` sets it in `main`, the Python package when it is imported.
+///
+/// On llvmpipe every render pass otherwise hands its tiles to llvmpipe's own rasterizer threads,
+/// one per CPU, while the process already keeps every CPU busy: the hand-offs and wake-ups cost
+/// more than they save (default suite, 2 workers on 2 CPUs: 155 → 132 s wall, 244 → 216 s CPU;
+/// the Python vector env, N = 16 at 64²: +14–25 % steps/s; the same pixels). `"0"` has llvmpipe
+/// rasterise on its queue thread.
+pub fn llvmpipe_threads(cpus: usize, several_threads: bool, user_set: bool) -> Option<&'static str> {
+    (!user_set && several_threads && cpus <= MAX_CPUS_FOR_QUEUE_RASTERIZER).then_some("0")
+}
+
 /// A wgpu device and queue plus what adapter they run on.
 ///
 /// Creating a device costs tens of milliseconds (more on lavapipe); create one `GpuContext` per process
@@ -97,5 +120,21 @@ impl GpuContext {
             "{} ({:?}, {:?}, {} {})",
             i.name, i.backend, i.device_type, i.driver, i.driver_info
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::llvmpipe_threads;
+
+    #[test]
+    fn llvmpipe_rasterises_on_its_queue_thread_on_a_few_busy_cpus_unless_the_user_chose() {
+        assert_eq!(llvmpipe_threads(2, true, false), Some("0"));
+        assert_eq!(llvmpipe_threads(4, true, false), Some("0"));
+        // one thread: llvmpipe's threads use the CPUs the process leaves idle
+        assert_eq!(llvmpipe_threads(2, false, false), None);
+        // many CPUs: one queue thread would not keep up with their workers' renders
+        assert_eq!(llvmpipe_threads(16, true, false), None);
+        assert_eq!(llvmpipe_threads(2, true, true), None);
     }
 }
