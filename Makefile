@@ -9,7 +9,7 @@ PYTHON ?= python3
 # Mesa's Vulkan loader complains on every device creation when XDG_RUNTIME_DIR is unset (CI, containers).
 export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 $$d && echo $$d)
 
-.PHONY: run cli test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-venv python-env python-examples suite-check sweep bless readme-table bench bench-python bench-peer figures fmt rl-env rl-train rl-train-detectors rl-train-privileged rl-table rl-table-docs rl-result
+.PHONY: run cli test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-interpreter python-venv python-env python-examples suite-check sweep bless readme-table bench bench-python bench-peer figures fmt rl-env rl-train rl-train-detectors rl-train-privileged rl-table rl-table-docs rl-result
 
 # One build for everything that runs code: `make run`, the tests, the suite check, the Python
 # binding and the sweep tests all use the release profile of one workspace (one Cargo.lock, the
@@ -22,6 +22,14 @@ PROFILE ?= release
 CARGO_PROFILE = --profile $(PROFILE)
 TARGET_DIR = $${CARGO_TARGET_DIR:-$(CURDIR)/target}
 BIN = $(TARGET_DIR)/$(PROFILE)/loomlab
+
+# pyo3's build configuration, the same in every cargo call as in maturin's build of the binding
+# (which sets these itself): any difference makes cargo compile pyo3, numpy and the binding again,
+# ~30 s each time (CI did so three times). The interpreter is the venv's (`python-interpreter`).
+VENV_PYTHON = $(abspath $(VENV))/bin/python
+export PYO3_PYTHON := $(VENV_PYTHON)
+export PYO3_BUILD_EXTENSION_MODULE := 1
+export PYO3_ENVIRONMENT_SIGNATURE := $(shell $(PYTHON) -c 'import platform, sys; print(f"{platform.python_implementation().lower()}-{sys.version_info[0]}.{sys.version_info[1]}-{64 if sys.maxsize > 2**32 else 32}bit")' 2>/dev/null)
 
 ## Run the default scenario suite: prints the results table, writes $(OUT)/report.json, the plots
 ## and $(OUT)/report.html (the page to open in a browser).
@@ -64,8 +72,8 @@ lint: lint-rust lint-python
 # pyo3's build script needs an interpreter: the venv's (clippy checks the binding too).
 lint-rust: python-venv check-features
 	$(CARGO) fmt --all -- --check
-	PYO3_PYTHON=$(abspath $(VENV))/bin/python $(CARGO) clippy $(CARGO_PROFILE) --workspace --all-targets -- -D warnings
-	PYO3_PYTHON=$(abspath $(VENV))/bin/python RUSTDOCFLAGS="-D warnings" $(CARGO) doc $(CARGO_PROFILE) --workspace --no-deps --lib
+	$(CARGO) clippy $(CARGO_PROFILE) --workspace --all-targets -- -D warnings
+	RUSTDOCFLAGS="-D warnings" $(CARGO) doc $(CARGO_PROFILE) --workspace --no-deps --lib
 
 lint-python: python-env
 	$(VENV)/bin/ruff check python
@@ -80,11 +88,11 @@ lint-python: python-env
 ## examples (plain `cargo test` would also compile and link them; clippy --all-targets still checks
 ## them in lint).
 TEST_TARGETS = --workspace --tests
-rust-build:
+rust-build: python-interpreter
 	$(CARGO) test $(CARGO_PROFILE) $(TEST_TARGETS) --no-run
 
 ## All Rust tests (unit and integration, then the doc tests).
-rust-test: deps
+rust-test: deps python-interpreter
 	$(CARGO) test $(CARGO_PROFILE) $(TEST_TARGETS)
 	$(CARGO) test $(CARGO_PROFILE) --workspace --doc
 
@@ -100,13 +108,16 @@ check-features:
 	  | diff -u --label workspace --label binding - $(TARGET_DIR)/features-binding.txt \
 	  || { echo "check-features: the binding's dependency features differ from the test build's (above); name them in python/Cargo.toml" >&2; exit 1; }
 
+## The venv's interpreter alone (seconds): pyo3's build scripts need it before the pip installs end.
+python-interpreter:
+	@test -x $(VENV)/bin/python || $(PYTHON) -m venv $(VENV) 2>/dev/null || { \
+	  echo "python-interpreter: installing python3-venv with apt-get ..."; rm -rf $(VENV); \
+	  $(APT_INSTALL) python3-venv >/tmp/loomlab-apt-venv.log 2>&1 && $(PYTHON) -m venv $(VENV); } || { \
+	  echo "python-interpreter: could not create $(VENV) (log: /tmp/loomlab-apt-venv.log)" >&2; exit 1; }
+
 ## The Python package (python): a venv in $(VENV), maturin build into the workspace's target
 ## directory (reusing the dependencies rust-test compiled), pytest.
-python-venv:
-	@test -x $(VENV)/bin/python || $(PYTHON) -m venv $(VENV) 2>/dev/null || { \
-	  echo "python-venv: installing python3-venv with apt-get ..."; rm -rf $(VENV); \
-	  $(APT_INSTALL) python3-venv >/tmp/loomlab-apt-venv.log 2>&1 && $(PYTHON) -m venv $(VENV); } || { \
-	  echo "python-venv: could not create $(VENV) (log: /tmp/loomlab-apt-venv.log)" >&2; exit 1; }
+python-venv: python-interpreter
 	@test -e $(VENV)/.loomlab-deps || { echo "python-venv: pip install maturin numpy gymnasium pytest ray[tune] ruff mypy into $(VENV) ..."; \
 	  $(VENV)/bin/python -m pip install -q --disable-pip-version-check --upgrade pip maturin numpy gymnasium pytest "ray[tune]>=2.9" ruff mypy \
 	  && touch $(VENV)/.loomlab-deps; } || { echo "python-venv: pip install failed (see above)" >&2; exit 1; }
@@ -120,15 +131,16 @@ python-env: deps python-venv
 ## python/examples for a few steps. The sweep tests run the `loomlab` binary: built here first.
 python-test: python-env cli
 	cd python && LOOMLAB_BIN=$(BIN) $(abspath $(VENV))/bin/python -m pytest -q
-	$(MAKE) --no-print-directory python-examples
+	$(RUN_EXAMPLES)
 
 ## Smoke-run every example for a few steps (`--smoke`); those whose optional dependency (torch,
 ## stable-baselines3, RLlib) is missing say so and exit 0 after importing everything else.
-python-examples: python-env
-	cd python/examples && for ex in *.py; do \
+RUN_EXAMPLES = cd python/examples && for ex in *.py; do \
 	  case $$ex in _*) continue;; esac; \
 	  echo "== $$ex --smoke"; $(abspath $(VENV))/bin/python $$ex --smoke || exit 1; \
 	done
+python-examples: python-env
+	$(RUN_EXAMPLES)
 
 ## A detector-parameter sweep on a local Ray: `make sweep SWEEP=sweeps/baselines_random.toml`.
 SWEEP ?= sweeps/hopfield_threshold_alpha.toml
