@@ -83,8 +83,8 @@ lint-python: python-env
 	  examples/python_detector.py bench/python_detector_overhead.py tests/test_detectors.py
 
 ## Compile every test binary and the CLI (what CI overlaps with the installs). The binding is in
-## the selection (its lib has no tests: nothing links libpython) so that its dependencies' features
-## are unified with the tests', and maturin reuses what this compiled. `--tests` leaves out the
+## the selection (a cdylib without tests: nothing here compiles it) so that its dependencies'
+## features are unified with the tests', and maturin reuses what this compiled. `--tests` leaves out the
 ## examples (plain `cargo test` would also compile and link them; clippy --all-targets still checks
 ## them in lint).
 TEST_TARGETS = --workspace --tests

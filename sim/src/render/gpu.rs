@@ -15,7 +15,7 @@ pub const LLVMPIPE_THREADS_ENV: &str = "LP_NUM_THREADS";
 /// Most CPUs on which a process that keeps every CPU busy has llvmpipe rasterise on its queue
 /// thread (see [`llvmpipe_threads`]): rendering is about a sixth of a suite run's CPU time, so one
 /// queue thread keeps up with the workers of a few CPUs, not with those of many.
-pub const MAX_CPUS_FOR_QUEUE_RASTERIZER: usize = 4;
+const MAX_CPUS_FOR_QUEUE_RASTERIZER: usize = 4;
 
 /// The [`LLVMPIPE_THREADS_ENV`] value for a process on `cpus` CPUs that runs `several_threads`
 /// (workers, or a vector environment's parallel members) when the user has not set it
@@ -25,7 +25,7 @@ pub const MAX_CPUS_FOR_QUEUE_RASTERIZER: usize = 4;
 /// On llvmpipe every render pass otherwise hands its tiles to llvmpipe's own rasterizer threads,
 /// one per CPU, while the process already keeps every CPU busy: the hand-offs and wake-ups cost
 /// more than they save (default suite, 2 workers on 2 CPUs: 155 → 132 s wall, 244 → 216 s CPU;
-/// the Python vector env, N = 16 at 64²: +14–25 % steps/s; the same pixels). `"0"` has llvmpipe
+/// the Python vector env, N = 16 at 64²: +5–22 % steps/s; the same pixels). `"0"` has llvmpipe
 /// rasterise on its queue thread.
 pub fn llvmpipe_threads(cpus: usize, several_threads: bool, user_set: bool) -> Option<&'static str> {
     (!user_set && several_threads && cpus <= MAX_CPUS_FOR_QUEUE_RASTERIZER).then_some("0")
