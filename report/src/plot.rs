@@ -210,8 +210,7 @@ pub fn line_chart(path: &Path, chart: &LineChart, size: (u32, u32)) -> Result<()
 pub fn line_chart_grid(path: &Path, charts: &[LineChart], cols: usize, panel: (u32, u32)) -> Result<(), PlotError> {
     register_font();
     let size = grid_size(charts.len(), cols, panel);
-    let root = BitMapBackend::new(path, size).into_drawing_area();
-    draw_grid(&root, charts, cols).map_err(|e| err(path, e))
+    write_png(path, size, |root| draw_grid(root, charts, cols))
 }
 
 /// One line chart as SVG text (`<svg …>…</svg>`) of `size` pixels.
@@ -229,6 +228,30 @@ pub fn line_chart_grid_svg(charts: &[LineChart], cols: usize, panel: (u32, u32))
         draw_grid(&root, charts, cols).map_err(|e| err(Path::new("<svg>"), e))?;
     }
     Ok(text)
+}
+
+/// Draws a chart of `size` pixels into an RGB buffer and writes it as a PNG (with the `image`
+/// crate the workspace already uses, not plotters' own encoder, which pulls in a second version of
+/// it: one fewer dependency tree to compile).
+fn write_png(
+    path: &Path,
+    size: (u32, u32),
+    draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, Shift>) -> Result<(), String>,
+) -> Result<(), PlotError> {
+    let mut rgb = vec![0u8; size.0 as usize * size.1 as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
+        draw(&root).map_err(|e| err(path, e))?;
+    }
+    image::save_buffer_with_format(
+        path,
+        &rgb,
+        size.0,
+        size.1,
+        image::ExtendedColorType::Rgb8,
+        image::ImageFormat::Png,
+    )
+    .map_err(|e| err(path, e))
 }
 
 fn grid_size(charts: usize, cols: usize, panel: (u32, u32)) -> (u32, u32) {
@@ -262,8 +285,7 @@ pub fn rate_bars(
     size: (u32, u32),
 ) -> Result<(), PlotError> {
     register_font();
-    let root = BitMapBackend::new(path, size).into_drawing_area();
-    draw_rate_bars(&root, title, categories, series).map_err(|e| err(path, e))
+    write_png(path, size, |root| draw_rate_bars(root, title, categories, series))
 }
 
 /// [`rate_bars`] as SVG text.
