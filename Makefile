@@ -184,16 +184,15 @@ readme-table: cli
 	$(BIN) table $(BASELINE) $(addprefix --update ,$(DOC_TABLES))
 
 ## Everything CI runs. First the installs (apt, pip) run beside the compilation of every test
-## binary, which needs neither; then the lints beside the suite check (both only compute: the
-## lints leave CPU idle that the suite's workers use; each one's output is printed when it ends),
-## then the Rust tests and the Python side, each step's wall time printed ("== make test: STEP
-## took N s").
+## binary, which needs neither; then the lints beside the suite check, then the Rust tests beside
+## the Python side: two at a time, as each leaves CPU idle that the other uses (each one's output
+## is printed when it ends; no test depends on timing). Each step's wall time is printed
+## ("== make test: STEP took N s").
 STEP = @s=$$(date +%s); $(MAKE) --no-print-directory $(1) && echo "== make test: $(1) took $$(( $$(date +%s) - s )) s"
 test:
 	$(call STEP,-j3 deps python-venv rust-build)
 	$(call STEP,-j2 --output-sync=target lint suite-check-built)
-	$(call STEP,rust-test)
-	$(call STEP,python-test)
+	$(call STEP,-j2 --output-sync=target rust-test python-test)
 
 ## RL on the detector signals (issues 17 and 28; docs/tutorial.md §6, the result in docs/results.md).
 ## `make rl-result` trains two PPO policies (stable-baselines3, CPU torch) on
