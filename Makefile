@@ -119,12 +119,13 @@ python-interpreter:
 	  $(APT_INSTALL) python3-venv >/tmp/loomlab-apt-venv.log 2>&1 && $(PYTHON) -m venv $(VENV); } || { \
 	  echo "python-interpreter: could not create $(VENV) (log: /tmp/loomlab-apt-venv.log)" >&2; exit 1; }
 
-## The Python package (python): a venv in $(VENV), maturin build into the workspace's target
-## directory (reusing the dependencies rust-test compiled), pytest.
 # What `make test` installs into the venv; the stamp file records it, so a venv made for an
 # earlier list is completed on the next run. `--no-compile`: Python compiles the modules it
 # imports when it first does, not all of ray's beforehand (35 s of CPU saved beside the build).
 PIP_PACKAGES = pip maturin numpy gymnasium pytest pytest-xdist ray[tune]>=2.9 ruff mypy
+
+## The Python package (python): a venv in $(VENV), maturin build into the workspace's target
+## directory (reusing the dependencies rust-test compiled), pytest.
 python-venv: python-interpreter
 	@test "$$(cat $(VENV)/.loomlab-deps 2>/dev/null)" = '$(PIP_PACKAGES)' || { echo 'python-venv: pip install $(PIP_PACKAGES) into $(VENV) ...'; \
 	  $(VENV)/bin/python -m pip install -q --no-compile --disable-pip-version-check --upgrade $(foreach p,$(PIP_PACKAGES),'$(p)') \
