@@ -5,9 +5,11 @@
 - loomlab: physics + ground truth + render + readback of a plane-and-sphere scene (the
   `render_bench` example of loomlab-sim: a checkered ground, the sky, one ball thrown at the
   camera while the robot drives), one view per submission (`batch 1`) and B views per submission
-  (`Sim::step_batch`, `batch B`); device and pipeline creation are not timed;
-  and, on Mesa's lavapipe, the batched run again with `LP_NUM_THREADS=0` (llvmpipe rasterises on its
-  queue thread instead of waking worker threads for every 64x64 tile: a Mesa setting, same pixels);
+  (`Sim::step_batch`, `batch B`, the batch's physics in groups overlapping the previous group's
+  rendering); device and pipeline creation are not timed. A batched run on Mesa's lavapipe with at
+  most 4 CPUs sets `LP_NUM_THREADS=0` as `loomlab run` does (llvmpipe rasterises on its queue
+  thread, beside the stepping thread); the batched run is timed again with llvmpipe's own default,
+  one rasterizer thread per CPU (`LPn`; a Mesa setting, same pixels);
 - pybullet: `stepSimulation()` + `getCameraImage(n, n, renderer=ER_TINY_RENDERER)` of a plane and
   a sphere (pybullet's CPU software rasterizer; the connection and the scene set-up not timed).
 
@@ -129,8 +131,9 @@ def main(argv: list[str] | None = None) -> int:
                 sps, _ = loomlab_steps_per_s(args.baseline_binary, n, 1, args.seconds)
                 results.setdefault(("baseline batch 1", n), []).append(sps)
             if "llvmpipe" in adapter and "LP_NUM_THREADS" not in os.environ:
-                sps, _ = loomlab_steps_per_s(args.bench_binary, n, args.batch, args.seconds, {"LP_NUM_THREADS": "0"})
-                results.setdefault((f"loomlab batch {args.batch} LP0", n), []).append(sps)
+                threads = {"LP_NUM_THREADS": str(os.cpu_count() or 1)}
+                sps, _ = loomlab_steps_per_s(args.bench_binary, n, args.batch, args.seconds, threads)
+                results.setdefault((f"loomlab batch {args.batch} LPn", n), []).append(sps)
             if peer is not None:
                 results.setdefault(("pybullet TinyRenderer", n), []).append(peer.steps_per_s(n, args.seconds))
     print(f"loomlab adapter: {adapter}")
@@ -138,7 +141,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'':24}" + "".join(f"{f'{n}x{n} steps/s':>18}{'ratio':>8}" for n in sizes))
     rows = ["baseline batch 1"] if args.baseline_binary is not None else []
     rows += [f"loomlab batch {b}" for b in batches]
-    rows += [r for r in (f"loomlab batch {args.batch} LP0",) if (r, sizes[0]) in results]
+    rows += [r for r in (f"loomlab batch {args.batch} LPn",) if (r, sizes[0]) in results]
     rows += ["pybullet TinyRenderer"] if peer is not None else []
     for row in rows:
         line = f"{row:24}"
@@ -148,8 +151,8 @@ def main(argv: list[str] | None = None) -> int:
             ratio = f"{med / peer_med:7.2f}x" if peer_med else "     n/a"
             line += f"{med:18.0f}{ratio:>8}"
         print(line)
-    if any(r.endswith("LP0") for r in rows):
-        print("LP0: the same with LP_NUM_THREADS=0 (Mesa's llvmpipe rasterises on its queue thread)")
+    if any(r.endswith("LPn") for r in rows):
+        print(f"LPn: the same with LP_NUM_THREADS={os.cpu_count()} (llvmpipe's default: a rasterizer thread per CPU)")
     if peer is None:
         print("(ratio: pybullet not installed)")
     return 0

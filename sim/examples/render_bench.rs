@@ -7,6 +7,8 @@
 //! for the B views) for about S seconds of wall time after a warm-up (device and pipeline creation,
 //! the first frames: the start-up is not timed) and prints one JSON line:
 //! `{"n": .., "batch": .., "steps": .., "seconds": .., "steps_per_s": .., "adapter": ".."}`.
+//! With B > 1 on lavapipe it sets `LP_NUM_THREADS` as `loomlab run` does (unless it is set:
+//! `loomlab_sim::render::llvmpipe_threads`).
 //!
 //! The `plane_sphere` scene is the peer's: a ground plane (checkered), the sky and one sphere thrown
 //! at the camera while the robot drives forward; each simulator starts over every 3 s of simulated
@@ -14,6 +16,7 @@
 
 use std::time::Instant;
 
+use loomlab_sim::render::{LLVMPIPE_THREADS_ENV, llvmpipe_threads};
 use loomlab_sim::{Command, GpuContext, Renderer, Sim, WorldDesc};
 
 const PLANE_SPHERE: &str = r#"
@@ -70,6 +73,14 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         other => return Err(format!("unknown scene {other:?}: plane_sphere or demo").into()),
     };
     desc.camera.n = n;
+    // The rule of `loomlab run` for lavapipe: a batched step keeps two threads busy (this one
+    // stepping physics while lavapipe's queue thread renders the previous group of views).
+    let cpus = std::thread::available_parallelism().map_or(1, |c| c.get());
+    let user_set = std::env::var_os(LLVMPIPE_THREADS_ENV).is_some();
+    if let Some(value) = llvmpipe_threads(cpus, batch > 1, user_set) {
+        // SAFETY: no other thread exists yet, so nothing reads the environment concurrently.
+        unsafe { std::env::set_var(LLVMPIPE_THREADS_ENV, value) };
+    }
     let ctx = GpuContext::new()?;
     let mut renderer = Renderer::with_context(ctx.clone(), n)?;
     let mut sims = Vec::with_capacity(batch);

@@ -30,7 +30,7 @@ use crate::camera::Camera;
 use crate::dynamics::{BodyVelocity, PhysicsMode, track_velocity};
 use crate::glam::{DVec3, Vec3};
 use crate::object::ObjectSpec;
-use crate::render::{FrameDesc, GpuContext, RenderInstance, Renderer, frame_to_u8};
+use crate::render::{FrameDesc, GpuContext, PendingViews, RenderInstance, Renderer, frame_to_u8};
 use crate::robot::{Command, RobotState};
 use crate::shape::{AngularPrimitive, collider_shape};
 use crate::trajectory::{Motion, PlacedShape, Pose64, Segment, Trajectory, time_of_impact};
@@ -470,11 +470,20 @@ impl Sim {
         for c in commands {
             c.validate()?;
         }
+        // In groups: the device renders one group's views while this thread steps the next
+        // group's physics (each simulator's steps and view are independent of the others').
+        let group = pipeline_group(sims.len(), renderer.max_batch());
         let mut contacts = Vec::with_capacity(sims.len());
-        for (sim, command) in sims.iter_mut().zip(commands) {
-            contacts.push(sim.advance(command)?);
+        let mut pending = Vec::with_capacity(sims.len().div_ceil(group.max(1)));
+        for (sims, commands) in sims.chunks_mut(group).zip(commands.chunks(group)) {
+            for (sim, command) in sims.iter_mut().zip(commands) {
+                contacts.push(sim.advance(command)?);
+            }
+            pending.push(Self::submit_views(sims, renderer)?);
         }
-        Self::render_views(sims, renderer)?;
+        for (sims, views) in sims.chunks_mut(group).zip(pending) {
+            Self::collect_views(sims, renderer, views)?;
+        }
         Ok(sims.iter().zip(contacts).map(|(sim, c)| sim.output(c)).collect())
     }
 
@@ -498,14 +507,30 @@ impl Sim {
 
     /// Renders the current views of `sims` in one batch into their frames.
     fn render_views(sims: &mut [&mut Sim], renderer: &mut Renderer) -> Result<(), SimError> {
+        let group = renderer.max_batch();
+        let mut pending = Vec::with_capacity(sims.len().div_ceil(group));
+        for sims in sims.chunks_mut(group) {
+            pending.push(Self::submit_views(sims, renderer)?);
+        }
+        for (sims, views) in sims.chunks_mut(group).zip(pending) {
+            Self::collect_views(sims, renderer, views)?;
+        }
+        Ok(())
+    }
+
+    /// Submits the current views of `sims` (at most [`Renderer::max_batch`]) for rendering.
+    fn submit_views(sims: &mut [&mut Sim], renderer: &mut Renderer) -> Result<PendingViews, SimError> {
         for sim in sims.iter_mut() {
             sim.prepare_instances();
         }
+        let descs: Vec<FrameDesc<'_>> = sims.iter().map(|s| s.frame_desc()).collect();
+        renderer.submit_batch(&descs)
+    }
+
+    /// Reads the views of [`Sim::submit_views`] back into the simulators' frames.
+    fn collect_views(sims: &mut [&mut Sim], renderer: &mut Renderer, views: PendingViews) -> Result<(), SimError> {
         let mut outs: Vec<Vec<f32>> = sims.iter_mut().map(|s| std::mem::take(&mut s.frame)).collect();
-        let result = {
-            let descs: Vec<FrameDesc<'_>> = sims.iter().map(|s| s.frame_desc()).collect();
-            renderer.render_batch(&descs, &mut outs)
-        };
+        let result = renderer.collect_batch(views, &mut outs);
         for (sim, out) in sims.iter_mut().zip(outs) {
             sim.frame = out;
         }
@@ -1155,4 +1180,22 @@ fn cannot_reach(seg: &Segment, robot_radius: f64, center: DVec3, radius: f64, ho
         }
         Motion::Braking { .. } | Motion::Ballistic { .. } => false,
     }
+}
+
+/// Groups a large batch of [`Sim::step_batch`] is split into: the device renders one group's views
+/// while the stepping thread advances the next group's physics. On lavapipe with `LP_NUM_THREADS=0`
+/// (its queue thread rasterises) a batch of 64 views at 64² went from ~6 000 to ~6 900 steps/s
+/// (`render_bench`, medians of 3 alternating runs on 2 CPUs; docs/benchmarks.md).
+const PIPELINE_GROUPS: usize = 4;
+
+/// The fewest views a group of [`Sim::step_batch`] has: each submission costs a wait and a map, so
+/// small batches stay whole (splitting the default suite's closed-loop tails, a few views each, into
+/// groups made the suite ~15 s slower).
+const MIN_GROUP_VIEWS: usize = 8;
+
+/// How many of a batch's `views` [`Sim::step_batch`] submits together: up to [`PIPELINE_GROUPS`]
+/// groups of at least [`MIN_GROUP_VIEWS`], each at most `max_batch` views (the renderer's limit).
+fn pipeline_group(views: usize, max_batch: usize) -> usize {
+    let groups = (views / MIN_GROUP_VIEWS).clamp(1, PIPELINE_GROUPS);
+    views.div_ceil(groups).clamp(1, max_batch.max(1))
 }

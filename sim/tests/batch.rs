@@ -69,6 +69,9 @@ fn batches_of_changing_size_and_frame_sizes_stay_bit_identical() {
     // 1, then 9 views (the target grows), at another frame size
     check_batch_equals_single(96, 1, 3);
     check_batch_equals_single(96, 9, 4);
+    // 17 views: stepped and rendered in two groups, the second group's physics beside the first
+    // group's rendering
+    check_batch_equals_single(48, 17, 3);
 }
 
 #[test]
@@ -154,4 +157,55 @@ fn captured_views_rendered_in_one_batch_equal_the_frames_of_each_step() {
             "frame {k}"
         );
     }
+}
+
+#[test]
+fn batches_in_flight_together_each_equal_their_views_rendered_alone() {
+    let desc = parse(STREET);
+    let n = desc.camera.n;
+    let mut physics = Sim::new_physics_only(&desc, 5).unwrap();
+    let cmd = Command::forward(1.2);
+    let views: Vec<_> = (0..9)
+        .map(|_| {
+            physics.step(&cmd).unwrap();
+            physics.capture_view()
+        })
+        .collect();
+    let descs: Vec<_> = views.iter().map(|v| v.desc()).collect();
+    let mut alone_renderer = Renderer::new(n).unwrap();
+    let alone: Vec<Vec<f32>> = descs
+        .iter()
+        .map(|d| {
+            let mut out = Vec::new();
+            alone_renderer.render(d, &mut out).unwrap();
+            out
+        })
+        .collect();
+    // three batches in flight at once; the second one is larger than any before it (the target
+    // grows while the first is still being rendered)
+    let mut renderer = Renderer::new(n).unwrap();
+    let first = renderer.submit_batch(&descs[..2]).unwrap();
+    let second = renderer.submit_batch(&descs[2..7]).unwrap();
+    let third = renderer.submit_batch(&descs[7..]).unwrap();
+    let mut got = vec![Vec::new(); descs.len()];
+    // collected out of order
+    renderer.collect_batch(second, &mut got[2..7]).unwrap();
+    renderer.collect_batch(third, &mut got[7..]).unwrap();
+    renderer.collect_batch(first, &mut got[..2]).unwrap();
+    for (k, (a, b)) in alone.iter().zip(&got).enumerate() {
+        assert_eq!(a.len(), (n * n) as usize);
+        assert!(
+            a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()),
+            "view {k}"
+        );
+    }
+    assert_eq!(renderer.timings().submissions, 3);
+    // bad calls are errors
+    let err = renderer.submit_batch(&[]).unwrap_err();
+    assert!(err.to_string().contains("1..="), "{err}");
+    let too_many = vec![descs[0]; renderer.max_batch() + 1];
+    assert!(renderer.submit_batch(&too_many).is_err());
+    let pending = renderer.submit_batch(&descs[..2]).unwrap();
+    let err = renderer.collect_batch(pending, &mut got[..1]).unwrap_err();
+    assert!(err.to_string().contains("one per submitted view"), "{err}");
 }

@@ -18,7 +18,8 @@ pub const LLVMPIPE_THREADS_ENV: &str = "LP_NUM_THREADS";
 const MAX_CPUS_FOR_QUEUE_RASTERIZER: usize = 4;
 
 /// The [`LLVMPIPE_THREADS_ENV`] value for a process on `cpus` CPUs that runs `several_threads`
-/// (workers, or a vector environment's parallel members) when the user has not set it
+/// (workers, a vector environment's parallel members, or batched steps, whose physics runs while
+/// lavapipe's queue thread renders: [`crate::Sim::step_batch`]) when the user has not set it
 /// (`user_set`); `None`: leave it alone. Read before the first [`GpuContext`] is created: `loomlab
 /// run` sets it in `main`, the Python package when it is imported.
 ///

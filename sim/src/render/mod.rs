@@ -5,4 +5,6 @@ mod mesh;
 mod renderer;
 
 pub use gpu::{ADAPTER_ENV, GpuContext, LLVMPIPE_THREADS_ENV, llvmpipe_threads};
-pub use renderer::{FrameDesc, MAX_BATCH, RenderInstance, RenderTimings, Renderer, frame_to_u8, padded_bytes_per_row};
+pub use renderer::{
+    FrameDesc, MAX_BATCH, PendingViews, RenderInstance, RenderTimings, Renderer, frame_to_u8, padded_bytes_per_row,
+};

@@ -5,6 +5,8 @@
 //! instances), so a view's pixels do not depend on the batch it is in. All GPU resources are
 //! created once and reused; the array and the buffers grow when a batch is larger than any before
 //! it (up to what the device allows: larger batches are split into several submissions).
+//! [`Renderer::submit_batch`] and [`Renderer::collect_batch`] split a batch in time: the device
+//! renders the submitted views while the caller goes on (one readback buffer per batch in flight).
 
 use std::collections::HashMap;
 use std::ops::Range;
@@ -252,7 +254,9 @@ pub struct Renderer {
     color: wgpu::Texture,
     layer_views: Vec<wgpu::TextureView>,
     depth_view: wgpu::TextureView,
-    readback: wgpu::Buffer,
+    /// Readback buffers of `layers` views not in use by a submission in flight (one per batch
+    /// in flight: a buffer being mapped cannot be the target of the next batch's copy).
+    readbacks: Vec<Readback>,
     globals: wgpu::Buffer,
     bgl: wgpu::BindGroupLayout,
     bind_group: wgpu::BindGroup,
@@ -269,8 +273,30 @@ pub struct Renderer {
     /// Per view: its draws `(stage, texture kind, first instance, count)` are `groups[range]`.
     groups: Vec<(Stage, u32, u32, u32)>,
     view_groups: Vec<(Range<usize>, u32)>,
-    map_state: Arc<AtomicU8>,
     timings: RenderTimings,
+}
+
+/// A readback buffer and the state of its mapping (0: pending, 1: mapped, 2: failed).
+struct Readback {
+    buffer: wgpu::Buffer,
+    state: Arc<AtomicU8>,
+}
+
+/// Views submitted by [`Renderer::submit_batch`] and not yet read back: the device renders them
+/// while the caller goes on (steps the next simulators' physics, encodes the next batch);
+/// [`Renderer::collect_batch`] waits for them and copies their pixels out. Dropping it without
+/// collecting discards the views.
+#[must_use = "collect the views with Renderer::collect_batch"]
+pub struct PendingViews {
+    readback: Readback,
+    views: usize,
+    index: wgpu::SubmissionIndex,
+}
+
+impl std::fmt::Debug for PendingViews {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PendingViews").field("views", &self.views).finish()
+    }
 }
 
 /// Cumulative wall-clock time spent in the phases of [`Renderer::render`] and
@@ -304,7 +330,6 @@ impl std::fmt::Debug for Renderer {
 struct LayerResources {
     color: wgpu::Texture,
     layer_views: Vec<wgpu::TextureView>,
-    readback: wgpu::Buffer,
     globals: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
 }
@@ -378,7 +403,7 @@ impl Renderer {
             }],
         });
         let layers = 1;
-        let res = Self::layer_resources(device, &bgl, n, padded_bpr, globals_stride, layers);
+        let res = Self::layer_resources(device, &bgl, n, globals_stride, layers);
         let mut verts = mesh::cube();
         let cube = 0..verts.len() as u32;
         verts.extend(mesh::cylinder());
@@ -415,7 +440,7 @@ impl Renderer {
             color: res.color,
             layer_views: res.layer_views,
             depth_view: depth.create_view(&wgpu::TextureViewDescriptor::default()),
-            readback: res.readback,
+            readbacks: Vec::new(),
             globals: res.globals,
             bgl,
             bind_group: res.bind_group,
@@ -431,7 +456,6 @@ impl Renderer {
             order: Vec::with_capacity(capacity),
             groups: Vec::new(),
             view_groups: Vec::new(),
-            map_state: Arc::new(AtomicU8::new(0)),
             timings: RenderTimings::default(),
             ctx,
         })
@@ -441,7 +465,6 @@ impl Renderer {
         device: &wgpu::Device,
         bgl: &wgpu::BindGroupLayout,
         n: u32,
-        padded_bpr: u32,
         globals_stride: u64,
         layers: u32,
     ) -> LayerResources {
@@ -470,12 +493,6 @@ impl Renderer {
                 })
             })
             .collect();
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: u64::from(padded_bpr) * u64::from(n) * u64::from(layers),
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
         let globals = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("globals"),
             size: globals_stride * u64::from(layers),
@@ -497,7 +514,6 @@ impl Renderer {
         LayerResources {
             color,
             layer_views,
-            readback,
             globals,
             bind_group,
         }
@@ -509,20 +525,19 @@ impl Renderer {
             return;
         }
         let layers = views.next_power_of_two().min(self.max_layers).max(views);
-        let res = Self::layer_resources(
-            &self.ctx.device,
-            &self.bgl,
-            self.n,
-            self.padded_bpr,
-            self.globals_stride,
-            layers,
-        );
+        let res = Self::layer_resources(&self.ctx.device, &self.bgl, self.n, self.globals_stride, layers);
         self.color = res.color;
         self.layer_views = res.layer_views;
-        self.readback = res.readback;
+        // buffers of the old size still in flight are dropped when collected
+        self.readbacks.clear();
         self.globals = res.globals;
         self.bind_group = res.bind_group;
         self.layers = layers;
+    }
+
+    /// Bytes of a readback buffer for `layers` views.
+    fn readback_bytes(&self) -> u64 {
+        u64::from(self.padded_bpr) * u64::from(self.n) * u64::from(self.layers)
     }
 
     fn instance_buffer(device: &wgpu::Device, capacity: usize) -> wgpu::Buffer {
@@ -575,9 +590,138 @@ impl Renderer {
             ));
         }
         let chunk = self.max_layers as usize;
-        for (frames, outs) in frames.chunks(chunk).zip(outs.chunks_mut(chunk)) {
-            self.render_chunk(frames, outs)?;
+        let mut pending = Vec::with_capacity(frames.len().div_ceil(chunk));
+        for frames in frames.chunks(chunk) {
+            pending.push(self.submit_batch(frames)?);
         }
+        for (views, outs) in pending.into_iter().zip(outs.chunks_mut(chunk)) {
+            self.collect_batch(views, outs)?;
+        }
+        Ok(())
+    }
+
+    /// Submits `frames` (1 to [`Self::max_batch`] views) for rendering and returns at once; the
+    /// device renders them while the caller goes on, and [`Renderer::collect_batch`] reads them
+    /// back. Several batches may be in flight (they are rendered in submission order); each view's
+    /// pixels are those [`Renderer::render`] gives. This is how [`crate::Sim::step_batch`]
+    /// overlaps one group's physics with the previous group's rendering.
+    pub fn submit_batch(&mut self, frames: &[FrameDesc<'_>]) -> Result<PendingViews, SimError> {
+        if frames.is_empty() || frames.len() > self.max_layers as usize {
+            return Err(SimError::invalid(
+                "submit_batch frames",
+                frames.len(),
+                format!("must be 1..={} views (Renderer::max_batch)", self.max_layers),
+            ));
+        }
+        let t_start = std::time::Instant::now();
+        self.ensure_layers(frames.len() as u32);
+        let readback = self.readbacks.pop().unwrap_or_else(|| Readback {
+            buffer: self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("readback"),
+                size: self.readback_bytes(),
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            }),
+            state: Arc::new(AtomicU8::new(0)),
+        });
+        let cmd = self.encode(frames, &readback.buffer);
+        let t_encoded = std::time::Instant::now();
+        let index = self.ctx.queue.submit(Some(cmd));
+        let t_submitted = std::time::Instant::now();
+        let bytes = u64::from(self.padded_bpr) * u64::from(self.n) * frames.len() as u64;
+        readback.state.store(0, Ordering::Release);
+        let state = Arc::clone(&readback.state);
+        readback.buffer.slice(..bytes).map_async(wgpu::MapMode::Read, move |r| {
+            state.store(if r.is_ok() { 1 } else { 2 }, Ordering::Release);
+        });
+        let tm = &mut self.timings;
+        tm.submissions += 1;
+        tm.encode_s += (t_encoded - t_start).as_secs_f64();
+        tm.submit_s += (t_submitted - t_encoded).as_secs_f64();
+        Ok(PendingViews {
+            readback,
+            views: frames.len(),
+            index,
+        })
+    }
+
+    /// Waits for the views of a [`Renderer::submit_batch`] and writes them to `outs` (one per
+    /// view, each resized to n·n, as [`Renderer::render`] writes it).
+    pub fn collect_batch(&mut self, pending: PendingViews, outs: &mut [Vec<f32>]) -> Result<(), SimError> {
+        if outs.len() != pending.views {
+            return Err(SimError::invalid(
+                "collect_batch outputs",
+                outs.len(),
+                format!("must be one per submitted view ({} submitted)", pending.views),
+            ));
+        }
+        let t_start = std::time::Instant::now();
+        let device = &self.ctx.device;
+        let PendingViews { readback, views, index } = pending;
+        device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(index),
+                timeout: None,
+            })
+            .map_err(|e| SimError::Gpu {
+                during: "waiting for the frame",
+                reason: e.to_string(),
+            })?;
+        // The callback runs during some poll; if the submission finished before the map was queued, poll
+        // again. With several renderers on one device (parallel episodes), another thread's poll may be
+        // the one that runs our callback, a moment after our own poll returned: wait for it (bounded).
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+        while readback.state.load(Ordering::Acquire) == 0 && std::time::Instant::now() < deadline {
+            device
+                .poll(wgpu::PollType::wait_indefinitely())
+                .map_err(|e| SimError::Gpu {
+                    during: "mapping the readback buffer",
+                    reason: e.to_string(),
+                })?;
+            if readback.state.load(Ordering::Acquire) == 0 {
+                std::thread::yield_now();
+            }
+        }
+        if readback.state.load(Ordering::Acquire) != 1 {
+            return Err(SimError::Gpu {
+                during: "mapping the readback buffer",
+                reason: "map_async failed".into(),
+            });
+        }
+        let t_waited = std::time::Instant::now();
+        let n = self.n as usize;
+        let bpr = self.padded_bpr as usize;
+        {
+            let view = readback
+                .buffer
+                .get_mapped_range(..(bpr * n * views) as u64)
+                .map_err(|e| SimError::Gpu {
+                    during: "reading back the frame",
+                    reason: e.to_string(),
+                })?;
+            for (v, out) in outs.iter_mut().enumerate() {
+                out.clear();
+                out.reserve(n * n);
+                let base = v * bpr * n;
+                for row in 0..n {
+                    let bytes = &view[base + row * bpr..base + row * bpr + n * 4];
+                    out.extend(
+                        bytes
+                            .chunks_exact(4)
+                            .map(|b| f32::from_ne_bytes([b[0], b[1], b[2], b[3]])),
+                    );
+                }
+            }
+        }
+        readback.buffer.unmap();
+        if readback.buffer.size() == self.readback_bytes() {
+            self.readbacks.push(readback);
+        }
+        let t_end = std::time::Instant::now();
+        let tm = &mut self.timings;
+        tm.frames += views as u64;
+        tm.wait_s += (t_waited - t_start).as_secs_f64();
+        tm.readback_s += (t_end - t_waited).as_secs_f64();
         Ok(())
     }
 
@@ -653,15 +797,10 @@ impl Renderer {
         self.view_groups.push((first_group..self.groups.len(), ground_kind));
     }
 
-    /// One submission: at most `max_layers` views.
-    fn render_chunk(&mut self, frames: &[FrameDesc<'_>], outs: &mut [Vec<f32>]) -> Result<(), SimError> {
-        let n = self.n as usize;
+    /// Uploads the views' globals and instances and encodes their passes and the copy of their
+    /// layers into `readback` (at most `layers` views).
+    fn encode(&mut self, frames: &[FrameDesc<'_>], readback: &wgpu::Buffer) -> wgpu::CommandBuffer {
         let views = frames.len();
-        if views == 0 {
-            return Ok(());
-        }
-        let t_start = std::time::Instant::now();
-        self.ensure_layers(views as u32);
         self.scratch.clear();
         self.groups.clear();
         self.view_groups.clear();
@@ -748,7 +887,7 @@ impl Renderer {
                 aspect: wgpu::TextureAspect::All,
             },
             wgpu::TexelCopyBufferInfo {
-                buffer: &self.readback,
+                buffer: readback,
                 layout: wgpu::TexelCopyBufferLayout {
                     offset: 0,
                     bytes_per_row: Some(self.padded_bpr),
@@ -761,77 +900,7 @@ impl Renderer {
                 depth_or_array_layers: views as u32,
             },
         );
-        let cmd = encoder.finish();
-        let t_encoded = std::time::Instant::now();
-        let index = queue.submit(Some(cmd));
-        let t_submitted = std::time::Instant::now();
-        let bytes = u64::from(self.padded_bpr) * self.n as u64 * views as u64;
-        self.map_state.store(0, Ordering::Release);
-        let state = Arc::clone(&self.map_state);
-        self.readback.slice(..bytes).map_async(wgpu::MapMode::Read, move |r| {
-            state.store(if r.is_ok() { 1 } else { 2 }, Ordering::Release);
-        });
-        device
-            .poll(wgpu::PollType::Wait {
-                submission_index: Some(index),
-                timeout: None,
-            })
-            .map_err(|e| SimError::Gpu {
-                during: "waiting for the frame",
-                reason: e.to_string(),
-            })?;
-        // The callback runs during some poll; if the submission finished before the map was queued, poll
-        // again. With several renderers on one device (parallel episodes), another thread's poll may be
-        // the one that runs our callback, a moment after our own poll returned: wait for it (bounded).
-        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
-        while self.map_state.load(Ordering::Acquire) == 0 && std::time::Instant::now() < deadline {
-            device
-                .poll(wgpu::PollType::wait_indefinitely())
-                .map_err(|e| SimError::Gpu {
-                    during: "mapping the readback buffer",
-                    reason: e.to_string(),
-                })?;
-            if self.map_state.load(Ordering::Acquire) == 0 {
-                std::thread::yield_now();
-            }
-        }
-        if self.map_state.load(Ordering::Acquire) != 1 {
-            return Err(SimError::Gpu {
-                during: "mapping the readback buffer",
-                reason: "map_async failed".into(),
-            });
-        }
-        let t_waited = std::time::Instant::now();
-        {
-            let view = self.readback.get_mapped_range(..bytes).map_err(|e| SimError::Gpu {
-                during: "reading back the frame",
-                reason: e.to_string(),
-            })?;
-            let bpr = self.padded_bpr as usize;
-            for (v, out) in outs.iter_mut().enumerate() {
-                out.clear();
-                out.reserve(n * n);
-                let base = v * bpr * n;
-                for row in 0..n {
-                    let bytes = &view[base + row * bpr..base + row * bpr + n * 4];
-                    out.extend(
-                        bytes
-                            .chunks_exact(4)
-                            .map(|b| f32::from_ne_bytes([b[0], b[1], b[2], b[3]])),
-                    );
-                }
-            }
-        }
-        self.readback.unmap();
-        let t_end = std::time::Instant::now();
-        let tm = &mut self.timings;
-        tm.frames += views as u64;
-        tm.submissions += 1;
-        tm.encode_s += (t_encoded - t_start).as_secs_f64();
-        tm.submit_s += (t_submitted - t_encoded).as_secs_f64();
-        tm.wait_s += (t_waited - t_submitted).as_secs_f64();
-        tm.readback_s += (t_end - t_waited).as_secs_f64();
-        Ok(())
+        encoder.finish()
     }
 }
 
