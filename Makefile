@@ -9,7 +9,7 @@ PYTHON ?= python3
 # Mesa's Vulkan loader complains on every device creation when XDG_RUNTIME_DIR is unset (CI, containers).
 export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 $$d && echo $$d)
 
-.PHONY: run cli test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-interpreter python-venv python-env python-examples suite-check suite-check-built sweep bless readme-table bench bench-python bench-peer figures fmt rl-env rl-train rl-train-detectors rl-train-privileged rl-table rl-table-docs rl-result
+.PHONY: run cli test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-interpreter python-venv python-env python-examples suite-check sweep bless readme-table bench bench-python bench-peer figures fmt rl-env rl-train rl-train-detectors rl-train-privileged rl-table rl-table-docs rl-result
 
 # One build for everything that runs code: `make run`, the tests, the suite check, the Python
 # binding and the sweep tests all use the release profile of one workspace (one Cargo.lock, the
@@ -25,6 +25,12 @@ BIN = $(TARGET_DIR)/$(PROFILE)/loomlab
 
 # Test harnesses compiled without optimisation (except the detector's): .ci/rustc-wrapper.
 export RUSTC_WORKSPACE_WRAPPER ?= $(CURDIR)/.ci/rustc-wrapper
+
+# PREBUILT=1 (set by `make test` after its build step): the test and check targets below leave out
+# their build prerequisites (cli, python-env) and run what was built. Then none of them calls
+# cargo except clippy, rustdoc and the doc tests, so they can all run at once: cargo holds a build
+# lock for the whole command, and clippy holds it for minutes.
+BUILT = $(if $(PREBUILT),,$(1))
 
 # pyo3's build configuration, the same in every cargo call as in maturin's build of the binding
 # (which sets these itself): any difference makes cargo compile pyo3, numpy and the binding again,
@@ -78,7 +84,7 @@ lint-rust: python-venv check-features
 	$(CARGO) clippy $(CARGO_PROFILE) --workspace --all-targets -- -D warnings
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc $(CARGO_PROFILE) --workspace --no-deps --lib
 
-lint-python: python-env
+lint-python: $(call BUILT,python-env)
 	$(VENV)/bin/ruff check python
 	$(VENV)/bin/ruff format --check python
 	cd python && $(abspath $(VENV))/bin/python -m mypy.stubtest loomlab._native --allowlist stubtest-allowlist.txt
@@ -90,14 +96,20 @@ lint-python: python-env
 ## features are unified with the tests', and maturin reuses what this compiled. `--tests` leaves out the
 ## examples (plain `cargo test` would also compile and link them; clippy --all-targets still checks
 ## them in lint).
+## It also lists the test binaries (.ci/test-binaries.py) for `rust-test` with PREBUILT=1.
 TEST_TARGETS = --workspace --tests
+TEST_LIST = $(TARGET_DIR)/$(PROFILE)/loomlab-test-binaries.txt
 rust-build: python-interpreter
 	$(CARGO) test $(CARGO_PROFILE) $(TEST_TARGETS) --no-run
 	$(CARGO) build $(CARGO_PROFILE) --workspace --bins
+	$(CARGO) test $(CARGO_PROFILE) $(TEST_TARGETS) --no-run -q --message-format=json | $(PYTHON) .ci/test-binaries.py > $(TEST_LIST)
 
-## All Rust tests (unit and integration, then the doc tests).
-rust-test: deps python-interpreter
-	$(CARGO) test $(CARGO_PROFILE) $(TEST_TARGETS)
+## All Rust tests (unit and integration, then the doc tests). With PREBUILT=1 the unit and
+## integration test binaries run from rust-build's list, each in its package's directory as
+## `cargo test` runs them, with no cargo call (the doc tests are compiled now: they wait for the lock).
+RUN_TEST_LIST = while IFS=$$'\t' read -r dir exe; do echo "     Running $$exe"; (cd "$$dir" && "$$exe") || exit 1; done < $(TEST_LIST)
+rust-test: $(call BUILT,deps python-interpreter)
+	$(if $(PREBUILT),$(RUN_TEST_LIST),$(CARGO) test $(CARGO_PROFILE) $(TEST_TARGETS))
 	$(CARGO) test $(CARGO_PROFILE) --workspace --doc
 
 ## The binding alone (maturin's build) must resolve the same dependency features as the workspace's
@@ -140,7 +152,7 @@ python-env: deps python-venv
 ## python/examples for a few steps. The sweep tests run the `loomlab` binary: built here first.
 ## pytest runs one process per CPU (pytest-xdist), each test file in one process (its fixtures
 ## are shared by its tests): 73 s -> 48 s on 2 CPUs.
-python-test: python-env cli
+python-test: $(call BUILT,python-env cli)
 	cd python && LOOMLAB_BIN=$(BIN) $(abspath $(VENV))/bin/python -m pytest -q -n auto --dist loadfile
 	$(RUN_EXAMPLES)
 
@@ -162,12 +174,7 @@ sweep: python-env
 ## regression; tolerances in scenarios/README.md).
 BASELINE ?= scenarios/baseline/default-report.json
 SUITE_CHECK = $(BIN) run --out out/suite-check --overwrite --baseline $(BASELINE) --brief --no-plots --no-html
-suite-check: deps cli
-	$(SUITE_CHECK)
-
-# `make test`'s suite check, beside the lints: the binary is rust-build's, and no cargo call here
-# (clippy, beside it, holds cargo's build lock for minutes).
-suite-check-built:
+suite-check: $(call BUILT,deps cli)
 	$(SUITE_CHECK)
 
 ## Re-run the default suite and make its report the new baseline (after an intended change), then
@@ -185,15 +192,14 @@ readme-table: cli
 	$(BIN) table $(BASELINE) $(addprefix --update ,$(DOC_TABLES))
 
 ## Everything CI runs. First the installs (apt, pip) run beside the compilation of every test
-## binary, which needs neither; then the lints beside the suite check, then the Rust tests beside
-## the Python side: two at a time, as each leaves CPU idle that the other uses (each one's output
-## is printed when it ends; no test depends on timing). Each step's wall time is printed
-## ("== make test: STEP took N s").
+## binary, which needs neither, then the binding (maturin) and the CLI; then, all at once, the
+## lints, the suite check, the Rust tests and the Python side (PREBUILT=1: nothing rebuilt): each
+## leaves CPU idle that the others use (each one's output is printed when it ends; no test depends
+## on timing). Each step's wall time is printed ("== make test: STEP took N s").
 STEP = @s=$$(date +%s); $(MAKE) --no-print-directory $(1) && echo "== make test: $(1) took $$(( $$(date +%s) - s )) s"
 test:
-	$(call STEP,-j3 deps python-venv rust-build)
-	$(call STEP,-j2 --output-sync=target lint suite-check-built)
-	$(call STEP,-j2 --output-sync=target rust-test python-test)
+	$(call STEP,-j3 deps python-venv rust-build python-env)
+	$(call STEP,-j4 --output-sync=target PREBUILT=1 lint suite-check rust-test python-test)
 
 ## RL on the detector signals (issues 17 and 28; docs/tutorial.md §6, the result in docs/results.md).
 ## `make rl-result` trains two PPO policies (stable-baselines3, CPU torch) on
