@@ -474,16 +474,10 @@ impl Sim {
         // group's physics (each simulator's steps and view are independent of the others').
         let group = pipeline_group(sims.len(), renderer.max_batch());
         let mut contacts = Vec::with_capacity(sims.len());
-        let mut pending = Vec::with_capacity(sims.len().div_ceil(group.max(1)));
-        for (sims, commands) in sims.chunks_mut(group).zip(commands.chunks(group)) {
-            for (sim, command) in sims.iter_mut().zip(commands) {
-                contacts.push(sim.advance(command)?);
-            }
-            pending.push(Self::submit_views(sims, renderer)?);
-        }
-        for (sims, views) in sims.chunks_mut(group).zip(pending) {
-            Self::collect_views(sims, renderer, views)?;
-        }
+        Self::render_in_groups(sims, renderer, group, |i, sim| {
+            contacts.push(sim.advance(&commands[i])?);
+            Ok(())
+        })?;
         Ok(sims.iter().zip(contacts).map(|(sim, c)| sim.output(c)).collect())
     }
 
@@ -508,8 +502,23 @@ impl Sim {
     /// Renders the current views of `sims` in one batch into their frames.
     fn render_views(sims: &mut [&mut Sim], renderer: &mut Renderer) -> Result<(), SimError> {
         let group = renderer.max_batch();
+        Self::render_in_groups(sims, renderer, group, |_, _| Ok(()))
+    }
+
+    /// Renders the views of `sims` into their frames in submissions of `group` views: first
+    /// `before(i, sims[i])` for each simulator of a group, then the group's submission; the frames
+    /// are read back once every group is submitted.
+    fn render_in_groups(
+        sims: &mut [&mut Sim],
+        renderer: &mut Renderer,
+        group: usize,
+        mut before: impl FnMut(usize, &mut Sim) -> Result<(), SimError>,
+    ) -> Result<(), SimError> {
         let mut pending = Vec::with_capacity(sims.len().div_ceil(group));
-        for sims in sims.chunks_mut(group) {
+        for (g, sims) in sims.chunks_mut(group).enumerate() {
+            for (k, sim) in sims.iter_mut().enumerate() {
+                before(g * group + k, sim)?;
+            }
             pending.push(Self::submit_views(sims, renderer)?);
         }
         for (sims, views) in sims.chunks_mut(group).zip(pending) {
@@ -1184,7 +1193,7 @@ fn cannot_reach(seg: &Segment, robot_radius: f64, center: DVec3, radius: f64, ho
 
 /// Groups a large batch of [`Sim::step_batch`] is split into: the device renders one group's views
 /// while the stepping thread advances the next group's physics. On lavapipe with `LP_NUM_THREADS=0`
-/// (its queue thread rasterises) a batch of 64 views at 64² went from ~6 000 to ~6 900 steps/s
+/// (its queue thread rasterises) a batch of 64 views at 64² went from 6 130 to 7 214 steps/s
 /// (`render_bench`, medians of 3 alternating runs on 2 CPUs; docs/benchmarks.md).
 const PIPELINE_GROUPS: usize = 4;
 

@@ -208,4 +208,7 @@ fn batches_in_flight_together_each_equal_their_views_rendered_alone() {
     let pending = renderer.submit_batch(&descs[..2]).unwrap();
     let err = renderer.collect_batch(pending, &mut got[..1]).unwrap_err();
     assert!(err.to_string().contains("one per submitted view"), "{err}");
+    let pending = renderer.submit_batch(&descs[..2]).unwrap();
+    let err = alone_renderer.collect_batch(pending, &mut got[..2]).unwrap_err();
+    assert!(err.to_string().contains("another renderer"), "{err}");
 }

@@ -242,6 +242,8 @@ pub const MAX_BATCH: u32 = 256;
 /// Reusable across worlds with the same `n` ([`crate::Sim::with_renderer`], [`crate::Sim::into_renderer`]);
 /// the GPU device can be shared between renderers of different sizes ([`Renderer::with_context`]).
 pub struct Renderer {
+    /// Tells this renderer's [`PendingViews`] from another's.
+    id: u64,
     ctx: Arc<GpuContext>,
     n: u32,
     padded_bpr: u32,
@@ -288,10 +290,14 @@ struct Readback {
 /// collecting discards the views.
 #[must_use = "collect the views with Renderer::collect_batch"]
 pub struct PendingViews {
+    renderer: u64,
     readback: Readback,
     views: usize,
     index: wgpu::SubmissionIndex,
 }
+
+/// The id of the next [`Renderer`].
+static NEXT_RENDERER_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
 impl std::fmt::Debug for PendingViews {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -432,6 +438,7 @@ impl Renderer {
             cache: HashMap::new(),
         };
         Ok(Renderer {
+            id: NEXT_RENDERER_ID.fetch_add(1, Ordering::Relaxed),
             n,
             padded_bpr,
             layers,
@@ -639,15 +646,23 @@ impl Renderer {
         tm.encode_s += (t_encoded - t_start).as_secs_f64();
         tm.submit_s += (t_submitted - t_encoded).as_secs_f64();
         Ok(PendingViews {
+            renderer: self.id,
             readback,
             views: frames.len(),
             index,
         })
     }
 
-    /// Waits for the views of a [`Renderer::submit_batch`] and writes them to `outs` (one per
-    /// view, each resized to n·n, as [`Renderer::render`] writes it).
+    /// Waits for the views of this renderer's [`Renderer::submit_batch`] and writes them to `outs`
+    /// (one per view, each resized to n·n, as [`Renderer::render`] writes it).
     pub fn collect_batch(&mut self, pending: PendingViews, outs: &mut [Vec<f32>]) -> Result<(), SimError> {
+        if pending.renderer != self.id {
+            return Err(SimError::invalid(
+                "collect_batch views",
+                "submitted by another renderer",
+                "collect views with the renderer that submitted them",
+            ));
+        }
         if outs.len() != pending.views {
             return Err(SimError::invalid(
                 "collect_batch outputs",
@@ -657,7 +672,9 @@ impl Renderer {
         }
         let t_start = std::time::Instant::now();
         let device = &self.ctx.device;
-        let PendingViews { readback, views, index } = pending;
+        let PendingViews {
+            readback, views, index, ..
+        } = pending;
         device
             .poll(wgpu::PollType::Wait {
                 submission_index: Some(index),
