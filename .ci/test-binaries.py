@@ -2,8 +2,8 @@
 """Lists the test executables of a `cargo test --no-run --message-format=json` build (stdin).
 
 One line per test binary, `PACKAGE_DIR<TAB>EXECUTABLE`, sorted: `make test` runs them straight from
-the list (`rust-test-built`), beside clippy, which holds cargo's build lock (a `cargo test` would
-wait for it). Each binary runs in its package's directory, as `cargo test` runs it.
+the list (`make rust-test PREBUILT=1`), beside clippy, which holds cargo's build lock (a `cargo test`
+would wait for it). Each binary runs in its package's directory, as `cargo test` runs it.
 """
 
 import json

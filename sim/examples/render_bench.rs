@@ -74,7 +74,8 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     };
     desc.camera.n = n;
     // The rule of `loomlab run` for lavapipe: a batched step keeps two threads busy (this one
-    // stepping physics while lavapipe's queue thread renders the previous group of views).
+    // stepping a group's physics while lavapipe's queue thread renders the previous group), and
+    // llvmpipe's per-pass wake-ups of its own threads cost more than they save at these sizes.
     let cpus = std::thread::available_parallelism().map_or(1, |c| c.get());
     let user_set = std::env::var_os(LLVMPIPE_THREADS_ENV).is_some();
     if let Some(value) = llvmpipe_threads(cpus, batch > 1, user_set) {
