@@ -13,7 +13,11 @@ import sys
 rows = set()
 for line in sys.stdin:
     msg = json.loads(line)
-    if msg.get("reason") == "compiler-artifact" and msg["profile"]["test"] and msg.get("executable"):
+    if (
+        msg.get("reason") == "compiler-artifact"
+        and msg["profile"]["test"]
+        and msg.get("executable")
+    ):
         rows.add((os.path.dirname(msg["manifest_path"]), msg["executable"]))
 if not rows:
     sys.exit("test-binaries: the build listed no test executable")
