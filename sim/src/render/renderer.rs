@@ -279,6 +279,7 @@ pub struct Renderer {
 }
 
 /// A readback buffer and the state of its mapping (0: pending, 1: mapped, 2: failed).
+#[derive(Debug)]
 struct Readback {
     buffer: wgpu::Buffer,
     state: Arc<AtomicU8>,
@@ -289,6 +290,7 @@ struct Readback {
 /// [`Renderer::collect_batch`] waits for them and copies their pixels out. Dropping it without
 /// collecting discards the views.
 #[must_use = "collect the views with Renderer::collect_batch"]
+#[derive(Debug)]
 pub struct PendingViews {
     renderer: u64,
     readback: Readback,
@@ -298,12 +300,6 @@ pub struct PendingViews {
 
 /// The id of the next [`Renderer`].
 static NEXT_RENDERER_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-
-impl std::fmt::Debug for PendingViews {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("PendingViews").field("views", &self.views).finish()
-    }
-}
 
 /// Cumulative wall-clock time spent in the phases of [`Renderer::render`] and
 /// [`Renderer::render_batch`] (for profiling; a batch's times count once, its views as `frames`).
