@@ -860,3 +860,86 @@ fn messages_name_the_right_key_and_value() {
     assert!(!text(&o.stdout).contains("plots in"), "{}", text(&o.stdout));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `--traces` writes what a row's decision strategy saw (θ̂ before it, the tracker's region, the
+/// looming side, the robot's own motion), and replaying the strategy from those columns gives the
+/// recorded decision values bit for bit (`loomlab_scenarios::replay`); other parameters give other
+/// values.
+#[test]
+fn traces_hold_the_strategy_inputs_and_replay_reproduces_the_decisions() {
+    let dir = tmp("replay");
+    let scenario = dir.join("ball.toml");
+    std::fs::create_dir_all(&dir).unwrap();
+    let tau_rows = r#"[[detectors]]
+id = "tracker"
+label = "tracker_tau"
+trigger = "tau"
+course = "image"
+[[detectors]]
+id = "hopfield"
+label = "hopfield_tau"
+trigger = "tau"
+course = "image"
+params = { front_end = "adapted", readout = "winner" }
+"#;
+    let text_of = BALL.replace(
+        "[[detectors]]\nid = \"hopfield\"",
+        &format!("{tau_rows}[[detectors]]\nid = \"hopfield\""),
+    );
+    std::fs::write(&scenario, text_of.replace("n = 32", "n = 64")).unwrap();
+    let out = dir.join("out");
+    let o = loomlab(&[
+        "run",
+        s(&scenario),
+        "--out",
+        s(&out),
+        "--traces",
+        "--no-html",
+        "--no-plots",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let trace = std::fs::read_to_string(out.join("traces/ball_0000.csv")).unwrap();
+    let header: Vec<&str> = trace.lines().next().unwrap().split(',').collect();
+    for column in [
+        "looming_side",
+        "ego_forward_mps",
+        "tracker_tau_theta_hat_deg",
+        "tracker_tau_tau_s",
+        "tracker_tau_gate_open",
+        "tracker_tau_left",
+        "tracker_tau_track",
+        "tracker_tau_about_threat",
+        "hopfield_tau_tau_s",
+    ] {
+        assert!(header.contains(&column), "{column} in {header:?}");
+    }
+    assert!(
+        !header.contains(&"soc_tau_s") && !header.contains(&"hopfield_tau_left"),
+        "{header:?}"
+    );
+    let config = loomlab_agents::EscapeConfig {
+        trigger: loomlab_agents::TriggerSignal::Tau,
+        course: loomlab_agents::Course::Image,
+        ..Default::default()
+    };
+    for label in ["tracker_tau", "hopfield_tau"] {
+        let r = loomlab_scenarios::replay::replay_run(&out, label, &config).unwrap();
+        assert_eq!(r.episodes, 2, "{label}");
+        assert!(r.frames > 200, "{label}: {r:?}");
+        assert_eq!(r.differing, 0, "{label}: {r:?}");
+        assert_eq!(r.recorded, r.replayed, "{label}");
+    }
+    // the threat is evadable and the tracker sees it in time; a strategy that ignores θ̂ below 60°
+    // decides otherwise and alarms too late
+    let r = loomlab_scenarios::replay::replay_run(&out, "tracker_tau", &config).unwrap();
+    assert_eq!((r.recorded.evadable, r.recorded.hits), (1, 1), "{r:?}");
+    let late = loomlab_agents::EscapeConfig {
+        min_angular_size_deg: 60.0,
+        ..config.clone()
+    };
+    let r = loomlab_scenarios::replay::replay_run(&out, "tracker_tau", &late).unwrap();
+    assert!(r.differing > 0 && r.replayed.hits == 0 && r.recorded.hits == 1, "{r:?}");
+    // a row without a stateful strategy cannot be replayed, and says why
+    let e = loomlab_scenarios::replay::replay_run(&out, "soc", &config).unwrap_err();
+    assert!(e.contains("no column soc_theta_hat_deg"), "{e}");
+}

@@ -180,7 +180,14 @@ impl PlotSamples {
     }
 }
 
-/// Writes one episode's open-loop trace as CSV.
+/// Writes one episode's open-loop trace as CSV: `t_s,theta_true_deg,ttc_true_s`, then
+/// `<label>_signal,<label>_output` per row; then what the detectors' decision strategies saw and
+/// estimated: `looming_side,ego_forward_mps,ego_yaw_rate_rps`, per row with a stateful strategy
+/// `<label>_theta_hat_deg,<label>_tau_s,<label>_gate_open` (θ̂ before the strategy, τ̂, the
+/// course gate as 0/1), per row whose detector localises the object its image region
+/// `<label>_left,<label>_right,<label>_bottom,<label>_top` (image x and y in [−1, 1]) and
+/// `<label>_track`, and in a threat episode `<label>_about_threat` (1 where the region covers the
+/// threat's true image: the frames on whose alarms the row is scored). Empty cells: no value.
 pub fn write_trace(dir: &Path, run: &EpisodeRun) -> std::io::Result<()> {
     use std::fmt::Write as _;
     let tr = &run.trace;
@@ -188,8 +195,21 @@ pub fn write_trace(dir: &Path, run: &EpisodeRun) -> std::io::Result<()> {
     for d in &tr.detectors {
         let _ = write!(text, ",{0}_signal,{0}_output", d.label);
     }
+    text.push_str(",looming_side,ego_forward_mps,ego_yaw_rate_rps");
+    for d in &tr.detectors {
+        if d.strategy.is_some() {
+            let _ = write!(text, ",{0}_theta_hat_deg,{0}_tau_s,{0}_gate_open", d.label);
+        }
+        if d.regions.is_some() {
+            let _ = write!(text, ",{0}_left,{0}_right,{0}_bottom,{0}_top,{0}_track", d.label);
+            if d.about_threat.is_some() {
+                let _ = write!(text, ",{0}_about_threat", d.label);
+            }
+        }
+    }
     text.push('\n');
     let opt = |v: Option<f64>| v.filter(|v| v.is_finite()).map_or(String::new(), |v| v.to_string());
+    let flag = |b: bool| if b { "1" } else { "0" };
     for k in 0..tr.t_s.len() {
         let _ = write!(
             text,
@@ -200,6 +220,37 @@ pub fn write_trace(dir: &Path, run: &EpisodeRun) -> std::io::Result<()> {
         );
         for d in &tr.detectors {
             let _ = write!(text, ",{},{}", opt(Some(d.signal[k])), opt(Some(d.output[k])));
+        }
+        let ego = tr.ego.get(k).copied().unwrap_or_default();
+        let _ = write!(
+            text,
+            ",{},{},{}",
+            opt(tr.looming_side.get(k).copied().flatten().map(f64::from)),
+            ego.forward_mps,
+            ego.yaw_rate_rps
+        );
+        for d in &tr.detectors {
+            if let Some(s) = &d.strategy {
+                let _ = write!(
+                    text,
+                    ",{},{},{}",
+                    opt(Some(s.theta_hat_deg[k])),
+                    opt(s.tau_s[k]),
+                    flag(s.gate_open[k])
+                );
+            }
+            if let Some(regions) = &d.regions {
+                match regions[k] {
+                    Some(r) => {
+                        let track = r.track.map_or(String::new(), |t| t.to_string());
+                        let _ = write!(text, ",{},{},{},{},{track}", r.x[0], r.x[1], r.y[0], r.y[1]);
+                    }
+                    None => text.push_str(",,,,,"),
+                }
+                if let Some(about) = &d.about_threat {
+                    let _ = write!(text, ",{}", flag(about[k]));
+                }
+            }
         }
         text.push('\n');
     }

@@ -10,6 +10,7 @@ pub mod lv;
 pub mod metrics;
 pub mod reference;
 pub mod regression;
+pub mod replay;
 pub mod report;
 pub mod runner;
 pub mod schema;

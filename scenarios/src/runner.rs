@@ -112,6 +112,25 @@ pub struct DetectorTrace {
     pub signal: Vec<f64>,
     /// Primary output per frame.
     pub output: Vec<f64>,
+    /// For a row with a stateful decision strategy (τ trigger or course gate): what it decided on,
+    /// frame by frame.
+    pub strategy: Option<StrategyTrace>,
+    /// For a detector that localises the looming object (`tracker`): its image region per frame.
+    pub regions: Option<Vec<Option<ImageRegion>>>,
+    /// For such a detector in a threat episode: whether its region covers the threat's true image,
+    /// per frame (the frames on whose alarms the row is scored; ground truth, for analysis only).
+    pub about_threat: Option<Vec<bool>>,
+}
+
+/// A decision strategy's inputs and estimates over an episode's open-loop pass.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StrategyTrace {
+    /// The detector's θ̂ (degrees; NaN where it gives none) before the strategy.
+    pub theta_hat_deg: Vec<f64>,
+    /// The strategy's time-to-contact estimate τ̂ (s), where it has one.
+    pub tau_s: Vec<Option<f64>>,
+    /// Whether the collision-course gate was open.
+    pub gate_open: Vec<bool>,
 }
 
 /// The open-loop pass of an episode, frame by frame.
@@ -127,6 +146,11 @@ pub struct EpisodeTrace {
     pub ttc_s: Vec<Option<f64>>,
     /// The escape deadline of a threat (s; `None`: no threat, or unavoidable).
     pub t_deadline_s: Option<f64>,
+    /// What the detectors' decision strategies knew of the robot's own motion per frame (its
+    /// cruise command).
+    pub ego: Vec<Ego>,
+    /// The looming side per frame (x centroid of the temporal contrast, image x in [−1, 1]).
+    pub looming_side: Vec<Option<f32>>,
     /// Per detector.
     pub detectors: Vec<DetectorTrace>,
 }
@@ -396,6 +420,8 @@ impl Runner {
             })
             .collect();
         let mut decided: Vec<Vec<f64>> = vec![Vec::new(); nd];
+        let mut estimates: Vec<(Vec<Option<f64>>, Vec<bool>)> = vec![(Vec::new(), Vec::new()); nd];
+        let mut egos: Vec<Ego> = Vec::with_capacity(total);
         // Per row, its first alarm frame and a copy of its detector right after that frame
         // (`Detector::snapshot`; `None` when the detector cannot copy itself): its tail starts there.
         let mut alarmed_at: Vec<Option<usize>> = vec![None; nd];
@@ -454,13 +480,16 @@ impl Runner {
                     t_s.push(out.t_s);
                     let k = t_s.len() - 1;
                     sides.push(side.update(&frame));
+                    egos.push(open_loop_ego(ep, &t_s, k));
                     for (i, spec) in ep.detectors.iter().enumerate() {
                         let value = match &mut strategies[i] {
                             Some((config, strategy)) => {
                                 let percept = config.percept_of(signal[i][k], sides[k], regions[i][k].as_ref());
-                                let value = strategy.update(t_s[k], percept, open_loop_ego(ep, &t_s, k)).value;
-                                decided[i].push(value);
-                                value
+                                let decision = strategy.update(t_s[k], percept, egos[k]);
+                                decided[i].push(decision.value);
+                                estimates[i].0.push(decision.tau_s);
+                                estimates[i].1.push(decision.gate_open);
+                                decision.value
                             }
                             None => signal[i][k],
                         };
@@ -532,23 +561,34 @@ impl Runner {
             .detectors
             .iter()
             .enumerate()
-            .map(|(i, spec)| Row {
-                label: spec.label.clone(),
-                trigger: spec.trigger,
-                threshold: spec.threshold,
-                about_threat: threat_object.and_then(|id| {
-                    let fov_deg = spec.controller(&ep.controller).camera_fov_deg;
-                    let idle = if spec.trigger.reads_angular_size() {
-                        0.0
-                    } else {
-                        f64::NAN
-                    };
-                    about_object(&signal[i], &regions[i], &truth, id, fov_deg, idle)
-                }),
-                signal: std::mem::take(&mut signal[i]),
-                raw: raw_theta[i].take(),
-                output: std::mem::take(&mut output[i]),
-                tail: Tail::Detector(spec),
+            .map(|(i, spec)| {
+                let fov_deg = spec.controller(&ep.controller).camera_fov_deg;
+                let covers = threat_object.and_then(|id| covers_object(&regions[i], &truth, id, fov_deg));
+                let idle = if spec.trigger.reads_angular_size() {
+                    0.0
+                } else {
+                    f64::NAN
+                };
+                let localises = regions[i].iter().any(Option::is_some);
+                Row {
+                    label: spec.label.clone(),
+                    trigger: spec.trigger,
+                    threshold: spec.threshold,
+                    about_threat: covers.as_ref().map(|covers| {
+                        covers
+                            .iter()
+                            .zip(&signal[i])
+                            .map(|(&c, &s)| if c { s } else { idle })
+                            .collect()
+                    }),
+                    about_mask: covers,
+                    signal: std::mem::take(&mut signal[i]),
+                    raw: raw_theta[i].take(),
+                    estimates: strategies[i].is_some().then(|| std::mem::take(&mut estimates[i])),
+                    regions: localises.then(|| std::mem::take(&mut regions[i])),
+                    output: std::mem::take(&mut output[i]),
+                    tail: Tail::Detector(spec),
+                }
             })
             .collect();
         if self.references {
@@ -674,12 +714,24 @@ impl Runner {
             angular_size_deg: ref_theta,
             ttc_s: ref_ttc,
             t_deadline_s: ground_truth.t_deadline_s,
+            ego: egos,
+            looming_side: sides,
             detectors: rows
                 .into_iter()
                 .map(|row| DetectorTrace {
                     label: row.label,
                     trigger: row.trigger,
                     threshold: row.threshold,
+                    strategy: row
+                        .raw
+                        .zip(row.estimates)
+                        .map(|(theta_hat_deg, (tau_s, gate_open))| StrategyTrace {
+                            theta_hat_deg,
+                            tau_s,
+                            gate_open,
+                        }),
+                    regions: row.regions,
+                    about_threat: row.about_mask,
                     signal: row.signal,
                     output: row.output,
                 })
@@ -948,19 +1000,16 @@ fn ideal_tail(
     })
 }
 
-/// The signal of a detector that numbers its tracks ([`ImageRegion::track`], `tracker`) about
-/// object `id` alone (scoring only, which may read the ground truth): `signal` where the frame's
-/// tracked region overlaps the object's true image extent (`truth`, per frame; camera field of
-/// view `fov_deg`), `idle` elsewhere. `None` for a detector without tracks: its alarms are taken
-/// to be about the threat.
-fn about_object(
-    signal: &[f64],
+/// For a detector that numbers its tracks ([`ImageRegion::track`], `tracker`): per frame, whether
+/// its tracked region overlaps object `id`'s true image extent (`truth`, per frame; camera field
+/// of view `fov_deg`) — scoring only, which may read the ground truth. `None` for a detector
+/// without tracks: its alarms are taken to be about the threat.
+fn covers_object(
     regions: &[Option<ImageRegion>],
     truth: &[Vec<ObjectTruth>],
     id: usize,
     fov_deg: f64,
-    idle: f64,
-) -> Option<Vec<f64>> {
+) -> Option<Vec<bool>> {
     if !regions.iter().flatten().any(|r| r.track.is_some()) {
         return None;
     }
@@ -975,11 +1024,7 @@ fn about_object(
         // image y is up, as elevation; image x is right, as azimuth
         o.in_view && overlaps(r.x.map(angle), o.azimuth_extent_deg) && overlaps(r.y.map(angle), o.elevation_extent_deg)
     };
-    Some(
-        (0..signal.len())
-            .map(|k| if covers(k) { signal[k] } else { idle })
-            .collect(),
-    )
+    Some((0..regions.len()).map(covers).collect())
 }
 
 /// How a row's closed loop after its first alarm is run.
@@ -1000,9 +1045,15 @@ struct Row<'a> {
     signal: Vec<f64>,
     /// θ̂ before the decision strategy, for rows whose signal is a strategy's decision value.
     raw: Option<Vec<f64>>,
+    /// The strategy's τ̂ and gate per frame, for the same rows.
+    estimates: Option<(Vec<Option<f64>>, Vec<bool>)>,
+    /// Per frame, whether the row's region covers the threat's true image (see `about_threat`).
+    about_mask: Option<Vec<bool>>,
+    /// The detector's image regions, for a detector that localises the object.
+    regions: Option<Vec<Option<ImageRegion>>>,
     /// For a row that names the object of each alarm in a threat episode (the ideal rows; a
     /// detector that numbers its tracks, whose tracked region is matched with the threat's true
-    /// image by [`about_object`]): its signal about the threat object alone. The row is scored on
+    /// image by [`covers_object`]): its signal about the threat object alone. The row is scored on
     /// it — an alarm about another object (a passing car) is not a hit — while its closed loop
     /// still starts at its first alarm about anything.
     about_threat: Option<Vec<f64>>,
@@ -1033,6 +1084,9 @@ fn reference_rows<'a>(
         output: signal.clone(),
         signal,
         raw: None,
+        estimates: None,
+        about_mask: None,
+        regions: None,
         about_threat: None,
         tail,
     };
@@ -1319,11 +1373,10 @@ threshold = 1.0
         };
         // frame 0: tracking the car (x 0.45..0.8 at a 60° view: 14.6°..24.8°); 1: the ball; 2: none
         let regions = [Some(region([0.45, 0.8])), Some(region([-0.05, 0.05])), None];
-        let signal = [5.0, 6.0, 7.0];
-        let about = about_object(&signal, &regions, &truth, 0, 60.0, 0.0).expect("a tracker");
-        assert_eq!(about, vec![0.0, 6.0, 0.0]);
-        let about_car = about_object(&signal, &regions, &truth, 1, 60.0, 0.0).unwrap();
-        assert_eq!(about_car, vec![5.0, 0.0, 0.0]);
+        let about = covers_object(&regions, &truth, 0, 60.0).expect("a tracker");
+        assert_eq!(about, vec![false, true, false]);
+        let about_car = covers_object(&regions, &truth, 1, 60.0).unwrap();
+        assert_eq!(about_car, vec![true, false, false]);
         // a detector without tracks: its alarms are all taken to be about the threat
         let untracked = [
             Some(ImageRegion {
@@ -1333,7 +1386,7 @@ threshold = 1.0
             None,
             None,
         ];
-        assert_eq!(about_object(&signal, &untracked, &truth, 0, 60.0, 0.0), None);
+        assert_eq!(covers_object(&untracked, &truth, 0, 60.0), None);
     }
 
     #[test]
