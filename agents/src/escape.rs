@@ -141,6 +141,9 @@ impl DodgeSide {
     }
 }
 
+/// The most frames of [`EscapeConfig::persistence_frames`] (10 000: over a minute at 120 Hz).
+pub const MAX_PERSISTENCE_FRAMES: usize = 10_000;
+
 /// Configuration of the [`EscapeController`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -160,6 +163,11 @@ pub struct EscapeConfig {
     pub tau_window_s: f64,
     /// The collision-course gate ([`crate::strategy`]); needs θ̂.
     pub course: Course,
+    /// Persistence (frames, 1–[`MAX_PERSISTENCE_FRAMES`]; default 1: none): the decision value is
+    /// the smallest of the last this many frames' values, so an alarm needs the value at or above
+    /// the threshold on that many consecutive frames — for any threshold, so a calibration of the
+    /// threshold sees the same rule ([`crate::strategy`]).
+    pub persistence_frames: usize,
     /// Closing speed the course gate assumes to turn τ̂ into a distance (m/s, > 0; default 10: a
     /// thrown ball). An object closing faster looks nearer the robot's axis than it is (a fast near
     /// pass may get through), a slower one farther (a slow graze of the body's edge may be gated
@@ -229,6 +237,7 @@ impl Default for EscapeConfig {
             min_angular_size_deg: 1.0,
             tau_window_s: 0.1,
             course: Course::Off,
+            persistence_frames: 1,
             course_closing_speed_mps: 10.0,
             course_window_s: 0.25,
             side_memory_s: 0.5,
@@ -298,6 +307,13 @@ impl EscapeConfig {
             }
         }
         non_negative("escape.min_angular_size_deg", self.min_angular_size_deg)?;
+        if !(1..=MAX_PERSISTENCE_FRAMES).contains(&self.persistence_frames) {
+            return Err(invalid(
+                "escape.persistence_frames",
+                self.persistence_frames,
+                &format!("must be a whole number of frames from 1 (no persistence) to {MAX_PERSISTENCE_FRAMES}"),
+            ));
+        }
         non_negative("escape.side_memory_s", self.side_memory_s)?;
         if let Some(v) = self.max_dodge_offset_m
             && !(v.is_finite() && v > 0.0)
@@ -363,6 +379,7 @@ impl EscapeConfig {
             min_angular_size_deg: self.min_angular_size_deg,
             window_s: self.tau_window_s,
             course: self.course,
+            persistence_frames: self.persistence_frames,
             closing_speed_mps: self.course_closing_speed_mps,
             course_window_s: self.course_window_s,
             body_half_width_m: self.body_half_width_m,

@@ -85,6 +85,15 @@
 //! the temporal-contrast centroid is too noisy to choose a side (with it, 4 hits of
 //! `hopfield_adapted_tau` in `multi_object` dodged into an object).
 //!
+//! # Persistence (`persistence_frames`)
+//! With `persistence_frames = K > 1` the decision value is the smallest of the last K frames'
+//! values (after the τ rule and the gate; 0 — NaN for an output — until K frames have been seen
+//! or while one of them is NaN): the controller alarms only when the value has been at or above
+//! its threshold on K consecutive frames. As a minimum it means that for any threshold, so a
+//! threshold calibrated on the decision values (`--calibrate`) calibrates the persistent rule. It
+//! trades hits for false alarms: an alarm comes K − 1 frames later, and a percept that is wrong for
+//! fewer frames raises none.
+//!
 //! # `trigger = "angular_size"` / `"output"`
 //! Stateless: the value is θ̂ (degrees) or the detector's output, compared with `threshold`; the
 //! course gate, when on, sets the value to 0 (θ̂) or NaN (output) while closed.
@@ -159,6 +168,8 @@ pub struct StrategyParams {
     pub window_s: f64,
     /// The course gate.
     pub course: Course,
+    /// Persistence: the value is the smallest of the last this many frames' (1: none).
+    pub persistence_frames: usize,
     /// Closing speed assumed by the gate (m/s).
     pub closing_speed_mps: f64,
     /// Length of the window over which the gate estimates the bearing and expansion rates (s).
@@ -247,6 +258,8 @@ struct Sample {
 pub struct Strategy {
     params: StrategyParams,
     window: VecDeque<Sample>,
+    /// The last `persistence_frames` values before the persistence step.
+    recent: VecDeque<f64>,
 }
 
 /// Least-squares fit of `y` against `x`: `(slope, mean x, mean y)` (None with fewer than
@@ -313,6 +326,25 @@ fn parabola(points: impl Iterator<Item = (f64, f64)>) -> Option<Parabola> {
     })
 }
 
+impl Strategy {
+    /// The persistence step (module docs, "Persistence"): the smallest of the last
+    /// `persistence_frames` values (`idle` while fewer have been seen, or when one is NaN).
+    fn persist(&mut self, value: f64, idle: f64) -> f64 {
+        let k = self.params.persistence_frames;
+        if k <= 1 {
+            return value;
+        }
+        if self.recent.len() == k {
+            self.recent.pop_front();
+        }
+        self.recent.push_back(value);
+        if self.recent.len() < k || self.recent.iter().any(|v| v.is_nan()) {
+            return idle;
+        }
+        self.recent.iter().copied().fold(f64::INFINITY, f64::min)
+    }
+}
+
 /// `κ(θ)`: the time to contact of the surface of a sphere seen at angular size θ (radians) is
 /// `κ(θ) · θ/θ̇` (`sin(θ/2) = R/d` gives `d/v = 2·tan(θ/2)/θ̇` and the surface is `R` nearer:
 /// `κ = 2·tan(θ/2)·(1 − sin(θ/2))/θ`; κ → 1 for small θ).
@@ -327,6 +359,7 @@ impl Strategy {
         Self {
             params,
             window: VecDeque::new(),
+            recent: VecDeque::with_capacity(params.persistence_frames.clamp(1, 64)),
         }
     }
 
@@ -338,12 +371,13 @@ impl Strategy {
     /// Forget the history (new episode).
     pub fn reset(&mut self) {
         self.window.clear();
+        self.recent.clear();
     }
 
-    /// Whether this strategy keeps state (τ trigger or course gate): only then does `update`
-    /// differ from the raw value.
+    /// Whether this strategy keeps state (τ trigger, course gate or persistence): only then does
+    /// `update` differ from the raw value.
     pub fn is_stateful(&self) -> bool {
-        self.params.tau || self.params.course != Course::Off
+        self.params.tau || self.params.course != Course::Off || self.params.persistence_frames > 1
     }
 
     /// Take this frame's percept at time `t_s` and return the decision quantities.
@@ -520,6 +554,7 @@ impl Strategy {
                     }
             }
         };
+        let idle = if p.angle_valued || p.tau { 0.0 } else { f64::NAN };
         let value = if p.tau {
             match tau_s {
                 Some(tau) if gate_open && percept.value >= p.min_angular_size_deg => 1.0 / tau.max(1e-3),
@@ -527,11 +562,10 @@ impl Strategy {
             }
         } else if gate_open {
             percept.value
-        } else if p.angle_valued {
-            0.0
         } else {
-            f64::NAN
+            idle
         };
+        let value = self.persist(value, idle);
         Decision {
             value,
             tau_s,

@@ -1304,3 +1304,55 @@ mod replay_on_signals {
         }
     }
 }
+
+/// `persistence_frames = K`: the decision value is the smallest of the last K values (the idle
+/// value before K frames), so for every threshold it alarms exactly where the raw value was at or
+/// above it on K consecutive frames; K = 1 passes the value through.
+#[test]
+fn persistence_is_the_minimum_of_the_last_frames_for_any_threshold() {
+    use loomlab_agents::{Ego, Percept};
+    let raw = [5.0, 5.0, 1.0, 5.0, 5.0, 5.0, 2.0, 7.0, 7.0, 7.0];
+    for (trigger, idle) in [(TriggerSignal::Output, f64::NAN), (TriggerSignal::AngularSizeDeg, 0.0)] {
+        let run = |k: usize| -> Vec<f64> {
+            let cfg = EscapeConfig {
+                trigger,
+                persistence_frames: k,
+                ..Default::default()
+            };
+            let mut s = cfg.strategy();
+            raw.iter()
+                .enumerate()
+                .map(|(i, &v)| {
+                    let p = Percept {
+                        value: v,
+                        ..Default::default()
+                    };
+                    s.update(i as f64 / 120.0, p, Ego::default()).value
+                })
+                .collect()
+        };
+        assert_eq!(run(1), raw.to_vec());
+        let three = run(3);
+        let expected = [idle, idle, 1.0, 1.0, 1.0, 5.0, 2.0, 2.0, 2.0, 7.0];
+        for (got, want) in three.iter().zip(expected) {
+            assert!(got == &want || (got.is_nan() && want.is_nan()), "{three:?}");
+        }
+        for threshold in [0.5, 1.0, 2.0, 3.0, 5.0, 6.0, 7.0, 8.0] {
+            for k in 2..raw.len() {
+                let held = raw[k - 2..=k].iter().all(|&v| v >= threshold);
+                assert_eq!(three[k] >= threshold, held, "threshold {threshold}, frame {k}");
+            }
+        }
+    }
+    // bounded, and named in the error
+    for k in [0, loomlab_agents::escape::MAX_PERSISTENCE_FRAMES + 1] {
+        let e = EscapeConfig {
+            persistence_frames: k,
+            ..Default::default()
+        }
+        .validate()
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("escape.persistence_frames"), "{e}");
+    }
+}

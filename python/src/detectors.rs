@@ -112,6 +112,7 @@ pub(crate) fn registry_with(entries: Vec<PythonEntry>) -> PyResult<(Registry, Ve
             tau_threshold_s: None,
             min_angular_size_deg: None,
             course: None,
+            persistence_frames: None,
             params: None,
         });
     }

@@ -39,6 +39,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use loomlab_agents::escape::MAX_PERSISTENCE_FRAMES;
 use loomlab_agents::{Course, EscapeConfig, TriggerSignal, VelocityCommand};
 pub use loomlab_detector::CameraFacts;
 use loomlab_detector::{Detector, DetectorError, DetectorParams, Registration, Registry, Signal};
@@ -263,6 +264,10 @@ pub struct DetectorDesc {
     /// The collision-course gate: `"off"` (default) or `"image"` (needs θ̂).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub course: Option<Course>,
+    /// Persistence: an alarm needs the decision value at or above the threshold on this many
+    /// consecutive frames (1–10 000; default 1: at once; `EscapeConfig::persistence_frames`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub persistence_frames: Option<usize>,
     /// Detector parameters: keys of the detector's config type (its
     /// [`loomlab_detector::DetectorConfig`], e.g. `HopfieldConfig` except `n`, `fov_deg` and
     /// `frame_rate_hz`, which come from `world.camera`, or `SocConfig`).
@@ -335,6 +340,8 @@ pub struct DetectorSpec {
     pub min_angular_size_deg: Option<f64>,
     /// The collision-course gate.
     pub course: Course,
+    /// Consecutive frames the decision value must stay at or above the threshold (1: none).
+    pub persistence_frames: usize,
     /// Validated parameters (camera keys such as the Hopfield `n` and `fov_deg` already match the
     /// camera).
     pub params: DetectorParams,
@@ -358,14 +365,15 @@ impl DetectorSpec {
             },
             min_angular_size_deg: self.min_angular_size_deg.unwrap_or(base.min_angular_size_deg),
             course: self.course,
+            persistence_frames: self.persistence_frames,
             ..base.clone()
         }
     }
 
-    /// Whether this row runs a stateful decision strategy (τ or the course gate): its decision
-    /// value is not the raw trigger signal.
+    /// Whether this row runs a stateful decision strategy (τ, the course gate or persistence): its
+    /// decision value is not the raw trigger signal.
     pub fn is_strategy(&self) -> bool {
-        self.trigger == TriggerSignal::Tau || self.course != Course::Off
+        self.trigger == TriggerSignal::Tau || self.course != Course::Off || self.persistence_frames > 1
     }
 }
 
@@ -555,6 +563,7 @@ pub fn parse_scenario(
             "tau_threshold_s",
             "min_angular_size_deg",
             "course",
+            "persistence_frames",
         ] {
             if c.contains_key(k) {
                 return Err(ScenarioError::key(
@@ -1065,6 +1074,15 @@ pub fn resolve_detector_in(
             format!("{m} must be a finite number >= 0"),
         ));
     }
+    let persistence_frames = d.persistence_frames.unwrap_or(1);
+    if !(1..=MAX_PERSISTENCE_FRAMES).contains(&persistence_frames) {
+        return Err((
+            "persistence_frames".into(),
+            format!(
+                "{persistence_frames} must be a whole number of frames from 1 (alarm at once) to {MAX_PERSISTENCE_FRAMES}"
+            ),
+        ));
+    }
     let params = reg
         .configure(d.params.as_ref(), &camera)
         .map_err(|e| (e.key, e.reason))?;
@@ -1075,6 +1093,7 @@ pub fn resolve_detector_in(
         threshold,
         min_angular_size_deg: d.min_angular_size_deg,
         course,
+        persistence_frames,
         params,
     })
 }
@@ -1138,6 +1157,7 @@ fn bare(id: &str) -> DetectorDesc {
         tau_threshold_s: None,
         min_angular_size_deg: None,
         course: None,
+        persistence_frames: None,
         params: None,
     }
 }

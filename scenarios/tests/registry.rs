@@ -191,6 +191,7 @@ fn a_registered_detector_is_a_detector_everywhere() {
         tau_threshold_s: None,
         min_angular_size_deg: None,
         course: None,
+        persistence_frames: None,
         params: None,
     };
     let world = ep.world.clone();

@@ -535,6 +535,7 @@ fn reference_labels_are_reserved_for_detectors() {
         tau_threshold_s: None,
         min_angular_size_deg: None,
         course: None,
+        persistence_frames: None,
         params: None,
     };
     let (key, reason) = resolve_detector(&desc("oracle"), default_camera(32)).unwrap_err();
@@ -564,6 +565,7 @@ fn detectors_are_built_for_the_camera_facts() {
         tau_threshold_s: None,
         min_angular_size_deg: None,
         course: None,
+        persistence_frames: None,
         params: None,
     };
     let spec = resolve_detector(&d, facts).unwrap();
@@ -653,6 +655,15 @@ fn tau_and_course_strategies_need_theta_and_their_own_keys() {
     assert_eq!(c.min_angular_size_deg, 2.0);
     assert_eq!(c.course, loomlab_agents::Course::Image);
     assert!(d.is_strategy());
+    assert_eq!(c.persistence_frames, 1);
+    // persistence makes any row a strategy row, and reaches its controller
+    let s = parse(&format!(
+        "{BASE}\n[[detectors]]\nid = \"soc\"\npersistence_frames = 5\n"
+    ))
+    .unwrap();
+    let ep = s.episode(0).unwrap();
+    assert!(ep.detectors[0].is_strategy());
+    assert_eq!(ep.detectors[0].controller(&ep.controller).persistence_frames, 5);
     // `angular_size` is today's trigger
     let s = parse(&format!(
         "{BASE}\n[[detectors]]\nid = \"hopfield\"\ntrigger = \"angular_size\"\n"
@@ -685,6 +696,12 @@ fn tau_and_course_strategies_need_theta_and_their_own_keys() {
             "id = \"hopfield\"\ntrigger = \"output\"\ncourse = \"image\"",
             "course",
             "θ̂",
+        ),
+        ("id = \"soc\"\npersistence_frames = 0", "persistence_frames", "from 1"),
+        (
+            "id = \"soc\"\npersistence_frames = 20000",
+            "persistence_frames",
+            "10000",
         ),
     ] {
         let e = parse(&format!("{BASE}\n[[detectors]]\n{entry}\n"))
