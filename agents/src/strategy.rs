@@ -326,25 +326,6 @@ fn parabola(points: impl Iterator<Item = (f64, f64)>) -> Option<Parabola> {
     })
 }
 
-impl Strategy {
-    /// The persistence step (module docs, "Persistence"): the smallest of the last
-    /// `persistence_frames` values (`idle` while fewer have been seen, or when one is NaN).
-    fn persist(&mut self, value: f64, idle: f64) -> f64 {
-        let k = self.params.persistence_frames;
-        if k <= 1 {
-            return value;
-        }
-        if self.recent.len() == k {
-            self.recent.pop_front();
-        }
-        self.recent.push_back(value);
-        if self.recent.len() < k || self.recent.iter().any(|v| v.is_nan()) {
-            return idle;
-        }
-        self.recent.iter().copied().fold(f64::INFINITY, f64::min)
-    }
-}
-
 /// `κ(θ)`: the time to contact of the surface of a sphere seen at angular size θ (radians) is
 /// `κ(θ) · θ/θ̇` (`sin(θ/2) = R/d` gives `d/v = 2·tan(θ/2)/θ̇` and the surface is `R` nearer:
 /// `κ = 2·tan(θ/2)·(1 − sin(θ/2))/θ`; κ → 1 for small θ).
@@ -576,5 +557,22 @@ impl Strategy {
             tau_rate,
             gate_open,
         }
+    }
+
+    /// The persistence step (module docs, "Persistence"): the smallest of the last
+    /// `persistence_frames` values (`idle` while fewer have been seen, or when one is NaN).
+    fn persist(&mut self, value: f64, idle: f64) -> f64 {
+        let k = self.params.persistence_frames;
+        if k <= 1 {
+            return value;
+        }
+        if self.recent.len() == k {
+            self.recent.pop_front();
+        }
+        self.recent.push_back(value);
+        if self.recent.len() < k || self.recent.iter().any(|v| v.is_nan()) {
+            return idle;
+        }
+        self.recent.iter().copied().fold(f64::INFINITY, f64::min)
     }
 }
