@@ -34,10 +34,14 @@ impl Trace {
         Ok(Self { columns, rows })
     }
 
-    /// The number in `column` of row `k` (`None`: an empty cell or no such column).
-    fn get(&self, k: usize, column: &str) -> Option<f64> {
-        let i = *self.columns.get(column)?;
-        self.rows[k].get(i).and_then(|c| c.parse().ok())
+    /// The index of `column` (`None`: no such column).
+    fn index(&self, column: &str) -> Option<usize> {
+        self.columns.get(column).copied()
+    }
+
+    /// The number in column `i` of row `k` (`None`: an empty cell or no such column).
+    fn get(&self, k: usize, i: Option<usize>) -> Option<f64> {
+        self.rows[k].get(i?).and_then(|c| c.parse().ok())
     }
 }
 
@@ -154,7 +158,7 @@ pub fn replay_run(dir: &Path, label: &str, config: &EscapeConfig) -> Result<Repl
             continue;
         };
         let trace = Trace::read(path)?;
-        if !trace.columns.contains_key(&column("theta_hat_deg")) {
+        if trace.index(&column("theta_hat_deg")).is_none() {
             return Err(format!(
                 "{}: no column {}: the row {label:?} has no τ trigger or course gate, or the run is older than this tool",
                 path.display(),
@@ -164,33 +168,47 @@ pub fn replay_run(dir: &Path, label: &str, config: &EscapeConfig) -> Result<Repl
         out.episodes += 1;
         let mut strategy = config.strategy();
         let n = trace.rows.len();
-        let t_s: Vec<f64> = (0..n).map(|k| trace.get(k, "t_s").unwrap_or(f64::NAN)).collect();
+        let col = |name: &str| trace.index(&column(name));
+        let (t_col, about_col, theta_col, signal_col, track_col) = (
+            trace.index("t_s"),
+            col("about_threat"),
+            col("theta_hat_deg"),
+            col("signal"),
+            col("track"),
+        );
+        let edge_cols = ["left", "right", "bottom", "top"].map(col);
+        let (side_col, forward_col, yaw_col) = (
+            trace.index("looming_side"),
+            trace.index("ego_forward_mps"),
+            trace.index("ego_yaw_rate_rps"),
+        );
+        let t_s: Vec<f64> = (0..n).map(|k| trace.get(k, t_col).unwrap_or(f64::NAN)).collect();
         let about: Vec<bool> = (0..n)
-            .map(|k| trace.get(k, &column("about_threat")).is_none_or(|v| v == 1.0))
+            .map(|k| trace.get(k, about_col).is_none_or(|v| v == 1.0))
             .collect();
         let (mut was, mut now) = (Vec::with_capacity(n), Vec::with_capacity(n));
         for (k, &t) in t_s.iter().enumerate() {
-            let region = match ["left", "right", "bottom", "top"].map(|e| trace.get(k, &column(e))) {
+            let region = match edge_cols.map(|c| trace.get(k, c)) {
                 [Some(l), Some(r), Some(b), Some(t)] => Some(ImageRegion {
                     centroid: [(l + r) / 2.0, (b + t) / 2.0],
                     x: [l, r],
                     y: [b, t],
-                    track: trace.get(k, &column("track")).map(|v| v as usize),
+                    track: trace.get(k, track_col).map(|v| v as usize),
                 }),
                 _ => None,
             };
-            let side = trace.get(k, "looming_side").map(|v| v as f32);
-            let theta = trace.get(k, &column("theta_hat_deg")).unwrap_or(f64::NAN);
+            let side = trace.get(k, side_col).map(|v| v as f32);
+            let theta = trace.get(k, theta_col).unwrap_or(f64::NAN);
             let ego = Ego {
-                forward_mps: trace.get(k, "ego_forward_mps").unwrap_or(0.0),
-                yaw_rate_rps: trace.get(k, "ego_yaw_rate_rps").unwrap_or(0.0),
+                forward_mps: trace.get(k, forward_col).unwrap_or(0.0),
+                yaw_rate_rps: trace.get(k, yaw_col).unwrap_or(0.0),
                 ..Ego::default()
             };
             let value = strategy
                 .update(t, config.percept_of(theta, side, region.as_ref()), ego)
                 .value;
             // the trace leaves a non-finite value's cell empty
-            let old = trace.get(k, &column("signal"));
+            let old = trace.get(k, signal_col);
             out.frames += 1;
             if Some(value).filter(|v| v.is_finite()) != old {
                 out.differing += 1;
