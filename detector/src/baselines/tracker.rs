@@ -23,15 +23,23 @@
 //!    along the horizon.
 //! 3. **Tracking**: while an object is tracked, the region overlapping its last bounding box
 //!    (grown by a quarter of its size, at least `link_px`) with the largest summed |residual| is
-//!    the object, joined by every other region that touches it; with none, the largest region
-//!    starts a new track. A standing camera's region is then cleaned of what the background model
+//!    the object, joined by every other region that touches it — and, for a moving camera, by
+//!    every region overlapping that grown box: the compensated difference of an object that moves
+//!    across the image falls apart into where it is now and where it was, with the object's
+//!    uniform inside, unchanged, between them. Without a tracked object, the largest region starts
+//!    a new track. A standing camera's region is then cleaned of what the background model
 //!    got wrong: an object in view from the first frame is in the
 //!    model (its imprint is replaced by the background around it when that is uniform), and where
-//!    the object was, the frame shows background again. A track without a region keeps its last
-//!    box for `hold_frames` frames, then ends. A track is reported once it has lasted
-//!    `confirm_frames` frames. Each track has a number ([`ImageRegion::track`](crate::ImageRegion)):
-//!    a new one when a track starts, or when no region overlaps the tracked box and the largest is
-//!    taken instead (another blob).
+//!    the object was, the frame shows background again. **Validation gate**: once the track holds
+//!    [`GATE_MIN_SAMPLES`] measurements, a region whose box is larger or smaller by more than
+//!    `size_gate_ratio` (and [`GATE_SLACK_PX`]) than the size that the line through the track's
+//!    recent box sizes predicts (the square root of the box's area) is not the object's image in
+//!    this frame — it merged with another region (a second object, the ground's texture)
+//!    or lost part of itself — and is not measured. A track without a region (none overlaps its
+//!    box, or the gate refused it) keeps its fitted box for `hold_frames` frames, then ends: a
+//!    region elsewhere does not take over a track, it starts a new one once the track has ended.
+//!    A track is reported once it has lasted `confirm_frames` frames. Each track has a number
+//!    ([`ImageRegion::track`](crate::ImageRegion)), a new one whenever a track starts.
 //! 4. **Fit**: each frame's measurement — the object's size `s` (the square root of the region's
 //!    area when it is the object's current image and fills its box like a solid shape, else of its
 //!    box's area; for the image of a disc, the middle of the range of sizes its pixels allow,
@@ -42,7 +50,11 @@
 //!    offsets in units of its size), so the fit has no lag, while the renderer's whole-pixel edges
 //!    (no anti-aliasing) are averaged out.
 //! 5. **Outputs**: θ̂ = the larger of the fitted box's angular width and height (degrees; 0 while
-//!    nothing is reported) as `output` and `angular_size_deg`; the fitted box and the region's
+//!    nothing is reported) — but only the height while the region touches the image's left or
+//!    right border and only the width while it touches the top or bottom one (the border cuts the
+//!    object: a vehicle entering the view from the side widens as more of it comes into view, not
+//!    as it nears; the fitted box keeps the region's mean shape, so a cut region's height reads
+//!    large, but it does not grow with the width) — as `output` and `angular_size_deg`; the fitted box and the region's
 //!    residual-weighted centroid as [`Signals::region`](crate::Signals::region) (what the
 //!    collision-course gate needs); `aux`: `pixels` (changed pixels of the object), `x`, `y`
 //!    (centroid).
@@ -71,6 +83,15 @@ pub const FIT_SPAN: usize = 4;
 /// Boxes of the compensated difference (a moving camera) are fitted with a memory this many times
 /// shorter than `fit_frames`: their size is fitted directly, which lags a growing object.
 pub const DIFFERENCE_MEMORY_DIVISOR: f64 = 6.0;
+
+/// Fewest measurements a track holds before its validation gate (`size_gate_ratio`) applies: the
+/// fitted box of fewer is no prediction yet.
+pub const GATE_MIN_SAMPLES: usize = 8;
+
+/// The validation gate's allowance for whole-pixel boxes (pixels): a region within
+/// `size_gate_ratio` of the fitted box's size, give or take this, passes (a box a few pixels across
+/// changes by more than the ratio when an edge crosses a pixel centre).
+pub const GATE_SLACK_PX: f64 = 2.0;
 
 /// Inside the tracked object's box the standing camera's background model follows the frames this
 /// many times more slowly than elsewhere: the object must not become background while it is
@@ -107,6 +128,13 @@ pub struct TrackerConfig {
     pub standing_min_pixels: usize,
     /// Frames a track survives without a region (frames). Default 6.
     pub hold_frames: usize,
+    /// The track's validation gate (ratio, > 1): once the track holds [`GATE_MIN_SAMPLES`]
+    /// measurements, a region whose box is larger or smaller than its predicted size by more than
+    /// this factor (and [`GATE_SLACK_PX`]) is not measured: a merge with another region
+    /// or a split, not the object's growth (module docs, step 3). Default 1.3 (the decision
+    /// strategies' jump ratio): at 120 Hz an object grows by 30 % in a frame only at a time to
+    /// contact below 0.03 s.
+    pub size_gate_ratio: f64,
     /// Frames a new track must last before it is reported (frames, ≥ 1): a box of a few pixels
     /// that appears and vanishes again is noise, and a decision strategy fitting the first frames
     /// of a track would read its jitter as motion. Default 30 (0.25 s at 120 Hz).
@@ -135,6 +163,7 @@ impl Default for TrackerConfig {
             min_pixels: 4,
             standing_min_pixels: 2,
             hold_frames: 6,
+            size_gate_ratio: 1.3,
             confirm_frames: 30,
             fit_frames: 45,
             background_frames: 60,
@@ -152,6 +181,13 @@ impl TrackerConfig {
             Range::Closed(1e-6, 1.0),
             0.06,
             "the residual above which a pixel counts as changed",
+        )?;
+        check(
+            "tracker.size_gate_ratio",
+            self.size_gate_ratio,
+            Range::Closed(1.01, 100.0),
+            1.3,
+            "the track's validation gate (ratio of box sizes)",
         )?;
         check(
             "tracker.edge_tolerance_px",
@@ -710,30 +746,50 @@ impl Tracker {
         }));
     }
 
-    /// Chooses the tracked object among this frame's blobs (see the module docs, step 3), and
-    /// whether it is another blob than the tracked one (none overlaps the track's box: the largest
-    /// is taken instead).
-    fn choose(&mut self) -> Option<(Blob, bool)> {
+    /// Chooses the tracked object among this frame's blobs (see the module docs, step 3): with a
+    /// track, the heaviest region overlapping its grown box (None when none does), joined by the
+    /// regions touching it and, for a moving camera, by every region overlapping that box; without
+    /// one, the heaviest region.
+    fn choose(&self) -> Option<Blob> {
         let by_mass = |a: &&Blob, b: &&Blob| a.mass.total_cmp(&b.mass);
-        let (chosen, other) = match &self.track {
-            Some(t) => {
-                let [i0, i1, j0, j1] = t.bbox;
-                let margin = ((i1 - i0).max(j1 - j0) / 4).max(self.config.link_px);
-                match self.blobs.iter().filter(|b| b.overlaps(t.bbox, margin)).max_by(by_mass) {
-                    Some(b) => (Some(b), false),
-                    None => (self.blobs.iter().max_by(by_mass), true),
-                }
-            }
-            None => (self.blobs.iter().max_by(by_mass), false),
+        let grown = self.track.as_ref().map(|t| {
+            let [i0, i1, j0, j1] = t.bbox;
+            (t.bbox, ((i1 - i0).max(j1 - j0) / 4).max(self.config.link_px))
+        });
+        let mut chosen = *match grown {
+            Some((bbox, margin)) => self.blobs.iter().filter(|b| b.overlaps(bbox, margin)).max_by(by_mass)?,
+            None => self.blobs.iter().max_by(by_mass)?,
         };
-        let mut chosen = *chosen?;
         let first = chosen;
+        let joins_track = |b: &Blob| self.moving && grown.is_some_and(|(bbox, margin)| b.overlaps(bbox, margin));
         for b in &self.blobs {
-            if b.bbox != first.bbox && b.overlaps(chosen.bbox, self.config.link_px) {
+            if b.bbox != first.bbox && (b.overlaps(chosen.bbox, self.config.link_px) || joins_track(b)) {
                 chosen.merge(b);
             }
         }
-        Some((chosen, other))
+        Some(chosen)
+    }
+
+    /// Whether region `b` passes the track's validation gate (module docs, step 3): its box's size
+    /// (the square root of its area) within `size_gate_ratio` of the size predicted for this frame,
+    /// give or take [`GATE_SLACK_PX`], once the track holds [`GATE_MIN_SAMPLES`] measurements
+    /// (always, without a track). The prediction is the least-squares line through the measured
+    /// boxes' sizes with the short memory of difference boxes (`fit_frames` /
+    /// [`DIFFERENCE_MEMORY_DIVISOR`]): what the regions have been, not the fitted object box (a
+    /// difference box's is cut to where the object is now).
+    fn passes_gate(&self, b: &Blob) -> bool {
+        if self.track.is_none() || self.samples.len() < GATE_MIN_SAMPLES {
+            return true;
+        }
+        let memory = self.config.fit_frames as f64 / DIFFERENCE_MEMORY_DIVISOR;
+        let lines = Lines::fit(&self.samples, self.clock as f64, memory, |s| {
+            [(s.width * s.height).sqrt() / s.inverse_size, 0.0, 0.0, 0.0, 0.0]
+        });
+        let predicted = lines.at(0).max(1.0);
+        let [i0, i1, j0, j1] = b.bbox;
+        let measured = (((i1 - i0 + 1) * (j1 - j0 + 1)) as f64).sqrt();
+        let g = self.config.size_gate_ratio;
+        measured <= g * predicted + GATE_SLACK_PX && measured >= predicted / g - GATE_SLACK_PX
     }
 
     /// The measurement of a region: its box, and — for the object's current image that fills its
@@ -993,7 +1049,12 @@ impl Tracker {
             track: Some(self.tracks),
         };
         let [w, h] = region.angular_size_deg(self.config.fov_deg);
-        let theta = w.max(h);
+        // an image border cuts the object: only the extent along it measures the object's size
+        let theta = match (j0 == 0 || j1 + 1 >= n, i0 == 0 || i1 + 1 >= n) {
+            (true, false) => h,
+            (false, true) => w,
+            _ => w.max(h),
+        };
         Signals {
             output: theta,
             angular_size_deg: Some(theta),
@@ -1084,17 +1145,17 @@ impl Detector for Tracker {
         };
         self.group(n, min_pixels);
         let chosen = self.choose();
-        // a new track, or the largest blob instead of the tracked one: another number
-        if chosen.is_some_and(|(_, other)| other || self.track.is_none()) {
+        if chosen.is_some() && self.track.is_none() {
+            // a new track: another number
             self.tracks += 1;
         }
-        let chosen = chosen.map(|(b, _)| b);
         let chosen = if standing {
             let starting = self.track.is_none();
             chosen.map(|b| self.refine_standing(frame.data(), n, b, starting))
         } else {
             chosen
         };
+        let chosen = chosen.filter(|b| self.passes_gate(b));
         match chosen {
             Some(b) => {
                 if self.track.is_none() {
