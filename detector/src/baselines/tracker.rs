@@ -128,9 +128,9 @@ pub struct TrackerConfig {
     pub standing_min_pixels: usize,
     /// Frames a track survives without a region (frames). Default 6.
     pub hold_frames: usize,
-    /// The track's validation gate (ratio, > 1): once the track holds [`GATE_MIN_SAMPLES`]
+    /// The track's validation gate (ratio, > 1): once the track holds 8
     /// measurements, a region whose box is larger or smaller than its predicted size by more than
-    /// this factor (and [`GATE_SLACK_PX`]) is not measured: a merge with another region
+    /// this factor (give or take 2 pixels) is not measured: a merge with another region
     /// or a split, not the object's growth (module docs, step 3). Default 1.3 (the decision
     /// strategies' jump ratio): at 120 Hz an object grows by 30 % in a frame only at a time to
     /// contact below 0.03 s.
