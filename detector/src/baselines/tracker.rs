@@ -54,10 +54,10 @@
 //!    right border and only the width while it touches the top or bottom one (the border cuts the
 //!    object: a vehicle entering the view from the side widens as more of it comes into view, not
 //!    as it nears; the fitted box keeps the region's mean shape, so a cut region's height reads
-//!    large, but it does not grow with the width) — as `output` and `angular_size_deg`; the fitted box and the region's
-//!    residual-weighted centroid as [`Signals::region`](crate::Signals::region) (what the
-//!    collision-course gate needs); `aux`: `pixels` (changed pixels of the object), `x`, `y`
-//!    (centroid).
+//!    large, but it does not grow with the width) — as `output` and `angular_size_deg`; the
+//!    fitted box and the region's residual-weighted centroid as
+//!    [`Signals::region`](crate::Signals::region) (what the collision-course gate needs); `aux`:
+//!    `pixels` (changed pixels of the object), `x`, `y` (centroid).
 
 use serde::Deserialize;
 
@@ -84,12 +84,12 @@ pub const FIT_SPAN: usize = 4;
 /// shorter than `fit_frames`: their size is fitted directly, which lags a growing object.
 pub const DIFFERENCE_MEMORY_DIVISOR: f64 = 6.0;
 
-/// Fewest measurements a track holds before its validation gate (`size_gate_ratio`) applies: the
-/// fitted box of fewer is no prediction yet.
+/// Fewest measurements a track holds before its validation gate (`size_gate_ratio`) applies: a
+/// line through fewer box sizes is no prediction yet.
 pub const GATE_MIN_SAMPLES: usize = 8;
 
 /// The validation gate's allowance for whole-pixel boxes (pixels): a region within
-/// `size_gate_ratio` of the fitted box's size, give or take this, passes (a box a few pixels across
+/// `size_gate_ratio` of its predicted size, give or take this, passes (a box a few pixels across
 /// changes by more than the ratio when an edge crosses a pixel centre).
 pub const GATE_SLACK_PX: f64 = 2.0;
 
