@@ -50,7 +50,8 @@
 //!    offsets in units of its size), so the fit has no lag, while the renderer's whole-pixel edges
 //!    (no anti-aliasing) are averaged out.
 //! 5. **Outputs**: θ̂ = the larger of the fitted box's angular width and height (degrees; 0 while
-//!    nothing is reported) — but only the height while the region touches the image's left or
+//!    nothing is reported, and while the region reaches from one image border to the opposite one:
+//!    the scene itself moves there, a drifting wall or the ground) — but only the height while the region touches the image's left or
 //!    right border and only the width while it touches the top or bottom one (the border cuts the
 //!    object: a vehicle entering the view from the side widens as more of it comes into view, not
 //!    as it nears; the fitted box keeps the region's mean shape, so a cut region's height reads
@@ -1023,7 +1024,13 @@ impl Tracker {
     }
 
     fn signals(&self, n: usize) -> Signals {
-        let confirmed = self.track.as_ref().filter(|_| self.age >= self.config.confirm_frames);
+        // a region from one image border to the opposite one is the scene moving (a drifting wall,
+        // the ground), not an object with a size
+        let spans_image = |[i0, i1, j0, j1]: [usize; 4]| (j0 == 0 && j1 + 1 >= n) || (i0 == 0 && i1 + 1 >= n);
+        let confirmed = self
+            .track
+            .as_ref()
+            .filter(|t| self.age >= self.config.confirm_frames && !spans_image(t.bbox));
         let Some(t) = confirmed else {
             return Signals {
                 output: 0.0,
