@@ -9,7 +9,8 @@ use loomlab_detector::{
 const N: usize = 48;
 
 /// Frame `k`: a dark disc growing over a checkered background that drifts by a pixel every few
-/// frames (as under the camera's own motion).
+/// frames (as under the camera's own motion), in a uniform frame 2 pixels wide (the `tracker`
+/// reports nothing for a region from one image border to the opposite one).
 fn frame(k: usize) -> Frame {
     let radius = 2.0 + 0.4 * k as f64;
     let c = N as f64 / 2.0;
@@ -17,8 +18,11 @@ fn frame(k: usize) -> Frame {
     let data = (0..N * N)
         .map(|p| {
             let (i, j) = ((p / N) as f64 + 0.5, (p % N) as f64 + 0.5);
+            let border = (p / N).min(p % N).min(N - 1 - p / N).min(N - 1 - p % N) < 2;
             if (i - c).hypot(j - c) < radius {
                 0.1
+            } else if border {
+                0.55
             } else if ((p / N) / 4 + (p % N + shift) / 4) % 2 == 0 {
                 0.7
             } else {
