@@ -248,6 +248,12 @@ impl Blob {
         ];
     }
 
+    /// Which image borders the region touches in an n × n frame: `[top, bottom, left, right]`.
+    fn touches(&self, n: usize) -> [bool; 4] {
+        let [i0, i1, j0, j1] = self.bbox;
+        [i0 == 0, i1 + 1 >= n, j0 == 0, j1 + 1 >= n]
+    }
+
     fn overlaps(&self, b: [usize; 4], margin: usize) -> bool {
         self.bbox[0] <= b[1] + margin
             && b[0] <= self.bbox[1] + margin
@@ -1026,11 +1032,14 @@ impl Tracker {
     fn signals(&self, n: usize) -> Signals {
         // a region from one image border to the opposite one is the scene moving (a drifting wall,
         // the ground), not an object with a size
-        let spans_image = |[i0, i1, j0, j1]: [usize; 4]| (j0 == 0 && j1 + 1 >= n) || (i0 == 0 && i1 + 1 >= n);
+        let spans_image = |t: &Blob| {
+            let [top, bottom, left, right] = t.touches(n);
+            (top && bottom) || (left && right)
+        };
         let confirmed = self
             .track
             .as_ref()
-            .filter(|t| self.age >= self.config.confirm_frames && !spans_image(t.bbox));
+            .filter(|t| self.age >= self.config.confirm_frames && !spans_image(t));
         let Some(t) = confirmed else {
             return Signals {
                 output: 0.0,
@@ -1057,7 +1066,8 @@ impl Tracker {
         };
         let [w, h] = region.angular_size_deg(self.config.fov_deg);
         // an image border cuts the object: only the extent along it measures the object's size
-        let theta = match (j0 == 0 || j1 + 1 >= n, i0 == 0 || i1 + 1 >= n) {
+        let [cut_top, cut_bottom, cut_left, cut_right] = t.touches(n);
+        let theta = match (cut_left || cut_right, cut_top || cut_bottom) {
             (true, false) => h,
             (false, true) => w,
             _ => w.max(h),
