@@ -476,3 +476,29 @@ fn a_region_from_border_to_border_is_the_scene_not_an_object() {
     assert_eq!(theta_of([0, N - 1]), 0.0);
     assert!(theta_of([10, N - 11]) > 20.0);
 }
+
+#[test]
+fn a_region_cut_by_two_adjacent_borders_has_no_size_and_is_not_tracked() {
+    // a patch of the scene darkening in a corner of the view (a wall beside the robot, seen by a
+    // standing camera): touching the left and the top border it is cut in both directions and
+    // never reported; touching only the left border it is measured by its height; 4 px from
+    // both borders it is a region with a size
+    let theta_of = |rows: [usize; 2], cols: [usize; 2]| {
+        let mut d = Tracker::new(TrackerConfig::default()).unwrap();
+        let mut last = 0.0;
+        for k in 0..60 {
+            let value = 0.6 - 0.004 * k as f32;
+            let data = with_rect(&vec![0.6f32; N * N], rows, cols, value);
+            last = d
+                .step_moving(&Frame::from_f32(N, data).unwrap(), &standing())
+                .unwrap()
+                .angular_size_deg
+                .unwrap();
+        }
+        last
+    };
+    assert_eq!(theta_of([0, 29], [0, 29]), 0.0);
+    assert_eq!(theta_of([N - 30, N - 1], [N - 30, N - 1]), 0.0);
+    assert!(theta_of([4, 33], [0, 29]) > 15.0);
+    assert!(theta_of([4, 33], [4, 33]) > 15.0);
+}

@@ -19,8 +19,10 @@
 //!    texture, and 0 against the background model). Changed pixels closer than `link_px`
 //!    (Chebyshev distance) form one region; regions of fewer than `min_pixels` pixels
 //!    (`standing_min_pixels` against the background model) are noise,
-//!    and regions more than [`MAX_BAND_ASPECT`] times wider than high are the aliased far ground
-//!    along the horizon.
+//!    regions more than [`MAX_BAND_ASPECT`] times wider than high are the aliased far ground
+//!    along the horizon, and regions that touch a side border (left or right) and the top or
+//!    bottom one are cut in both directions — a wall or the ground beside the robot filling a
+//!    corner of the view — and have no measurable size: all are left out.
 //! 3. **Tracking**: while an object is tracked, the region overlapping its last bounding box
 //!    (grown by a quarter of its size, at least `link_px`) with the largest summed |residual| is
 //!    the object, joined by every other region that touches it — and, for a moving camera, by
@@ -252,6 +254,15 @@ impl Blob {
     fn touches(&self, n: usize) -> [bool; 4] {
         let [i0, i1, j0, j1] = self.bbox;
         [i0 == 0, i1 + 1 >= n, j0 == 0, j1 + 1 >= n]
+    }
+
+    /// Whether an n×n image shows the region's extent along at least one axis: a region that
+    /// touches the left or right border *and* the top or bottom one is cut in both directions (a
+    /// wall or the ground beside the robot filling a corner of the view), so no size of it can be
+    /// measured and it is left out.
+    fn measurable(&self, n: usize) -> bool {
+        let [top, bottom, left, right] = self.touches(n);
+        !((top || bottom) && (left || right))
     }
 
     fn overlaps(&self, b: [usize; 4], margin: usize) -> bool {
@@ -659,7 +670,8 @@ impl Tracker {
 
     /// Groups changed pixels into [`Blob`]s: the regions whose pixels lie at most `link_px` apart
     /// (Chebyshev), in the raster order of their first pixels, those of fewer than `min_pixels`
-    /// pixels or wider than [`MAX_BAND_ASPECT`] times their height left out.
+    /// pixels, wider than [`MAX_BAND_ASPECT`] times their height or cut by two adjacent image borders
+    /// (`Blob::measurable`) left out.
     ///
     /// Works on runs of consecutive changed pixels in a row rather than on pixels: two runs belong
     /// to one region when they lie at most `link_px` rows apart and their columns, widened by
@@ -749,7 +761,7 @@ impl Tracker {
         self.blobs.clear();
         self.blobs.extend(found.iter().filter(|b| {
             let (height, width) = (b.bbox[1] - b.bbox[0] + 1, b.bbox[3] - b.bbox[2] + 1);
-            b.pixels >= min_pixels && width <= MAX_BAND_ASPECT * height
+            b.pixels >= min_pixels && width <= MAX_BAND_ASPECT * height && b.measurable(n)
         }));
     }
 
@@ -1312,7 +1324,7 @@ mod tests {
                 }
             }
             let (height, width) = (blob.bbox[1] - blob.bbox[0] + 1, blob.bbox[3] - blob.bbox[2] + 1);
-            if blob.pixels >= min_pixels && width <= MAX_BAND_ASPECT * height {
+            if blob.pixels >= min_pixels && width <= MAX_BAND_ASPECT * height && blob.measurable(n) {
                 blobs.push(blob);
             }
         }
