@@ -3,6 +3,7 @@
 //! a textured sky, so the true image motion is known exactly.
 
 use loomlab_detector::compensation::{CompensatedDifference, Mat3, rotation_matrix};
+use loomlab_detector::baselines::{Tracker, TrackerConfig};
 use loomlab_detector::{Detector, EfferenceCopy, Frame, Registry};
 
 const N: usize = 96;
@@ -211,8 +212,12 @@ fn tracker() -> Box<dyn Detector> {
 /// A camera cruising at 1 m/s over the textured ground, optionally with a ball flying at it from
 /// 10 m at 8 m/s; returns per frame (true angular size, θ̂, region centre x).
 fn cruise(with_ball: bool) -> Vec<(f64, f64, Option<f64>)> {
+    cruise_with(tracker(), with_ball)
+}
+
+/// [`cruise`] with the detector `d`.
+fn cruise_with(mut d: Box<dyn Detector>, with_ball: bool) -> Vec<(f64, f64, Option<f64>)> {
     let (h, v, pitch, u) = (0.35, 1.0, -0.03, 8.0);
-    let mut d = tracker();
     let frames = 110; // the ball reaches 10 − 9·110/120 ≈ 0.8 m
     (0..frames)
         .map(|k| {
@@ -265,4 +270,33 @@ fn the_tracker_sees_nothing_in_a_static_world_while_the_camera_cruises() {
     let run = cruise(false);
     let worst = run.iter().map(|&(_, est, _)| est).fold(0.0, f64::max);
     assert_eq!(worst, 0.0, "θ̂ of a static world seen from a cruising camera");
+}
+
+#[test]
+fn a_cruising_camera_measures_the_ball_by_its_appearance_early_and_exactly() {
+    // the ball stands out from the sky behind it: measured by its appearance, it is reported
+    // earlier and its θ̂ follows θ within a few per cent; from the compensated difference alone
+    // (`appearance = false`: the few pixels whose centres its edge crossed) later and coarser
+    let with = |appearance: bool| {
+        let config = TrackerConfig {
+            fov_deg: FOV_DEG,
+            appearance,
+            ..TrackerConfig::default()
+        };
+        cruise_with(Box::new(Tracker::new(config).unwrap()), true)
+    };
+    let onset = |run: &[(f64, f64, Option<f64>)]| {
+        let k = run.iter().rposition(|&(_, est, _)| est <= 0.0).map_or(0, |k| k + 1);
+        run.get(k).map_or(f64::INFINITY, |r| r.0)
+    };
+    let worst_error = |run: &[(f64, f64, Option<f64>)]| {
+        run.iter()
+            .filter(|&&(th, est, _)| est > 0.0 && th <= 20.0)
+            .map(|&(th, est, _)| (est - th).abs() / th)
+            .fold(0.0, f64::max)
+    };
+    let (on, off) = (with(true), with(false));
+    assert!(onset(&on) <= 4.5, "with its appearance, θ̂ leaves 0 at θ = {:.2}°", onset(&on));
+    assert!(onset(&on) < onset(&off), "onsets {:.2}° and {:.2}°", onset(&on), onset(&off));
+    assert!(worst_error(&on) < 0.05, "θ̂ within 5 % up to 20°: worst {:.3}", worst_error(&on));
 }

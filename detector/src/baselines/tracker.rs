@@ -32,7 +32,18 @@
 //!    a new track. A standing camera's region is then cleaned of what the background model
 //!    got wrong: an object in view from the first frame is in the
 //!    model (its imprint is replaced by the background around it when that is uniform), and where
-//!    the object was, the frame shows background again. **Validation gate**: once the track holds
+//!    the object was, the frame shows background again. **A moving camera's object by its
+//!    appearance** (`appearance`, default on): the compensated difference of a far object holds
+//!    only the few pixels whose centres its edge crossed over the baseline — from frame to frame
+//!    a crescent, a ring or nothing. Where the object stands out from its surround (a ball against
+//!    the sky), it is measured in the frame itself instead (`Tracker::appearance`): around the
+//!    region and the track's last box, the pixels within the threshold of the object's luminance
+//!    (the median of the region's changed pixels that differ from the surround's median now) and
+//!    beyond it from the surround, when they form a solid shape enclosed by the box (widened up to
+//!    [`APPEARANCE_WIDEN_PX`] a side) spanning most of the region; else the region is measured as
+//!    it is. Such a measurement continues a track while the difference shows no region for up to
+//!    [`APPEARANCE_HOLD_FACTOR`] × `hold_frames` frames, and a track switching between the two
+//!    kinds of measurement starts its fit afresh. **Validation gate**: once the track holds
 //!    [`GATE_MIN_SAMPLES`] measurements, a region whose box is larger or smaller by more than
 //!    `size_gate_ratio` (and [`GATE_SLACK_PX`]) than the size that the line through the track's
 //!    recent box sizes predicts (the square root of the box's area) is not the object's image in
@@ -40,7 +51,9 @@
 //!    or lost part of itself — and is not measured. A track without a region (none overlaps its
 //!    box, or the gate refused it) keeps its fitted box for `hold_frames` frames, then ends: a
 //!    region elsewhere does not take over a track, it starts a new one once the track has ended.
-//!    A track is reported once it has lasted `confirm_frames` frames. Each track has a number
+//!    A track is reported once it has lasted `confirm_frames` frames, or a moving camera's once
+//!    its last [`APPEARANCE_CONFIRM_FRAMES`] measurements were all of the object's appearance.
+//!    Each track has a number
 //!    ([`ImageRegion::track`](crate::ImageRegion)), a new one whenever a track starts.
 //! 4. **Fit**: each frame's measurement — the object's size `s` (the square root of the region's
 //!    area when it is the object's current image and fills its box like a solid shape, else of its
@@ -95,6 +108,26 @@ pub const GATE_MIN_SAMPLES: usize = 8;
 /// `size_gate_ratio` of its predicted size, give or take this, passes (a box a few pixels across
 /// changes by more than the ratio when an edge crosses a pixel centre).
 pub const GATE_SLACK_PX: f64 = 2.0;
+
+/// How many pixels each side of the box in which a moving camera's object is measured by its
+/// appearance may be widened to enclose the object (`Tracker::appearance`): the compensated
+/// difference's region may be a crescent of it.
+pub const APPEARANCE_WIDEN_PX: usize = 4;
+
+/// A moving camera's track measured by its appearance while the compensated difference shows no
+/// region of it survives this many times `hold_frames` frames: a far object's edge crosses a
+/// pixel centre only every few frames, and between those crossings its difference is empty.
+pub const APPEARANCE_HOLD_FACTOR: usize = 4;
+
+/// A moving camera's track whose last this many measurements (at least) were all of the object's
+/// appearance is reported without waiting for `confirm_frames`: a solid shape standing out from
+/// its surround, found where the compensated difference changed, is no speck of noise.
+pub const APPEARANCE_CONFIRM_FRAMES: usize = 8;
+
+/// The smallest fraction of the compensated difference's region's width and height that the
+/// object measured by its appearance must span (`Tracker::appearance`): a smaller shape is a
+/// detail inside the region (a texture's patch), not the object.
+pub const APPEARANCE_MIN_SPAN: f64 = 0.6;
 
 /// Inside the tracked object's box the standing camera's background model follows the frames this
 /// many times more slowly than elsewhere: the object must not become background while it is
@@ -153,6 +186,10 @@ pub struct TrackerConfig {
     /// 60 (0.5 s at 120 Hz): a far object that grows by a pixel in half a second still differs
     /// from it, and a change the scene keeps (a light switched on) fades within about a second.
     pub background_frames: usize,
+    /// Whether a moving camera measures the tracked object by its appearance in the frame when it
+    /// stands out from its surround (module docs, step 3). Default true; false measures the
+    /// compensated difference's regions only.
+    pub appearance: bool,
 }
 
 impl Default for TrackerConfig {
@@ -170,6 +207,7 @@ impl Default for TrackerConfig {
             confirm_frames: 30,
             fit_frames: 45,
             background_frames: 60,
+            appearance: true,
         }
     }
 }
@@ -584,6 +622,8 @@ pub struct Tracker {
     /// The standing camera's imprint fill: pixels already taken ([`Tracker::refine_standing`]).
     filled: Vec<bool>,
     stack: Vec<usize>,
+    /// A moving camera's tracked object's luminance ([`Tracker::appearance`]).
+    object_luminance: Option<f32>,
     blobs: Vec<Blob>,
     track: Option<Blob>,
     /// Tracks started since the last reset: the current track's number ([`ImageRegion::track`]).
@@ -617,6 +657,7 @@ impl Tracker {
             grouping: Grouping::default(),
             filled: Vec::new(),
             stack: Vec::new(),
+            object_luminance: None,
             blobs: Vec::new(),
             track: None,
             tracks: 0,
@@ -1013,6 +1054,115 @@ impl Tracker {
         kept.unwrap_or(blob)
     }
 
+    /// A moving camera's object measured by its appearance in `frame` (module docs, step 3): the
+    /// surround's luminance `b` is the median of the ring around `bbox` grown by a pixel and an
+    /// eighth of its size; the object's luminance `l` is the median of the current values of the
+    /// difference region's changed pixels that differ from `b` by more than the threshold (where
+    /// the object arrived; kept from earlier frames when the region gives none). The object is
+    /// the pixels within the threshold of `l` and beyond it from `b`, inside the box widened side
+    /// by side (up to [`APPEARANCE_WIDEN_PX`]) until none lies on its outline. None — the region
+    /// is measured as it is — when `l` is within twice the threshold of `b`, the object is not
+    /// enclosed, fills less than [`MIN_SOLID_FILL`] of its box, or spans less than
+    /// [`APPEARANCE_MIN_SPAN`] of the region.
+    fn appearance(&mut self, frame: &[f32], n: usize, bbox: [usize; 4], region: Option<&Blob>) -> Option<Blob> {
+        let [i0, i1, j0, j1] = bbox;
+        if i0 == 0 || j0 == 0 || i1 + 1 >= n || j1 + 1 >= n {
+            return None;
+        }
+        let m = 1 + (i1 - i0).max(j1 - j0) / 8;
+        // the grown box keeps a ring inside the image
+        let (mut gi0, mut gi1, mut gj0, mut gj1) =
+            (i0.saturating_sub(m).max(1), (i1 + m).min(n - 2), j0.saturating_sub(m).max(1), (j1 + m).min(n - 2));
+        let mut ring = Vec::new();
+        ring_of(frame, n, [gi0, gi1, gj0, gj1], &mut ring);
+        let mid = ring.len() / 2;
+        let b = *ring.select_nth_unstable_by(mid, f32::total_cmp).1;
+        let thr = self.config.threshold as f32;
+        if let Some(r) = region {
+            let [ri0, ri1, rj0, rj1] = r.bbox;
+            let mut arrived: Vec<f32> = (ri0..=ri1)
+                .flat_map(|i| (rj0..=rj1).map(move |j| i * n + j))
+                .filter(|&p| self.mask[p] != 0.0 && (frame[p] - b).abs() > thr)
+                .map(|p| frame[p])
+                .collect();
+            if !arrived.is_empty() {
+                let mid = arrived.len() / 2;
+                self.object_luminance = Some(*arrived.select_nth_unstable_by(mid, f32::total_cmp).1);
+            }
+        }
+        let l = self.object_luminance?;
+        if (l - b).abs() <= 2.0 * thr {
+            return None;
+        }
+        let is_object = |v: f32| (v - b).abs() > thr && (v - l).abs() <= thr;
+        let mut enclosed = false;
+        for _ in 0..=APPEARANCE_WIDEN_PX {
+            let row = |i: usize| (gj0..=gj1).any(|j| is_object(frame[i * n + j]));
+            let col = |j: usize| (gi0..=gi1).any(|i| is_object(frame[i * n + j]));
+            let sides = [row(gi0), row(gi1), col(gj0), col(gj1)];
+            if !sides.contains(&true) {
+                enclosed = true;
+                break;
+            }
+            if gi0 == 0 || gj0 == 0 || gi1 + 1 >= n || gj1 + 1 >= n {
+                break;
+            }
+            gi0 -= usize::from(sides[0]);
+            gi1 += usize::from(sides[1]);
+            gj0 -= usize::from(sides[2]);
+            gj1 += usize::from(sides[3]);
+        }
+        if !enclosed {
+            return None;
+        }
+        let mut kept: Option<Blob> = None;
+        for i in gi0..=gi1 {
+            for j in gj0..=gj1 {
+                let v = frame[i * n + j];
+                if !is_object(v) {
+                    continue;
+                }
+                let w = f64::from((v - b).abs());
+                let one = Blob {
+                    pixels: 1,
+                    mass: w,
+                    sum_i: w * i as f64,
+                    sum_j: w * j as f64,
+                    bbox: [i, i, j, j],
+                    current: true,
+                };
+                match kept.as_mut() {
+                    Some(k) => k.merge(&one),
+                    None => kept = Some(one),
+                }
+            }
+        }
+        let k = kept.filter(|k| k.pixels >= self.config.standing_min_pixels)?;
+        let [ki0, ki1, kj0, kj1] = k.bbox;
+        let (kh, kw) = ((ki1 - ki0 + 1) as f64, (kj1 - kj0 + 1) as f64);
+        let spans = region.is_none_or(|r| {
+            let [ri0, ri1, rj0, rj1] = r.bbox;
+            kh >= APPEARANCE_MIN_SPAN * (ri1 - ri0 + 1) as f64 && kw >= APPEARANCE_MIN_SPAN * (rj1 - rj0 + 1) as f64
+        });
+        if (k.pixels as f64) < MIN_SOLID_FILL * kh * kw || !spans {
+            return None;
+        }
+        // the object's pixels become the mask, which `size_range` reads
+        for i in gi0..=gi1 {
+            for j in gj0..=gj1 {
+                let v = frame[i * n + j];
+                self.mask[i * n + j] = if is_object(v) { (v - b).abs() } else { 0.0 };
+            }
+        }
+        Some(k)
+    }
+
+    /// Whether the track is reported before `confirm_frames`: a moving camera's track whose last
+    /// [`APPEARANCE_CONFIRM_FRAMES`] measurements or more were all of the object's appearance.
+    fn confirmed_by_appearance(&self) -> bool {
+        self.moving && self.samples.len() >= APPEARANCE_CONFIRM_FRAMES && self.samples.iter().all(|s| s.current)
+    }
+
     /// Moves the standing camera's background model towards `frame`: by `1/background_frames` of
     /// the difference outside the tracked object's box grown by a quarter of its size (at least
     /// `link_px`), [`FROZEN_BACKGROUND_SLOWDOWN`] times less inside it.
@@ -1051,7 +1201,7 @@ impl Tracker {
         let confirmed = self
             .track
             .as_ref()
-            .filter(|t| self.age >= self.config.confirm_frames && !spans_image(t));
+            .filter(|t| (self.age >= self.config.confirm_frames || self.confirmed_by_appearance()) && !spans_image(t));
         let Some(t) = confirmed else {
             return Signals {
                 output: 0.0,
@@ -1116,6 +1266,7 @@ impl Detector for Tracker {
         self.age = 0;
         self.background.clear();
         self.moving = false;
+        self.object_luminance = None;
     }
 
     fn step(&mut self, frame: &Frame) -> Result<Signals, DetectorError> {
@@ -1175,19 +1326,38 @@ impl Detector for Tracker {
         self.group(n, min_pixels);
         let chosen = self.choose();
         if chosen.is_some() && self.track.is_none() {
-            // a new track: another number
+            // a new track: another number, and its object's luminance is not known yet
             self.tracks += 1;
+            self.object_luminance = None;
         }
+        // whether this frame's measurement is of the object's appearance alone (no region)
+        let mut appearance_only = false;
         let chosen = if standing {
             let starting = self.track.is_none();
             chosen.map(|b| self.refine_standing(frame.data(), n, b, starting))
+        } else if self.config.appearance {
+            // around the region and the track's last box together: the region may be a crescent
+            let around = match (chosen.map(|b| b.bbox), self.track.map(|t| t.bbox)) {
+                (Some(a), Some(t)) => Some([a[0].min(t[0]), a[1].max(t[1]), a[2].min(t[2]), a[3].max(t[3])]),
+                (a, t) => a.or(t),
+            };
+            match around.and_then(|bbox| self.appearance(frame.data(), n, bbox, chosen.as_ref())) {
+                Some(a) => {
+                    appearance_only = chosen.is_none();
+                    Some(a)
+                }
+                None => chosen,
+            }
         } else {
             chosen
         };
         let chosen = chosen.filter(|b| self.passes_gate(b));
         match chosen {
             Some(b) => {
-                if self.track.is_none() {
+                // a moving camera's track switching between the difference's boxes and the
+                // object's appearance starts its fit afresh (the two kinds of box differ)
+                let switched = !standing && self.samples.back().is_some_and(|s| s.current != b.current);
+                if self.track.is_none() || switched {
                     self.samples.clear();
                     self.clock = 0;
                 }
@@ -1197,7 +1367,15 @@ impl Detector for Tracker {
                 let measured = self.measure(&b, n);
                 self.samples.push_back(measured);
                 self.track = Some(b);
-                self.missed = 0;
+                if appearance_only {
+                    self.missed += 1;
+                    if self.missed > APPEARANCE_HOLD_FACTOR * self.config.hold_frames {
+                        self.track = None;
+                        self.age = 0;
+                    }
+                } else {
+                    self.missed = 0;
+                }
                 self.age += 1;
             }
             None if self.track.is_some() => {
