@@ -2,8 +2,8 @@
 //! motions: frames ray-cast here from a known camera pose over a textured ground plane (z = 0) and
 //! a textured sky, so the true image motion is known exactly.
 
-use loomlab_detector::compensation::{CompensatedDifference, Mat3, rotation_matrix};
 use loomlab_detector::baselines::{Tracker, TrackerConfig};
+use loomlab_detector::compensation::{CompensatedDifference, Mat3, rotation_matrix};
 use loomlab_detector::{Detector, EfferenceCopy, Frame, Registry};
 
 const N: usize = 96;
@@ -296,7 +296,20 @@ fn a_cruising_camera_measures_the_ball_by_its_appearance_early_and_exactly() {
             .fold(0.0, f64::max)
     };
     let (on, off) = (with(true), with(false));
-    assert!(onset(&on) <= 4.5, "with its appearance, θ̂ leaves 0 at θ = {:.2}°", onset(&on));
-    assert!(onset(&on) < onset(&off), "onsets {:.2}° and {:.2}°", onset(&on), onset(&off));
-    assert!(worst_error(&on) < 0.05, "θ̂ within 5 % up to 20°: worst {:.3}", worst_error(&on));
+    assert!(
+        onset(&on) <= 4.5,
+        "with its appearance, θ̂ leaves 0 at θ = {:.2}°",
+        onset(&on)
+    );
+    assert!(
+        onset(&on) < onset(&off),
+        "onsets {:.2}° and {:.2}°",
+        onset(&on),
+        onset(&off)
+    );
+    assert!(
+        worst_error(&on) < 0.05,
+        "θ̂ within 5 % up to 20°: worst {:.3}",
+        worst_error(&on)
+    );
 }
