@@ -206,8 +206,15 @@ impl EscapeAgent {
                 ..Percept::default()
             },
         };
-        let trigger_value = self.controller.perceive(t_s, percept, cruise).value;
+        let decision = self.controller.perceive(t_s, percept, cruise);
+        let trigger_value = decision.value;
         let object = signals.first().and_then(|s| s.region).and_then(|r| r.track);
+        // a detector that localises the object escapes from the side on which the collision-course
+        // gate predicts it to arrive (as `ideal_course` does), else from where it is now
+        let looming_side = match signals.first().and_then(|s| s.region) {
+            Some(_) => decision.pass_side.or(looming_side),
+            None => looming_side,
+        };
         let mut step = self.decide_about(t_s, looming_side, trigger_value, object, cruise);
         step.signals = signals;
         self.applied = Some(step.command);

@@ -81,9 +81,10 @@
 //! **Escape side.** The gate also gives the side on which the object will arrive
 //! ([`Decision::pass_side`], when it arrives at least [`PASS_SIDE_MIN_RADII`] half-sizes off the
 //! axis): the `ideal_course` reference row escapes from it (an object seen on the left that will
-//! cross to the right is dodged to the left). Detector rows escape from the looming side: a μ from
-//! the temporal-contrast centroid is too noisy to choose a side (with it, 4 hits of
-//! `hopfield_adapted_tau` in `multi_object` dodged into an object).
+//! cross to the right is dodged to the left), and so do detector rows whose detector localises the
+//! object (`tracker`: the gate extrapolates its box's edges). Other detector rows escape from the
+//! looming side: a μ from the temporal-contrast centroid is too noisy to choose a side (with it, 4
+//! hits of `hopfield_adapted_tau` in `multi_object` dodged into an object).
 //!
 //! # Persistence (`persistence_frames`)
 //! With `persistence_frames = K > 1` the decision value is the smallest of the last K frames'

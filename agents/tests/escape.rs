@@ -1231,6 +1231,76 @@ mod named_tracks {
     }
 }
 
+/// A detector that localises the object: the escape side comes from the collision-course gate's
+/// predicted arrival, not from where the object is now.
+mod arrival_side {
+    use loomlab_agents::{
+        ControllerEvent, Course, DodgeSide, EscapeAgent, EscapeConfig, TriggerSignal, VelocityCommand,
+    };
+    use loomlab_detector::{Detector, DetectorError, Frame, ImageRegion, Signals};
+
+    const DT: f64 = 1.0 / 120.0;
+
+    /// A ball of radius 0.15 m closing at 10 m/s from 10 m at the camera's height, crossing from
+    /// 1 m left of the camera to arrive 0.25 m right of it: its image box, frame after frame.
+    struct Crossing(usize);
+
+    impl Detector for Crossing {
+        fn id(&self) -> &'static str {
+            "crossing"
+        }
+        fn reset(&mut self) {
+            self.0 = 0;
+        }
+        fn step(&mut self, _frame: &Frame) -> Result<Signals, DetectorError> {
+            let t = self.0 as f64 * DT;
+            self.0 += 1;
+            let (radius, d) = (0.15, 10.0 - 10.0 * t);
+            let lateral = -1.0 + 1.25 * t;
+            let scale = (30.0f64).to_radians().tan();
+            let (x, half) = (lateral / d / scale, radius / d / scale);
+            let theta = 2.0 * (radius / d).atan().to_degrees();
+            Ok(Signals {
+                output: theta,
+                angular_size_deg: Some(theta),
+                aux: Vec::new(),
+                region: Some(ImageRegion {
+                    centroid: [x, 0.0],
+                    x: [x - half, x + half],
+                    y: [-half, half],
+                    track: Some(1),
+                }),
+            })
+        }
+    }
+
+    #[test]
+    fn an_object_seen_on_the_left_that_will_arrive_on_the_right_is_dodged_to_the_left() {
+        let config = EscapeConfig {
+            trigger: TriggerSignal::Tau,
+            course: Course::Image,
+            ..EscapeConfig::default()
+        };
+        let mut agent = EscapeAgent::new(vec![Box::new(Crossing(0))], config).unwrap();
+        let frame = Frame::from_f32(8, vec![0.5; 64]).unwrap();
+        let cruise = VelocityCommand::forward(0.0);
+        let (k, side, looming) = (0..100)
+            .find_map(|k| {
+                let step = agent.step(k as f64 * DT, &frame, cruise).unwrap();
+                match step.event {
+                    ControllerEvent::Triggered { side } => Some((k, side, step.looming_side)),
+                    _ => None,
+                }
+            })
+            .expect("the crossing ball on a collision course alarms");
+        // where the ball is when the alarm comes: left of the axis
+        let lateral = -1.0 + 1.25 * k as f64 * DT;
+        assert!(lateral < 0.0, "the ball is {lateral:.2} m left at the alarm");
+        assert_eq!(looming, Some(1.0), "the side it arrives on");
+        assert_eq!(side, Some(DodgeSide::Left));
+    }
+}
+
 /// The scenario runner's closed-loop tails: an agent replayed on the signals its detector gave up
 /// to the alarm frame, then handed a copy of that detector taken there, continues exactly like the
 /// agent that stepped its detector all along.
