@@ -454,27 +454,30 @@ fn a_ball_crossing_before_a_moving_camera_gets_a_box_as_wide_as_itself() {
     assert!(worst < 2.0, "box width off by {worst:.1} px: {widths:.1?}");
 }
 
+/// θ̂ after 60 frames of a standing camera watching the rectangle `rows` × `cols` of a uniform
+/// scene darken a little each frame.
+fn theta_of_darkening(rows: [usize; 2], cols: [usize; 2]) -> f64 {
+    let mut d = Tracker::new(TrackerConfig::default()).unwrap();
+    let mut last = 0.0;
+    for k in 0..60 {
+        let value = 0.6 - 0.004 * k as f32;
+        let data = with_rect(&vec![0.6f32; N * N], rows, cols, value);
+        last = d
+            .step_moving(&Frame::from_f32(N, data).unwrap(), &standing())
+            .unwrap()
+            .angular_size_deg
+            .unwrap();
+    }
+    last
+}
+
 #[test]
 fn a_region_from_border_to_border_is_the_scene_not_an_object() {
     // a band of the scene 40 px high darkening from one frame to the next (a wall whose pattern
     // drifts, seen by a standing camera): across the whole width it is never reported; the same
     // band ending 10 px short of each border is a region with a size
-    let theta_of = |cols: [usize; 2]| {
-        let mut d = Tracker::new(TrackerConfig::default()).unwrap();
-        let mut last = 0.0;
-        for k in 0..60 {
-            let value = 0.6 - 0.004 * k as f32;
-            let data = with_rect(&vec![0.6f32; N * N], [30, 69], cols, value);
-            last = d
-                .step_moving(&Frame::from_f32(N, data).unwrap(), &standing())
-                .unwrap()
-                .angular_size_deg
-                .unwrap();
-        }
-        last
-    };
-    assert_eq!(theta_of([0, N - 1]), 0.0);
-    assert!(theta_of([10, N - 11]) > 20.0);
+    assert_eq!(theta_of_darkening([30, 69], [0, N - 1]), 0.0);
+    assert!(theta_of_darkening([30, 69], [10, N - 11]) > 20.0);
 }
 
 #[test]
@@ -483,20 +486,7 @@ fn a_region_cut_by_two_adjacent_borders_has_no_size_and_is_not_tracked() {
     // standing camera): touching the left and the top border it is cut in both directions and
     // never reported; touching only the left border it is measured by its height; 4 px from
     // both borders it is a region with a size
-    let theta_of = |rows: [usize; 2], cols: [usize; 2]| {
-        let mut d = Tracker::new(TrackerConfig::default()).unwrap();
-        let mut last = 0.0;
-        for k in 0..60 {
-            let value = 0.6 - 0.004 * k as f32;
-            let data = with_rect(&vec![0.6f32; N * N], rows, cols, value);
-            last = d
-                .step_moving(&Frame::from_f32(N, data).unwrap(), &standing())
-                .unwrap()
-                .angular_size_deg
-                .unwrap();
-        }
-        last
-    };
+    let theta_of = theta_of_darkening;
     assert_eq!(theta_of([0, 29], [0, 29]), 0.0);
     assert_eq!(theta_of([N - 30, N - 1], [N - 30, N - 1]), 0.0);
     assert!(theta_of([4, 33], [0, 29]) > 15.0);

@@ -274,6 +274,18 @@ struct Blob {
 }
 
 impl Blob {
+    /// The region of the one pixel `(i, j)` weighing `w`, of the object's current image.
+    fn pixel(i: usize, j: usize, w: f64) -> Self {
+        Blob {
+            pixels: 1,
+            mass: w,
+            sum_i: w * i as f64,
+            sum_j: w * j as f64,
+            bbox: [i, i, j, j],
+            current: true,
+        }
+    }
+
     fn merge(&mut self, o: &Blob) {
         self.pixels += o.pixels;
         self.mass += o.mass;
@@ -1032,23 +1044,11 @@ impl Tracker {
                     self.mask[p] = 0.0;
                     continue;
                 }
-                let m = f64::from(m);
-                let k = kept.get_or_insert(Blob {
-                    pixels: 0,
-                    mass: 0.0,
-                    sum_i: 0.0,
-                    sum_j: 0.0,
-                    bbox: [i, i, j, j],
-                    current: true,
-                });
-                k.merge(&Blob {
-                    pixels: 1,
-                    mass: m,
-                    sum_i: m * i as f64,
-                    sum_j: m * j as f64,
-                    bbox: [i, i, j, j],
-                    current: true,
-                });
+                let one = Blob::pixel(i, j, f64::from(m));
+                match kept.as_mut() {
+                    Some(k) => k.merge(&one),
+                    None => kept = Some(one),
+                }
             }
         }
         kept.unwrap_or(blob)
@@ -1122,15 +1122,7 @@ impl Tracker {
                 if !is_object(v) {
                     continue;
                 }
-                let w = f64::from((v - b).abs());
-                let one = Blob {
-                    pixels: 1,
-                    mass: w,
-                    sum_i: w * i as f64,
-                    sum_j: w * j as f64,
-                    bbox: [i, i, j, j],
-                    current: true,
-                };
+                let one = Blob::pixel(i, j, f64::from((v - b).abs()));
                 match kept.as_mut() {
                     Some(k) => k.merge(&one),
                     None => kept = Some(one),
