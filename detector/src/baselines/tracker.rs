@@ -292,12 +292,7 @@ impl Blob {
         self.sum_i += o.sum_i;
         self.sum_j += o.sum_j;
         self.current &= o.current;
-        self.bbox = [
-            self.bbox[0].min(o.bbox[0]),
-            self.bbox[1].max(o.bbox[1]),
-            self.bbox[2].min(o.bbox[2]),
-            self.bbox[3].max(o.bbox[3]),
-        ];
+        self.bbox = box_union(self.bbox, o.bbox);
     }
 
     /// Which image borders the region touches in an n × n frame: `[top, bottom, left, right]`.
@@ -362,6 +357,11 @@ fn union(parent: &mut [u32], a: usize, b: usize) {
         let (lo, hi) = (a.min(b), a.max(b));
         parent[hi] = lo as u32;
     }
+}
+
+/// The smallest box `[i0, i1, j0, j1]` (inclusive) holding boxes `a` and `b`.
+fn box_union(a: [usize; 4], b: [usize; 4]) -> [usize; 4] {
+    [a[0].min(b[0]), a[1].max(b[1]), a[2].min(b[2]), a[3].max(b[3])]
 }
 
 /// Collects into `ring` the values of `image` (n·n) on the pixels just outside `bbox`
@@ -1150,9 +1150,12 @@ impl Tracker {
     }
 
     /// Whether the track is reported before `confirm_frames`: a moving camera's track whose last
-    /// [`APPEARANCE_CONFIRM_FRAMES`] measurements or more were all of the object's appearance.
+    /// [`APPEARANCE_CONFIRM_FRAMES`] measurements or more were all of the object's appearance (its
+    /// fit starts afresh whenever the kind of measurement changes, so its samples are of one kind).
     fn confirmed_by_appearance(&self) -> bool {
-        self.moving && self.samples.len() >= APPEARANCE_CONFIRM_FRAMES && self.samples.iter().all(|s| s.current)
+        self.moving
+            && self.samples.len() >= APPEARANCE_CONFIRM_FRAMES
+            && self.samples.back().is_some_and(|s| s.current)
     }
 
     /// Moves the standing camera's background model towards `frame`: by `1/background_frames` of
@@ -1330,7 +1333,7 @@ impl Detector for Tracker {
         } else if self.config.appearance {
             // around the region and the track's last box together: the region may be a crescent
             let around = match (chosen.map(|b| b.bbox), self.track.map(|t| t.bbox)) {
-                (Some(a), Some(t)) => Some([a[0].min(t[0]), a[1].max(t[1]), a[2].min(t[2]), a[3].max(t[3])]),
+                (Some(a), Some(t)) => Some(box_union(a, t)),
                 (a, t) => a.or(t),
             };
             match around.and_then(|bbox| self.appearance(frame.data(), n, bbox, chosen.as_ref())) {
