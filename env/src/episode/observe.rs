@@ -1,0 +1,219 @@
+//! What a step shows the agent: detectors and shadow controller, observation, info and the episode's scoring.
+
+use loomlab_agents::{ContinuousAction, DiscreteAction, Ego, VelocityCommand};
+use loomlab_detector::Frame;
+use loomlab_scenarios::metrics::{GroundTruth, TraceSample, score_detector_episode};
+use loomlab_scenarios::reference::INDICATOR_THRESHOLD;
+use loomlab_sim::StepOutput;
+
+use super::step::deviation;
+use super::{AGENT_LABEL, EpisodeSummary, EscapeEnv, Observation, ROBOT_LIMIT, SIGNAL_LIMIT, StepInfo};
+use crate::features::ObsMode;
+use crate::{EnvError, RewardTerms};
+
+/// A detector value for the observation: finite, clamped into ±[`SIGNAL_LIMIT`] (non-finite: 0).
+fn finite_or_zero(v: f64) -> f32 {
+    if v.is_finite() {
+        (v as f32).clamp(-SIGNAL_LIMIT, SIGNAL_LIMIT)
+    } else {
+        0.0
+    }
+}
+
+fn wrap_angle(a: f64) -> f64 {
+    (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
+}
+
+/// 8-bit grey level of a luminance in [0, 1] (the simulator's rounding).
+fn to_u8(v: f32) -> u8 {
+    (v.clamp(0.0, 1.0) * 255.0).round() as u8
+}
+
+impl EscapeEnv {
+    /// Steps the detectors (not on the reset frame), the shadow controller and the bookkeeping.
+    pub(super) fn process(
+        &mut self,
+        out: &StepOutput,
+        done: bool,
+        terms: RewardTerms,
+    ) -> Result<(Observation, StepInfo), EnvError> {
+        let n = self.n as usize;
+        let r = self.running.as_ref().expect("process() runs inside an episode");
+        let reference = r.reference.and_then(|id| out.truth.get(id));
+        let ttc_s = reference.and_then(|t| t.ttc_s).map(f64::from);
+        let angular_size_deg = reference.map(|t| f64::from(t.angular_size_deg));
+        let cruise_now = r.spec.cruise.command_at(out.t_s);
+        // the camera's pose as the robot's odometry and inertial sensor know it (the detectors'
+        // efference copy, as in the scenario runner)
+        let camera_pose = r.sim.camera_pose();
+        let nd = self.detectors.len();
+        let mut signals = Vec::with_capacity(nd);
+        let mut alarm = Vec::with_capacity(nd);
+        let mut theta_hat = None;
+        let mut looming_side = None;
+        let (controller_continuous, controller_discrete);
+        if out.frame_index == 0 {
+            // the reset frame: detectors see their first frame in the first step
+            for names in &self.signal_names {
+                signals.push(vec![0.0; names.len()]);
+                alarm.push(false);
+            }
+            controller_continuous = self.normalised(cruise_now);
+            controller_discrete = DiscreteAction::None;
+        } else {
+            let frame = Frame::from_f32(n, out.frame.clone())?;
+            // the robot's own motion during the last period, as the agent's controller sees it
+            let last = self.agent.controller().last_command().unwrap_or(cruise_now);
+            let ego = Ego {
+                yaw_rate_rps: last.yaw_rate_rps,
+                forward_mps: last.forward_mps,
+                ..Ego::default()
+            };
+            let step = self.agent.step_posed(out.t_s, &frame, cruise_now, Some(&camera_pose))?;
+            for (d, s) in self.detectors.iter_mut().zip(&step.signals) {
+                let raw = d.trigger.value(s).unwrap_or(f64::NAN);
+                // a stateful row's value is its strategy's decision value, as the agent computes it
+                let value = match &mut d.strategy {
+                    Some(strategy) => {
+                        let percept = d.controller.percept_of(raw, step.looming_side, s.region.as_ref());
+                        strategy.update(out.t_s, percept, ego).value
+                    }
+                    None => raw,
+                };
+                alarm.push(value >= d.threshold);
+                d.trace.push(TraceSample {
+                    t_s: out.t_s,
+                    signal: value,
+                    ttc_s,
+                    angular_size_deg: angular_size_deg.filter(|v| v.is_finite()),
+                });
+                if theta_hat.is_none() {
+                    theta_hat = s.angular_size_deg;
+                }
+                let mut v = Vec::with_capacity(1 + s.aux.len());
+                v.push(finite_or_zero(s.output));
+                v.extend(s.aux.iter().map(|(_, x)| finite_or_zero(*x)));
+                signals.push(v);
+            }
+            looming_side = step.looming_side;
+            controller_continuous = self.normalised(step.command);
+            controller_discrete = DiscreteAction::from_command(step.command, cruise_now);
+        }
+        let r = self.running.as_ref().expect("process() runs inside an episode");
+        let (dx, dy) = (out.robot.x_m - r.start.x_m, out.robot.y_m - r.start.y_m);
+        let (s0, c0) = r.start.yaw_rad.sin_cos();
+        let cmd = r.last_command;
+        let robot = [
+            (dx * c0 + dy * s0) as f32,
+            (-dx * s0 + dy * c0) as f32,
+            wrap_angle(out.robot.yaw_rad - r.start.yaw_rad) as f32,
+            cmd.forward_mps as f32,
+            cmd.yaw_rate_rps as f32,
+            cmd.lateral_mps as f32,
+            out.t_s as f32,
+        ]
+        .map(|v| v.clamp(-ROBOT_LIMIT, ROBOT_LIMIT));
+        let dodging = deviation(cmd, r.last_cruise)
+            .iter()
+            .any(|d| d.abs() > crate::reward::DODGE_TOLERANCE);
+        let obs = Observation {
+            signals,
+            theta_hat_deg: theta_hat.map(finite_or_zero).unwrap_or(0.0),
+            alarm,
+            robot,
+            frame: self
+                .options
+                .observe_frames
+                .then(|| out.frame.iter().map(|&v| to_u8(v)).collect()),
+            features: None,
+        };
+        let obs = match self.options.obs_mode {
+            ObsMode::Raw => obs,
+            ObsMode::Privileged => {
+                let dt = r.spec.world.dt();
+                let duration_s = r.frames as f64 * dt;
+                let features = self
+                    .privileged
+                    .features(&out.truth, &obs, dt, duration_s, &self.options.action, cmd);
+                Observation {
+                    features: Some(features),
+                    ..obs
+                }
+            }
+            ObsMode::Normalized => {
+                let dt = r.spec.world.dt();
+                let duration_s = r.frames as f64 * dt;
+                let features = self
+                    .normalizer
+                    .features(&obs, looming_side, dt, duration_s, &self.options.action, cmd);
+                Observation {
+                    features: Some(features),
+                    ..obs
+                }
+            }
+        };
+        let outcome = if done {
+            let truth = GroundTruth {
+                threat: r.t_contact_s.is_some(),
+                t_contact_s: r.t_contact_s,
+                t_deadline_s: r.t_deadline_s,
+                collision: r.collision,
+            };
+            let mut scored = Vec::with_capacity(nd);
+            for d in &self.detectors {
+                scored.push(score_detector_episode(
+                    &d.label,
+                    d.threshold,
+                    &d.trace,
+                    &truth,
+                    &r.spec.scoring,
+                )?);
+            }
+            let agent = score_detector_episode(
+                AGENT_LABEL,
+                INDICATOR_THRESHOLD,
+                &r.agent_trace,
+                &truth,
+                &r.spec.scoring,
+            )?;
+            Some(EpisodeSummary {
+                threat: truth.threat,
+                t_contact_s: truth.t_contact_s,
+                collision: r.collision,
+                evaded: truth.threat && !r.collision,
+                steps: r.steps,
+                episode_return: r.episode_return,
+                detectors: scored,
+                agent,
+            })
+        } else {
+            None
+        };
+        let info = StepInfo {
+            t_s: out.t_s,
+            step: r.steps,
+            threat: r.t_contact_s.is_some(),
+            t_contact_s: r.t_contact_s,
+            ttc_s,
+            angular_size_deg,
+            collision: r.collision,
+            episode: r.spec.index,
+            dodging,
+            controller_continuous,
+            controller_discrete,
+            reward_terms: terms,
+            outcome,
+        };
+        if let Some(r) = self.running.as_mut() {
+            r.last_t_s = out.t_s;
+            r.last_ttc_s = ttc_s;
+            r.last_angular_size_deg = angular_size_deg.filter(|v| v.is_finite());
+        }
+        Ok((obs, info))
+    }
+
+    /// A command as a normalised continuous action (clamped into [-1, 1]).
+    fn normalised(&self, c: VelocityCommand) -> [f32; 3] {
+        ContinuousAction::from_command(c, &self.options.action).0
+    }
+}

@@ -1,0 +1,141 @@
+//! The running episode's state, and the resets that start one (open-loop truth, detectors, first frame).
+
+use std::sync::Arc;
+
+use loomlab_agents::{EscapeController, VelocityCommand};
+use loomlab_scenarios::metrics::TraceSample;
+use loomlab_scenarios::schema::EpisodeSpec;
+use loomlab_scenarios::truth::{open_loop_truth, threat_deadline};
+use loomlab_sim::{RobotState, Sim};
+
+use super::slots::slot_controller;
+use super::{Action, EpisodeStart, EscapeEnv, Observation, StepInfo};
+use crate::{EnvError, EpisodeRng, RewardTerms};
+
+pub(super) struct Running {
+    pub(super) sim: Sim,
+    pub(super) spec: EpisodeSpec,
+    pub(super) start_kind: EpisodeStart,
+    pub(super) frames: u64,
+    pub(super) actions: Vec<Action>,
+    /// Open-loop contact time of the threat (s); `None`: no threat.
+    pub(super) t_contact_s: Option<f64>,
+    /// Escape deadline of the threat (s); `None`: no threat, or unavoidable.
+    pub(super) t_deadline_s: Option<f64>,
+    pub(super) reference: Option<usize>,
+    pub(super) start: RobotState,
+    pub(super) last_robot: RobotState,
+    pub(super) steps: u64,
+    pub(super) collision: bool,
+    pub(super) done: bool,
+    pub(super) episode_return: f64,
+    pub(super) last_command: VelocityCommand,
+    /// The cruise command during the last step.
+    pub(super) last_cruise: VelocityCommand,
+    /// Whether a step of this episode earned the timely-dodge bonus.
+    pub(super) timely_paid: bool,
+    /// The agent's departures from cruising, one sample per step at the time of the observation
+    /// the action was chosen on (signal 1: departed, 0: cruised).
+    pub(super) agent_trace: Vec<TraceSample>,
+    /// The last observation's time and reference-object truth (for the next agent sample).
+    pub(super) last_t_s: f64,
+    pub(super) last_ttc_s: Option<f64>,
+    pub(super) last_angular_size_deg: Option<f64>,
+}
+
+impl EscapeEnv {
+    /// Starts a new episode drawn from the seed stream. `Some(seed)` restarts the stream
+    /// (reproducible); `None` continues it (a fresh environment's stream is seeded from OS entropy).
+    pub fn reset(&mut self, seed: Option<u64>) -> Result<(Observation, StepInfo), EnvError> {
+        if let Some(s) = seed {
+            self.rng = EpisodeRng::new(s);
+        }
+        let rng_state = self.rng.state();
+        let sim_seed = self.rng.next_u64();
+        let draw = self.rng.next_u64();
+        let spec = if self.resample {
+            // a fresh expansion of the random ranges (a nonzero seed mixed into the file's)
+            let sc = self.scenario.load(&self.options, draw | 1)?;
+            let i = (self.rng.next_u64() % sc.episodes.len() as u64) as usize;
+            sc.episodes[i].clone()
+        } else {
+            self.base.episodes[(draw % self.base.episodes.len() as u64) as usize].clone()
+        };
+        self.start(spec, sim_seed, EpisodeStart::Drawn { rng_state })
+    }
+
+    /// Starts scenario episode `index` (of [`episodes`](Self::episodes)) with simulator seed `seed`
+    /// (`None`: the episode's own seed, as `loomlab run` uses it). The seed stream is untouched.
+    pub fn reset_to_episode(&mut self, index: usize, seed: Option<u64>) -> Result<(Observation, StepInfo), EnvError> {
+        let spec = self.base.episodes.get(index).cloned().ok_or_else(|| {
+            EnvError::option(
+                "episode",
+                index,
+                format!("the scenario has {} episodes", self.base.episodes.len()),
+            )
+        })?;
+        let seed = seed.unwrap_or(spec.seed);
+        self.start(spec, seed, EpisodeStart::Fixed { index, seed })
+    }
+
+    fn start(
+        &mut self,
+        spec: EpisodeSpec,
+        sim_seed: u64,
+        start_kind: EpisodeStart,
+    ) -> Result<(Observation, StepInfo), EnvError> {
+        let frames = spec.frames() as u64;
+        let truth = open_loop_truth(&spec, sim_seed)?;
+        let sim = match self.running.take() {
+            Some(mut r) => {
+                r.sim.reset(&spec.world, sim_seed)?;
+                r.sim
+            }
+            None => Sim::with_context(&spec.world, sim_seed, Arc::clone(&self.ctx))?,
+        };
+        let mut sim = sim;
+        let escape = EscapeController::new(spec.controller.clone())?;
+        let t_deadline_s = threat_deadline(&spec, sim_seed, &truth, &escape, &mut sim)?.and_then(|d| d.t_s);
+        for (i, (slot, d)) in self.detectors.iter_mut().zip(&spec.detectors).enumerate() {
+            if slot.params != d.params {
+                self.agent.replace_detector(i, d.build(self.n as usize)?);
+                slot.params = d.params.clone();
+            }
+            slot.trace.clear();
+            slot.trigger = d.trigger;
+            slot.threshold = self.options.thresholds.get(&d.label).copied().unwrap_or(d.threshold);
+            (slot.controller, slot.strategy) = slot_controller(d, &spec.controller, slot.threshold);
+        }
+        self.agent.set_controller(self.detectors[0].controller.clone())?;
+        self.agent.reset();
+        let first = sim.observe()?;
+        let start = first.robot;
+        let cruise = spec.cruise.command_at(0.0);
+        self.running = Some(Running {
+            sim,
+            spec,
+            start_kind,
+            frames,
+            actions: Vec::new(),
+            t_contact_s: truth.t_contact_s(),
+            t_deadline_s,
+            reference: truth.reference,
+            start,
+            last_robot: start,
+            steps: 0,
+            collision: false,
+            done: false,
+            episode_return: 0.0,
+            last_command: cruise,
+            last_cruise: cruise,
+            timely_paid: false,
+            agent_trace: Vec::new(),
+            last_t_s: 0.0,
+            last_ttc_s: None,
+            last_angular_size_deg: None,
+        });
+        self.normalizer.reset(self.detectors.len());
+        self.privileged.reset();
+        self.process(&first, false, RewardTerms::default())
+    }
+}
