@@ -19,6 +19,9 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     // Subcommands are added here, one variant each, dispatching to cli::<name>::run.
+    /// Calibrate detector thresholds to a false-alarm rate over the non-threat episodes of several
+    /// runs pooled (held-out draws: the suite run with other --seed values).
+    Calibrate(cli::calibrate::CalibrateArgs),
     /// Run looming detectors on a stimulus file or a video; writes responses.csv and a plot.
     Detect(cli::detect::DetectArgs),
     /// Regenerate the paper's artificial-video experiments (Figs. 3-8) as PNG + CSV.
@@ -45,6 +48,7 @@ fn main() {
         }
     }
     let result: anyhow::Result<i32> = match cli.command {
+        Command::Calibrate(a) => cli::calibrate::run(a),
         Command::Detect(a) => cli::detect::run(a),
         Command::Figures(a) => cli::figures::run(a),
         Command::Render(a) => cli::render::run(a),

@@ -1,5 +1,6 @@
 //! The `loomlab` binary end to end: one test binary (linking wgpu and rapier once), one module per subcommand or concern.
 
+mod calibrate_cli;
 mod common;
 mod detect_cli;
 mod docs;

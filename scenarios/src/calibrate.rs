@@ -10,7 +10,7 @@
 
 use std::collections::BTreeMap;
 
-use crate::metrics::EpisodeOutcome;
+use crate::metrics::{EpisodeOutcome, Outcome};
 
 /// The calibrated threshold of one detector.
 #[derive(Debug, Clone, PartialEq)]
@@ -26,6 +26,12 @@ pub struct Calibration {
     pub false_alarm_rate: f64,
     /// Hit rate over the threat episodes at `threshold` (`None` without threats).
     pub hit_rate: Option<f64>,
+    /// False-alarm rate over the same non-threat episodes at the threshold they were run with
+    /// (their recorded outcomes), for comparison.
+    pub run_false_alarm_rate: f64,
+    /// Hit rate over the evadable threats at the threshold they were run with (`None` without
+    /// threats).
+    pub run_hit_rate: Option<f64>,
 }
 
 /// Rounds `x` up to 3 significant digits, strictly above `x`.
@@ -57,9 +63,19 @@ pub fn threshold_for_false_alarm_rate(scores: &[f64], target: f64) -> Option<f64
     Some(round_up_3(s[allowed]))
 }
 
+/// One row's ROC scores — of the evadable threats and of the non-threats — and how many of each
+/// the threshold the episodes were run with alarmed on in time (hits) or at all (false alarms).
+#[derive(Default)]
+struct RowScores {
+    threats: Vec<f64>,
+    non_threats: Vec<f64>,
+    run_hits: usize,
+    run_false_alarms: usize,
+}
+
 /// Calibrates every detector of `episodes` to `target` false-alarm rate over its non-threat episodes.
 pub fn calibrate(episodes: &[EpisodeOutcome], target: f64) -> Vec<Calibration> {
-    let mut by: BTreeMap<&str, (Vec<f64>, Vec<f64>)> = BTreeMap::new();
+    let mut by: BTreeMap<&str, RowScores> = BTreeMap::new();
     for e in episodes {
         // reference rows are not calibrated; positives are the evadable threats (the ROC's)
         for d in e
@@ -67,17 +83,20 @@ pub fn calibrate(episodes: &[EpisodeOutcome], target: f64) -> Vec<Calibration> {
             .iter()
             .filter(|d| !crate::reference::is_reference(&d.detector))
         {
-            let entry = by.entry(&d.detector).or_default();
+            let row = by.entry(&d.detector).or_default();
             if d.evadable() {
-                entry.0.push(d.roc_score());
+                row.threats.push(d.roc_score());
+                row.run_hits += usize::from(d.outcome == Outcome::Hit);
             } else if !d.threat {
-                entry.1.push(d.roc_score());
+                row.non_threats.push(d.roc_score());
+                row.run_false_alarms += usize::from(d.outcome == Outcome::FalseAlarm);
             }
         }
     }
     by.into_iter()
-        .map(|(label, (pos, neg))| {
-            let threshold = threshold_for_false_alarm_rate(&neg, target);
+        .map(|(label, row)| {
+            let (pos, neg) = (&row.threats, &row.non_threats);
+            let threshold = threshold_for_false_alarm_rate(neg, target);
             let rate = |v: &[f64]| match threshold {
                 Some(t) => v.iter().filter(|&&s| s >= t).count() as f64 / v.len().max(1) as f64,
                 None => 0.0,
@@ -86,8 +105,10 @@ pub fn calibrate(episodes: &[EpisodeOutcome], target: f64) -> Vec<Calibration> {
                 label: label.to_string(),
                 threshold,
                 non_threats: neg.len(),
-                false_alarm_rate: rate(&neg),
-                hit_rate: (!pos.is_empty()).then(|| rate(&pos)),
+                false_alarm_rate: rate(neg),
+                hit_rate: (!pos.is_empty()).then(|| rate(pos)),
+                run_false_alarm_rate: row.run_false_alarms as f64 / neg.len().max(1) as f64,
+                run_hit_rate: (!pos.is_empty()).then(|| row.run_hits as f64 / pos.len() as f64),
             }
         })
         .collect()

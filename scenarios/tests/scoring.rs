@@ -1507,6 +1507,32 @@ fn report_lists_the_references_and_the_table_puts_them_last() {
 }
 
 #[test]
+fn calibration_reports_the_rates_at_the_runs_own_threshold_too() {
+    // the run alarmed on both threats in time and on two of four non-threats (scores 5)
+    let mut detectors = Vec::new();
+    for (threat, alarm, score) in [
+        (true, Some(2.0), 20.0),
+        (true, Some(2.0), 3.0),
+        (false, Some(1.0), 5.0),
+        (false, Some(1.0), 5.0),
+        (false, None, 1.0),
+        (false, None, 1.0),
+    ] {
+        detectors.push(ep(threat, threat.then_some(3.0), alarm, false, Some(score)));
+    }
+    let eps: Vec<EpisodeOutcome> = detectors
+        .into_iter()
+        .enumerate()
+        .map(|(i, d)| episode("own", i, vec![d]))
+        .collect();
+    let c = &calibrate::calibrate(&eps, 0.25)[0];
+    // one false alarm of four allowed: just above the second-largest non-threat score (5)
+    assert!(c.threshold.unwrap() > 5.0 && c.threshold.unwrap() <= 5.01, "{c:?}");
+    assert_eq!((c.false_alarm_rate, c.hit_rate), (0.0, Some(0.5)));
+    assert_eq!((c.run_false_alarm_rate, c.run_hit_rate), (0.5, Some(1.0)));
+}
+
+#[test]
 fn references_are_excluded_from_calibration() {
     let eps = episodes_with_references();
     let cal = calibrate::calibrate(&eps, 0.1);

@@ -1,5 +1,6 @@
 //! Subcommands of the `loomlab` CLI, one module each; `src/main.rs` only dispatches.
 
+pub mod calibrate;
 pub mod detect;
 pub mod efference;
 pub mod figures;

@@ -28,7 +28,6 @@ use anyhow::{Context, bail};
 use clap::Args;
 use loomlab_detector::Registry;
 use loomlab_detector::parse_detector_list;
-use loomlab_scenarios::calibrate::calibrate;
 use loomlab_scenarios::fingerprint::Fingerprint;
 use loomlab_scenarios::metrics::EpisodeOutcome;
 use loomlab_scenarios::reference::REFERENCE_LABELS;
@@ -655,23 +654,8 @@ pub fn run_with(args: RunArgs, context: RunContext) -> anyhow::Result<i32> {
         }
     }
     if let Some(target) = args.calibrate {
-        outln!("\nthresholds for a false-alarm rate <= {target} over this run's non-threat episodes:");
-        for c in calibrate(&outcomes, target) {
-            // three significant digits in the shortest form (0.000095, 2.47, 270)
-            let sig3 = |t: f64| {
-                format!("{t:.2e}")
-                    .parse::<f64>()
-                    .map_or(t.to_string(), |v| v.to_string())
-            };
-            let t = c.threshold.map_or("any (no finite score)".to_string(), sig3);
-            let hit = c.hit_rate.map_or("n/a".to_string(), |h| format!("{h:.2}"));
-            outln!(
-                "  {:<10} threshold {t:<12} FA rate {:.2} over {} non-threats, hit rate {hit}",
-                c.label,
-                c.false_alarm_rate,
-                c.non_threats
-            );
-        }
+        outln!();
+        super::calibrate::print_calibrations(&outcomes, target, "this run's non-threat episodes");
     }
 
     if let Some(path) = &args.baseline {
