@@ -59,6 +59,9 @@ pub struct TrackerConfig {
     /// stands out from its surround (module docs, step 3). Default true; false measures the
     /// compensated difference's regions only.
     pub appearance: bool,
+    /// Whether a region on a collision course takes the track over from an object that will pass
+    /// beside the camera (module docs, step 3). Default true; false keeps a track until it ends.
+    pub take_over: bool,
 }
 
 impl Default for TrackerConfig {
@@ -77,6 +80,7 @@ impl Default for TrackerConfig {
             fit_frames: 45,
             background_frames: 60,
             appearance: true,
+            take_over: true,
         }
     }
 }

@@ -50,7 +50,12 @@
 //!    this frame — it merged with another region (a second object, the ground's texture)
 //!    or lost part of itself — and is not measured. A track without a region (none overlaps its
 //!    box, or the gate refused it) keeps its fitted box for `hold_frames` frames, then ends: a
-//!    region elsewhere does not take over a track, it starts a new one once the track has ended.
+//!    region elsewhere does not take over a track, it starts a new one once the track has ended —
+//!    except a region on a collision course (within [`TAKE_OVER_COURSE_WIDTHS`] of its widths of
+//!    the image centre) while the tracked object will pass beside (more than
+//!    [`TAKE_OVER_BESIDE_WIDTHS`] of its widths beside the centre: an object on a straight course
+//!    keeps its lateral offset in widths), which ends the track and starts a new one
+//!    (`take_over`, default on).
 //!    A track is reported once it has lasted `confirm_frames` frames, or a moving camera's once
 //!    its last [`APPEARANCE_CONFIRM_FRAMES`] measurements were all of the object's appearance.
 //!    Each track has a number
@@ -137,6 +142,18 @@ pub const APPEARANCE_CONFIRM_FRAMES: usize = 8;
 /// object measured by its appearance must span (`Tracker::appearance`): a smaller shape is a
 /// detail inside the region (a texture's patch), not the object.
 pub const APPEARANCE_MIN_SPAN: f64 = 0.6;
+
+/// A tracked object whose box's centre lies more than this many of its own widths beside the
+/// image centre will pass beside the camera (its lateral offset in units of its width stays
+/// constant as it approaches on a straight course), and a region on a collision course may take
+/// its track over (`take_over`; `Tracker::take_over`). A pole 2 m beside the path is 8–9 widths
+/// off; the suite's rows are the same for 2–5.
+pub const TAKE_OVER_BESIDE_WIDTHS: f64 = 3.0;
+
+/// A region whose box's centre lies within this many of its own widths of the image centre is on
+/// a collision course with the camera (it arrives at most half a width beside the axis), and may
+/// take over the track of an object passing beside (`Tracker::take_over`).
+pub const TAKE_OVER_COURSE_WIDTHS: f64 = 1.0;
 
 /// Inside the tracked object's box the standing camera's background model follows the frames this
 /// many times more slowly than elsewhere: the object must not become background while it is
@@ -362,7 +379,16 @@ impl Detector for Tracker {
             self.config.min_pixels
         };
         self.group(n, min_pixels);
-        let chosen = self.choose();
+        let taken_over = if self.config.take_over { self.take_over(n) } else { None };
+        let chosen = match taken_over {
+            Some(b) => {
+                self.track = None;
+                self.age = 0;
+                self.missed = 0;
+                Some(b)
+            }
+            None => self.choose(),
+        };
         if chosen.is_some() && self.track.is_none() {
             // a new track: another number, and its object's luminance is not known yet
             self.tracks += 1;

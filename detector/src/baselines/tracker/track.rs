@@ -2,7 +2,10 @@
 
 use super::fit::Lines;
 use super::region::Blob;
-use super::{APPEARANCE_CONFIRM_FRAMES, DIFFERENCE_MEMORY_DIVISOR, GATE_MIN_SAMPLES, GATE_SLACK_PX, Tracker};
+use super::{
+    APPEARANCE_CONFIRM_FRAMES, DIFFERENCE_MEMORY_DIVISOR, GATE_MIN_SAMPLES, GATE_SLACK_PX, TAKE_OVER_BESIDE_WIDTHS,
+    TAKE_OVER_COURSE_WIDTHS, Tracker,
+};
 
 impl Tracker {
     /// Chooses the tracked object among this frame's blobs (see the module docs, step 3): with a
@@ -27,6 +30,32 @@ impl Tracker {
             }
         }
         Some(chosen)
+    }
+
+    /// The region that takes the track over (module docs, step 3), if any: while the tracked
+    /// object's box lies more than [`TAKE_OVER_BESIDE_WIDTHS`] of its widths beside the image
+    /// centre — on a straight course its lateral offset in widths stays the same as it nears, so it
+    /// will pass beside the camera — the heaviest region that does not overlap the track's grown
+    /// box and lies within [`TAKE_OVER_COURSE_WIDTHS`] of its own widths of the centre (on a
+    /// collision course). A moving camera's residual of a pole beside the path held the single
+    /// track while a ball thrown at the robot grew in the centre, never taken up.
+    pub(super) fn take_over(&self, n: usize) -> Option<Blob> {
+        let track = self.track.as_ref()?;
+        // the box's lateral offset from the image centre in units of its width
+        let beside = |[_, _, j0, j1]: [usize; 4]| {
+            let centre = (j0 + j1 + 1) as f64 / 2.0 - n as f64 / 2.0;
+            centre.abs() / (j1 - j0 + 1) as f64
+        };
+        if beside(track.bbox) <= TAKE_OVER_BESIDE_WIDTHS {
+            return None;
+        }
+        let [i0, i1, j0, j1] = track.bbox;
+        let margin = ((i1 - i0).max(j1 - j0) / 4).max(self.config.link_px);
+        self.blobs
+            .iter()
+            .filter(|b| !b.overlaps(track.bbox, margin) && beside(b.bbox) <= TAKE_OVER_COURSE_WIDTHS)
+            .max_by(|a, b| a.mass.total_cmp(&b.mass))
+            .copied()
     }
 
     /// Whether region `b` passes the track's validation gate (module docs, step 3): its box's size
