@@ -110,7 +110,7 @@ impl Tracker {
         let slow = rate / FROZEN_BACKGROUND_SLOWDOWN;
         let frozen = self.track.as_ref().map(|t| {
             let [i0, i1, j0, j1] = t.bbox;
-            let m = ((i1 - i0).max(j1 - j0) / 4).max(self.config.link_px);
+            let m = self.track_margin(t.bbox);
             [i0.saturating_sub(m), (i1 + m).min(n - 1), j0.saturating_sub(m), (j1 + m).min(n - 1)]
         });
         for (i, (brow, frow)) in self.background.chunks_exact_mut(n).zip(frame.chunks_exact(n)).enumerate() {

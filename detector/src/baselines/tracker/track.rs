@@ -8,16 +8,19 @@ use super::{
 };
 
 impl Tracker {
+    /// How far around the tracked box `bbox` its object may be found next, and the model is
+    /// frozen: a quarter of the box's size, at least `link_px` (pixels).
+    pub(super) fn track_margin(&self, [i0, i1, j0, j1]: [usize; 4]) -> usize {
+        ((i1 - i0).max(j1 - j0) / 4).max(self.config.link_px)
+    }
+
     /// Chooses the tracked object among this frame's blobs (see the module docs, step 3): with a
     /// track, the heaviest region overlapping its grown box (None when none does), joined by the
     /// regions touching it and, for a moving camera, by every region overlapping that box; without
     /// one, the heaviest region.
     pub(super) fn choose(&self) -> Option<Blob> {
         let by_mass = |a: &&Blob, b: &&Blob| a.mass.total_cmp(&b.mass);
-        let grown = self.track.as_ref().map(|t| {
-            let [i0, i1, j0, j1] = t.bbox;
-            (t.bbox, ((i1 - i0).max(j1 - j0) / 4).max(self.config.link_px))
-        });
+        let grown = self.track.as_ref().map(|t| (t.bbox, self.track_margin(t.bbox)));
         let mut chosen = *match grown {
             Some((bbox, margin)) => self.blobs.iter().filter(|b| b.overlaps(bbox, margin)).max_by(by_mass)?,
             None => self.blobs.iter().max_by(by_mass)?,
@@ -49,8 +52,7 @@ impl Tracker {
         if beside(track.bbox) <= TAKE_OVER_BESIDE_WIDTHS {
             return None;
         }
-        let [i0, i1, j0, j1] = track.bbox;
-        let margin = ((i1 - i0).max(j1 - j0) / 4).max(self.config.link_px);
+        let margin = self.track_margin(track.bbox);
         self.blobs
             .iter()
             .filter(|b| !b.overlaps(track.bbox, margin) && beside(b.bbox) <= TAKE_OVER_COURSE_WIDTHS)
