@@ -886,7 +886,9 @@ params = { front_end = "adapted", readout = "winner" }
         "[[detectors]]\nid = \"hopfield\"",
         &format!("{tau_rows}[[detectors]]\nid = \"hopfield\""),
     );
-    std::fs::write(&scenario, text_of.replace("n = 32", "n = 64")).unwrap();
+    // a shaking camera: the strategies remove its shake (the trace's ego_camera_* columns)
+    let shaken = "n = 64, shake = { rotation_deg = 0.5, translation_m = 0.0, frequency_hz = 3.0 }";
+    std::fs::write(&scenario, text_of.replace("n = 32", shaken)).unwrap();
     let out = dir.join("out");
     let o = loomlab(&[
         "run",
@@ -903,6 +905,8 @@ params = { front_end = "adapted", readout = "winner" }
     for column in [
         "looming_side",
         "ego_forward_mps",
+        "ego_camera_yaw_rad",
+        "ego_camera_pitch_rad",
         "tracker_tau_theta_hat_deg",
         "tracker_tau_tau_s",
         "tracker_tau_gate_open",
@@ -916,6 +920,14 @@ params = { front_end = "adapted", readout = "winner" }
     assert!(
         !header.contains(&"soc_tau_s") && !header.contains(&"hopfield_tau_left"),
         "{header:?}"
+    );
+    let yaw = header.iter().position(|c| *c == "ego_camera_yaw_rad").unwrap();
+    assert!(
+        trace
+            .lines()
+            .skip(1)
+            .any(|l| l.split(',').nth(yaw).is_some_and(|v| v.parse::<f64>().unwrap() != 0.0)),
+        "the camera's shake is recorded"
     );
     let config = loomlab_agents::EscapeConfig {
         trigger: loomlab_agents::TriggerSignal::Tau,

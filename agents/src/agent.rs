@@ -28,11 +28,11 @@
 //! the controller is the same.
 
 use loomlab_detector::{Detector, DetectorError, EfferenceCopy, Frame, Signals};
-use loomlab_sim::trajectory::Pose64;
 
 use crate::strategy::Percept;
 use crate::{
-    AgentError, ControllerEvent, EgoSensor, EscapeConfig, EscapeController, LoomingSideEstimator, VelocityCommand,
+    AgentError, CameraSense, ControllerEvent, EgoSensor, EscapeConfig, EscapeController, LoomingSideEstimator,
+    VelocityCommand,
 };
 
 /// What one [`EscapeAgent::step`] produced.
@@ -141,15 +141,16 @@ impl EscapeAgent {
         self.step_posed(t_s, frame, cruise, None)
     }
 
-    /// [`Self::step`] with the camera's world pose at `t_s` (`camera`, as the robot's odometry and
+    /// [`Self::step`] with the camera's state at `t_s` (`camera`, as the robot's odometry and
     /// inertial sensor know it): the detectors' efference copy then also holds the camera's motion
-    /// since the previous step and its pose above the ground ([`EgoSensor`]).
+    /// since the previous step and its pose above the ground ([`EgoSensor`]), and the decision
+    /// strategy removes the camera's shake from image directions ([`crate::Ego`]).
     pub fn step_posed(
         &mut self,
         t_s: f64,
         frame: &Frame,
         cruise: VelocityCommand,
-        camera: Option<&Pose64>,
+        camera: Option<&CameraSense>,
     ) -> Result<AgentStep, DetectorError> {
         let ego = self.efference_copy(t_s, cruise, camera);
         let mut signals = Vec::with_capacity(self.detectors.len());
@@ -157,7 +158,7 @@ impl EscapeAgent {
             signals.push(d.step_moving(frame, &ego)?);
         }
         let contrast_side = self.side.update(frame);
-        Ok(self.decide_on_signals(t_s, cruise, signals, contrast_side))
+        Ok(self.decide_on_signals(t_s, cruise, camera, signals, contrast_side))
     }
 
     /// [`Self::step_posed`] with what the agent's perception gives on this frame already known:
@@ -171,20 +172,20 @@ impl EscapeAgent {
         t_s: f64,
         frame: &Frame,
         cruise: VelocityCommand,
-        camera: Option<&Pose64>,
+        camera: Option<&CameraSense>,
         signals: Vec<Signals>,
         contrast_side: Option<f32>,
     ) -> AgentStep {
         self.efference_copy(t_s, cruise, camera);
         self.side.remember(frame);
-        self.decide_on_signals(t_s, cruise, signals, contrast_side)
+        self.decide_on_signals(t_s, cruise, camera, signals, contrast_side)
     }
 
     /// The efference copy of the camera period that ends at `t_s` (advances the ego sensor).
-    fn efference_copy(&mut self, t_s: f64, cruise: VelocityCommand, camera: Option<&Pose64>) -> EfferenceCopy {
+    fn efference_copy(&mut self, t_s: f64, cruise: VelocityCommand, camera: Option<&CameraSense>) -> EfferenceCopy {
         let applied = self.applied.unwrap_or(cruise);
         match camera {
-            Some(pose) => self.ego.sense(applied, t_s, pose),
+            Some(camera) => self.ego.sense(applied, t_s, &camera.pose),
             None => applied.efference_copy(),
         }
     }
@@ -195,6 +196,7 @@ impl EscapeAgent {
         &mut self,
         t_s: f64,
         cruise: VelocityCommand,
+        camera: Option<&CameraSense>,
         signals: Vec<Signals>,
         contrast_side: Option<f32>,
     ) -> AgentStep {
@@ -206,7 +208,8 @@ impl EscapeAgent {
                 ..Percept::default()
             },
         };
-        let decision = self.controller.perceive(t_s, percept, cruise);
+        let shake_rad = camera.map_or([0.0; 3], |c| c.shake_rad);
+        let decision = self.controller.perceive_shaken(t_s, percept, cruise, shake_rad);
         let trigger_value = decision.value;
         let object = signals.first().and_then(|s| s.region).and_then(|r| r.track);
         // a detector that localises the object escapes from the side on which the collision-course

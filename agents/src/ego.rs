@@ -3,14 +3,37 @@
 //!
 //! The runner's open-loop pass, its closed-loop tails, the escape-deadline replays and the
 //! Gymnasium env all build a detector's [`EfferenceCopy`] with this one type, so a detector sees
-//! the same self-knowledge wherever it runs. Only the robot's own camera enters it: never anything
-//! about other objects.
+//! the same self-knowledge wherever it runs; they take the camera's state from the simulator as one
+//! [`CameraSense`], whose shake also reaches the decision strategies ([`crate::Ego`]). Only the
+//! robot's own camera enters it: never anything about other objects.
 
 use loomlab_detector::EfferenceCopy;
 use loomlab_sim::glam::DVec3;
 use loomlab_sim::trajectory::Pose64;
 
 use crate::VelocityCommand;
+
+/// What the robot's odometry and the inertial sensor on its camera know about the camera when a
+/// frame is taken: its world pose, and its rotation relative to its mount on the body (the
+/// camera's shake; zero for a rigidly mounted camera).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraSense {
+    /// The camera's world pose (x = optical axis, z = up; the shake included).
+    pub pose: Pose64,
+    /// The camera's rotation relative to its mount, `[yaw, pitch, roll]` (rad; yaw positive = left,
+    /// pitch positive = up).
+    pub shake_rad: [f64; 3],
+}
+
+impl CameraSense {
+    /// The camera of `sim` now (where its last frame was taken from).
+    pub fn of(sim: &loomlab_sim::Sim) -> Self {
+        Self {
+            pose: sim.camera_pose(),
+            shake_rad: sim.camera().shake_rotation(sim.time()),
+        }
+    }
+}
 
 /// Turns successive camera poses into efference copies (see the module docs).
 #[derive(Debug, Clone, Default)]

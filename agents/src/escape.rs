@@ -581,11 +581,25 @@ impl EscapeController {
     /// The robot's own motion is the command this controller returned in its last step (`cruise`
     /// before the first).
     pub fn perceive(&mut self, t_s: f64, percept: Percept, cruise: VelocityCommand) -> Decision {
+        self.perceive_shaken(t_s, percept, cruise, [0.0; 3])
+    }
+
+    /// [`Self::perceive`] for a camera whose rotation relative to its mount is `shake_rad`
+    /// (`[yaw, pitch, roll]`, rad, as [`crate::CameraSense::shake_rad`]): the strategy removes it
+    /// from image directions.
+    pub fn perceive_shaken(
+        &mut self,
+        t_s: f64,
+        percept: Percept,
+        cruise: VelocityCommand,
+        shake_rad: [f64; 3],
+    ) -> Decision {
         let last = self.last_command.unwrap_or(cruise);
         let ego = Ego {
             yaw_rate_rps: last.yaw_rate_rps,
             forward_mps: last.forward_mps,
-            ..Ego::default()
+            camera_yaw_rad: shake_rad[0],
+            camera_pitch_rad: shake_rad[1],
         };
         self.strategy.update(t_s, percept, ego)
     }

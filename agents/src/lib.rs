@@ -25,7 +25,7 @@ pub mod strategy;
 pub use action::{ActionConfig, ContinuousAction, DiscreteAction};
 pub use agent::{AgentStep, EscapeAgent};
 pub use command::VelocityCommand;
-pub use ego::EgoSensor;
+pub use ego::{CameraSense, EgoSensor};
 pub use error::AgentError;
 pub use escape::{ControllerEvent, DodgeSide, EscapeConfig, EscapeController, Manoeuvre, TriggerSignal};
 pub use looming_side::LoomingSideEstimator;

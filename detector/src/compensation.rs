@@ -65,7 +65,7 @@ pub fn rotation_matrix(w: [f64; 3]) -> Mat3 {
     ]
 }
 
-fn mul(a: &Mat3, b: &Mat3) -> Mat3 {
+pub(crate) fn mul(a: &Mat3, b: &Mat3) -> Mat3 {
     let mut m = [[0.0; 3]; 3];
     for (i, row) in m.iter_mut().enumerate() {
         for (j, v) in row.iter_mut().enumerate() {
@@ -75,7 +75,7 @@ fn mul(a: &Mat3, b: &Mat3) -> Mat3 {
     m
 }
 
-fn apply(a: &Mat3, v: [f64; 3]) -> [f64; 3] {
+pub(crate) fn apply(a: &Mat3, v: [f64; 3]) -> [f64; 3] {
     [
         a[0][0] * v[0] + a[0][1] * v[1] + a[0][2] * v[2],
         a[1][0] * v[0] + a[1][1] * v[1] + a[1][2] * v[2],
@@ -83,7 +83,7 @@ fn apply(a: &Mat3, v: [f64; 3]) -> [f64; 3] {
     ]
 }
 
-fn apply_t(a: &Mat3, v: [f64; 3]) -> [f64; 3] {
+pub(crate) fn apply_t(a: &Mat3, v: [f64; 3]) -> [f64; 3] {
     [
         a[0][0] * v[0] + a[1][0] * v[1] + a[2][0] * v[2],
         a[0][1] * v[0] + a[1][1] * v[1] + a[2][1] * v[2],

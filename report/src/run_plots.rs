@@ -182,7 +182,8 @@ impl PlotSamples {
 
 /// Writes one episode's open-loop trace as CSV: `t_s,theta_true_deg,ttc_true_s`, then
 /// `<label>_signal,<label>_output` per row; then what the detectors' decision strategies saw and
-/// estimated: `looming_side,ego_forward_mps,ego_yaw_rate_rps`, per row with a stateful strategy
+/// estimated: `looming_side,ego_forward_mps,ego_yaw_rate_rps,ego_camera_yaw_rad,ego_camera_pitch_rad`
+/// (the last two: the camera's shake relative to its mount), per row with a stateful strategy
 /// `<label>_theta_hat_deg,<label>_tau_s,<label>_gate_open` (θ̂ before the strategy, τ̂, the
 /// course gate as 0/1), per row whose detector localises the object its image region
 /// `<label>_left,<label>_right,<label>_bottom,<label>_top` (image x and y in [−1, 1]) and
@@ -195,7 +196,7 @@ pub fn write_trace(dir: &Path, run: &EpisodeRun) -> std::io::Result<()> {
     for d in &tr.detectors {
         let _ = write!(text, ",{0}_signal,{0}_output", d.label);
     }
-    text.push_str(",looming_side,ego_forward_mps,ego_yaw_rate_rps");
+    text.push_str(",looming_side,ego_forward_mps,ego_yaw_rate_rps,ego_camera_yaw_rad,ego_camera_pitch_rad");
     for d in &tr.detectors {
         if d.strategy.is_some() {
             let _ = write!(text, ",{0}_theta_hat_deg,{0}_tau_s,{0}_gate_open", d.label);
@@ -224,10 +225,12 @@ pub fn write_trace(dir: &Path, run: &EpisodeRun) -> std::io::Result<()> {
         let ego = tr.ego.get(k).copied().unwrap_or_default();
         let _ = write!(
             text,
-            ",{},{},{}",
+            ",{},{},{},{},{}",
             opt(tr.looming_side.get(k).copied().flatten().map(f64::from)),
             ego.forward_mps,
-            ego.yaw_rate_rps
+            ego.yaw_rate_rps,
+            ego.camera_yaw_rad,
+            ego.camera_pitch_rad
         );
         for d in &tr.detectors {
             if let Some(s) = &d.strategy {

@@ -177,10 +177,12 @@ pub fn replay_run(dir: &Path, label: &str, config: &EscapeConfig) -> Result<Repl
             col("track"),
         );
         let edge_cols = ["left", "right", "bottom", "top"].map(col);
-        let (side_col, forward_col, yaw_col) = (
+        let (side_col, forward_col, yaw_col, camera_yaw_col, camera_pitch_col) = (
             trace.index("looming_side"),
             trace.index("ego_forward_mps"),
             trace.index("ego_yaw_rate_rps"),
+            trace.index("ego_camera_yaw_rad"),
+            trace.index("ego_camera_pitch_rad"),
         );
         let t_s: Vec<f64> = (0..n).map(|k| trace.get(k, t_col).unwrap_or(f64::NAN)).collect();
         let about: Vec<bool> = (0..n)
@@ -202,7 +204,9 @@ pub fn replay_run(dir: &Path, label: &str, config: &EscapeConfig) -> Result<Repl
             let ego = Ego {
                 forward_mps: trace.get(k, forward_col).unwrap_or(0.0),
                 yaw_rate_rps: trace.get(k, yaw_col).unwrap_or(0.0),
-                ..Ego::default()
+                // absent from traces written before they were recorded: no shake known
+                camera_yaw_rad: trace.get(k, camera_yaw_col).unwrap_or(0.0),
+                camera_pitch_rad: trace.get(k, camera_pitch_col).unwrap_or(0.0),
             };
             let value = strategy
                 .update(t, config.percept_of(theta, side, region.as_ref()), ego)

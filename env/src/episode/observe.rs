@@ -1,6 +1,6 @@
 //! What a step shows the agent: detectors and shadow controller, observation, info and the episode's scoring.
 
-use loomlab_agents::{ContinuousAction, DiscreteAction, Ego, VelocityCommand};
+use loomlab_agents::{CameraSense, ContinuousAction, DiscreteAction, Ego, VelocityCommand};
 use loomlab_detector::Frame;
 use loomlab_scenarios::metrics::{GroundTruth, TraceSample, score_detector_episode};
 use loomlab_scenarios::reference::INDICATOR_THRESHOLD;
@@ -43,9 +43,9 @@ impl EscapeEnv {
         let ttc_s = reference.and_then(|t| t.ttc_s).map(f64::from);
         let angular_size_deg = reference.map(|t| f64::from(t.angular_size_deg));
         let cruise_now = r.spec.cruise.command_at(out.t_s);
-        // the camera's pose as the robot's odometry and inertial sensor know it (the detectors'
-        // efference copy, as in the scenario runner)
-        let camera_pose = r.sim.camera_pose();
+        // the camera's pose and shake as the robot's odometry and inertial sensor know them (the
+        // detectors' efference copy and the strategies' ego motion, as in the scenario runner)
+        let camera = CameraSense::of(&r.sim);
         let nd = self.detectors.len();
         let mut signals = Vec::with_capacity(nd);
         let mut alarm = Vec::with_capacity(nd);
@@ -67,9 +67,10 @@ impl EscapeEnv {
             let ego = Ego {
                 yaw_rate_rps: last.yaw_rate_rps,
                 forward_mps: last.forward_mps,
-                ..Ego::default()
+                camera_yaw_rad: camera.shake_rad[0],
+                camera_pitch_rad: camera.shake_rad[1],
             };
-            let step = self.agent.step_posed(out.t_s, &frame, cruise_now, Some(&camera_pose))?;
+            let step = self.agent.step_posed(out.t_s, &frame, cruise_now, Some(&camera))?;
             for (d, s) in self.detectors.iter_mut().zip(&step.signals) {
                 let raw = d.trigger.value(s).unwrap_or(f64::NAN);
                 // a stateful row's value is its strategy's decision value, as the agent computes it

@@ -17,8 +17,9 @@ pub(super) fn open_loop_ego(ep: &EpisodeSpec, t_s: &[f64], k: usize) -> Ego {
     }
 }
 
-/// What an ideal observer knows of the robot's own motion at time `t_s` beside its command: the
-/// camera's shake rotation (its inertial sensor).
+/// What the robot knows of its own motion at time `t_s` beside its command: the camera's shake
+/// rotation (the inertial sensor on the camera, [`loomlab_agents::CameraSense`]) — for the reference
+/// rows' ideal observers and the detector rows' decision strategies alike.
 pub(super) fn with_camera_rotation(ego: Ego, camera: Option<&Camera>, t_s: f64) -> Ego {
     let [yaw, pitch, _] = camera.map_or([0.0; 3], |c| c.shake_rotation(t_s));
     Ego {

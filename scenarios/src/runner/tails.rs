@@ -1,6 +1,6 @@
 //! The closed-loop tails of detector rows that alarm before contact, rendered in lockstep.
 
-use loomlab_agents::{EscapeAgent, VelocityCommand};
+use loomlab_agents::{CameraSense, EscapeAgent, VelocityCommand};
 use loomlab_detector::{Detector, Frame, Signals};
 use loomlab_sim::Sim;
 
@@ -65,13 +65,13 @@ impl Runner {
             let mut cmd = ep.cruise.command_at(0.0);
             for (k, frame) in frames[..=ka].iter().enumerate() {
                 let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
-                let (cruise, pose) = (ep.cruise.command_at(out.t_s), sim.camera_pose());
+                let (cruise, camera) = (ep.cruise.command_at(out.t_s), CameraSense::of(&sim));
                 cmd = if from_snapshot {
                     let signals = vec![job.signals[k].clone()];
-                    agent.step_posed_with_signals(out.t_s, frame, cruise, Some(&pose), signals, sides[k])
+                    agent.step_posed_with_signals(out.t_s, frame, cruise, Some(&camera), signals, sides[k])
                 } else {
                     agent
-                        .step_posed(out.t_s, frame, cruise, Some(&pose))
+                        .step_posed(out.t_s, frame, cruise, Some(&camera))
                         .map_err(|e| c.det(e))?
                 }
                 .command;
@@ -125,7 +125,7 @@ impl Runner {
                             out.t_s,
                             &frame,
                             ep.cruise.command_at(out.t_s),
-                            Some(&run.sim.camera_pose()),
+                            Some(&CameraSense::of(&run.sim)),
                         )
                         .map_err(|e| c.det(e))?
                         .command;

@@ -87,7 +87,7 @@ mod measure;
 mod region;
 mod track;
 
-use crate::compensation::CompensatedDifference;
+use crate::compensation::{CompensatedDifference, Mat3, rotation_matrix};
 use crate::registry::{Registration, Signal};
 use crate::{Detector, DetectorError, EfferenceCopy, Frame, ImageRegion, Signals};
 
@@ -212,7 +212,12 @@ pub struct Tracker {
     /// Whether the previous frame came from a moving camera (the compensated difference's history
     /// is then current).
     moving: bool,
+    /// The camera's rotation since the track's first measurement, from the efference copies:
+    /// directions in the current camera's axes to those of that first frame (module docs, step 4).
+    turn: Mat3,
 }
+
+const IDENTITY: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 
 impl Tracker {
     /// Builds the model after validating `config`; the first frame fixes n.
@@ -238,12 +243,50 @@ impl Tracker {
             edges: [0.0; 4],
             background: Vec::new(),
             moving: false,
+            turn: IDENTITY,
         })
     }
 
     /// The configuration in use.
     pub fn config(&self) -> &TrackerConfig {
         &self.config
+    }
+
+    /// Focal length of n×n frames (pixels).
+    fn focal_px(&self, n: usize) -> f64 {
+        n as f64 / 2.0 / (self.config.fov_deg / 2.0).to_radians().tan()
+    }
+
+    /// `sample`'s centre moved from the current camera's view to that of the track's first
+    /// measurement (the camera's rotation since then undone), so that the fit sees the object's
+    /// own motion and not the camera's turning or shake (module docs, step 4).
+    fn stabilise(&self, mut sample: BoxSample, n: usize) -> BoxSample {
+        if self.turn == IDENTITY {
+            return sample;
+        }
+        let (f, size) = (self.focal_px(n), 1.0 / sample.inverse_size);
+        let d = crate::compensation::apply(&self.turn, [1.0, -sample.x * size / f, -sample.y * size / f]);
+        if d[0] > 1e-6 {
+            sample.x = -f * d[1] / d[0] / size;
+            sample.y = -f * d[2] / d[0] / size;
+        }
+        sample
+    }
+
+    /// The fitted box `[top, bottom, left, right]` (pixels) moved from the view of the track's
+    /// first measurement to the current camera's: [`Self::stabilise`] undone at its centre.
+    fn destabilise(&self, [top, bottom, left, right]: [f64; 4], n: usize) -> [f64; 4] {
+        if self.turn == IDENTITY {
+            return [top, bottom, left, right];
+        }
+        let (f, c) = (self.focal_px(n), n as f64 / 2.0);
+        let (ci, cj) = ((top + bottom) / 2.0 - c, (left + right) / 2.0 - c);
+        let d = crate::compensation::apply_t(&self.turn, [1.0, -cj / f, -ci / f]);
+        if d[0] <= 1e-6 {
+            return [top, bottom, left, right];
+        }
+        let (di, dj) = (-f * d[2] / d[0] - ci, -f * d[1] / d[0] - cj);
+        [top + di, bottom + di, left + dj, right + dj]
     }
 
     fn signals(&self, n: usize) -> Signals {
@@ -322,6 +365,7 @@ impl Detector for Tracker {
         self.background.clear();
         self.moving = false;
         self.object_luminance = None;
+        self.turn = IDENTITY;
     }
 
     fn step(&mut self, frame: &Frame) -> Result<Signals, DetectorError> {
@@ -340,6 +384,9 @@ impl Detector for Tracker {
                 self.mask = vec![0.0; n * n];
                 self.filled = vec![false; n * n];
             }
+        }
+        if ego.knows_motion() && ego.rotation_rad.iter().any(|&r| r != 0.0) {
+            self.turn = crate::compensation::mul(&self.turn, &rotation_matrix(ego.rotation_rad));
         }
         let standing = !ego.knows_motion()
             || (ego.rotation_rad.iter().all(|r| r.abs() < STANDING_MOTION)
@@ -424,11 +471,12 @@ impl Detector for Tracker {
                 if self.track.is_none() || switched {
                     self.samples.clear();
                     self.clock = 0;
+                    self.turn = IDENTITY;
                 }
                 if self.samples.len() >= FIT_SPAN * self.config.fit_frames {
                     self.samples.pop_front();
                 }
-                let measured = self.measure(&b, n);
+                let measured = self.stabilise(self.measure(&b, n), n);
                 self.samples.push_back(measured);
                 self.track = Some(b);
                 if appearance_only {
@@ -453,7 +501,7 @@ impl Detector for Tracker {
             None => {}
         }
         if self.track.is_some() {
-            self.edges = fit_box(
+            self.edges = self.destabilise(fit_box(
                 &self.samples,
                 self.clock,
                 self.config.fit_frames as f64,
@@ -461,7 +509,7 @@ impl Detector for Tracker {
                 // only the compensated difference (a moving camera) spans baseline_frames: a
                 // standing camera's residual is the object's image now
                 if self.moving { self.config.baseline_frames as f64 } else { 0.0 },
-            );
+            ), n);
             self.clock += 1;
         }
         if standing {
