@@ -594,13 +594,7 @@ impl EscapeController {
         cruise: VelocityCommand,
         shake_rad: [f64; 3],
     ) -> Decision {
-        let last = self.last_command.unwrap_or(cruise);
-        let ego = Ego {
-            yaw_rate_rps: last.yaw_rate_rps,
-            forward_mps: last.forward_mps,
-            camera_yaw_rad: shake_rad[0],
-            camera_pitch_rad: shake_rad[1],
-        };
+        let ego = Ego::of(self.last_command.unwrap_or(cruise), shake_rad);
         self.strategy.update(t_s, percept, ego)
     }
 

@@ -158,6 +158,20 @@ pub struct Ego {
     pub camera_pitch_rad: f64,
 }
 
+impl Ego {
+    /// The robot's own motion during a camera period in which it applied `command`, its camera
+    /// turned by `shake_rad` relative to its mount at the period's end (`[yaw, pitch, roll]`, as
+    /// [`crate::CameraSense::shake_rad`]; zeros for a rigid mount).
+    pub fn of(command: crate::VelocityCommand, shake_rad: [f64; 3]) -> Self {
+        Self {
+            yaw_rate_rps: command.yaw_rate_rps,
+            forward_mps: command.forward_mps,
+            camera_yaw_rad: shake_rad[0],
+            camera_pitch_rad: shake_rad[1],
+        }
+    }
+}
+
 /// Parameters of a strategy (the subset of [`crate::EscapeConfig`] it reads).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StrategyParams {

@@ -64,12 +64,7 @@ impl EscapeEnv {
             let frame = Frame::from_f32(n, out.frame.clone())?;
             // the robot's own motion during the last period, as the agent's controller sees it
             let last = self.agent.controller().last_command().unwrap_or(cruise_now);
-            let ego = Ego {
-                yaw_rate_rps: last.yaw_rate_rps,
-                forward_mps: last.forward_mps,
-                camera_yaw_rad: camera.shake_rad[0],
-                camera_pitch_rad: camera.shake_rad[1],
-            };
+            let ego = Ego::of(last, camera.shake_rad);
             let step = self.agent.step_posed(out.t_s, &frame, cruise_now, Some(&camera))?;
             for (d, s) in self.detectors.iter_mut().zip(&step.signals) {
                 let raw = d.trigger.value(s).unwrap_or(f64::NAN);

@@ -9,12 +9,7 @@ use crate::schema::EpisodeSpec;
 /// command at the previous frame's time (the escape agent's last command; at the first frame, the
 /// cruise command it is given).
 pub(super) fn open_loop_ego(ep: &EpisodeSpec, t_s: &[f64], k: usize) -> Ego {
-    let cmd = ep.cruise.command_at(if k == 0 { t_s[0] } else { t_s[k - 1] });
-    Ego {
-        yaw_rate_rps: cmd.yaw_rate_rps,
-        forward_mps: cmd.forward_mps,
-        ..Ego::default()
-    }
+    Ego::of(ep.cruise.command_at(if k == 0 { t_s[0] } else { t_s[k - 1] }), [0.0; 3])
 }
 
 /// What the robot knows of its own motion at time `t_s` beside its command: the camera's shake

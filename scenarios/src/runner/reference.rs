@@ -36,12 +36,7 @@ pub(super) fn ideal_tail(
     })?;
     let camera = sim.camera().clone();
     let mut decide = |agent: &mut EscapeAgent, t: f64, truth: &[ObjectTruth], applied: VelocityCommand| {
-        let ego = Ego {
-            yaw_rate_rps: applied.yaw_rate_rps,
-            forward_mps: applied.forward_mps,
-            ..Ego::default()
-        };
-        let ego = with_camera_rotation(ego, Some(&camera), t);
+        let ego = with_camera_rotation(Ego::of(applied, [0.0; 3]), Some(&camera), t);
         let (value, side, object) = observer.update(t, truth, ego);
         agent
             .decide_about(t, side, value, object, ep.cruise.command_at(t))

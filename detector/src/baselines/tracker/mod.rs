@@ -68,7 +68,11 @@
 //!    `cx/s` and `cy/s` against time with an exponentially fading memory of `fit_frames` frames:
 //!    for an object moving at a constant velocity these are exactly linear (its depth and its
 //!    offsets in units of its size), so the fit has no lag, while the renderer's whole-pixel edges
-//!    (no anti-aliasing) are averaged out.
+//!    (no anti-aliasing) are averaged out. The centres are taken in the view of the track's first
+//!    frame: the camera's rotation since then (the efference copies' rotations composed: a turning
+//!    robot, a shaking camera) is undone on each measured centre (`Tracker::stabilise`) and
+//!    re-applied to the fitted box (`Tracker::destabilise`), so the lines hold the object's own
+//!    motion and the box follows its image in every frame.
 //! 5. **Outputs**: θ̂ = the larger of the fitted box's angular width and height (degrees; 0 while
 //!    nothing is reported, and while the region reaches from one image border to the opposite one:
 //!    the scene itself moves there, a drifting wall or the ground) — but only the height while the region touches the image's left or
