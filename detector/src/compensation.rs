@@ -35,7 +35,7 @@ pub const HORIZON_MARGIN: f64 = 1e-3;
 /// A 3×3 rotation matrix, rows first.
 pub type Mat3 = [[f64; 3]; 3];
 
-const IDENTITY: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+pub(crate) const IDENTITY: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 
 /// The rotation matrix of a rotation vector (Rodrigues' formula).
 pub fn rotation_matrix(w: [f64; 3]) -> Mat3 {

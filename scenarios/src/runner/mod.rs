@@ -80,7 +80,7 @@ use crate::metrics::{
 };
 use crate::schema::{DetectorSpec, EpisodeSpec};
 use crate::truth::TruthRecorder;
-use ego::{open_loop_ego, with_camera_rotation};
+use ego::open_loop_ego;
 use head_on::HeadOnApproach;
 use pool::RendererPool;
 use reference::{ideal_tail, reference_rows};
@@ -373,11 +373,7 @@ impl Runner {
                     t_s.push(out.t_s);
                     let k = t_s.len() - 1;
                     sides.push(side.update(&frame));
-                    egos.push(with_camera_rotation(
-                        open_loop_ego(ep, &t_s, k),
-                        Some(sim.camera()),
-                        t_s[k],
-                    ));
+                    egos.push(open_loop_ego(ep, &t_s, k, Some(sim.camera())));
                     for (i, spec) in ep.detectors.iter().enumerate() {
                         let value = match &mut strategies[i] {
                             Some((config, strategy)) => {

@@ -4,7 +4,7 @@ use loomlab_agents::{Ego, EscapeAgent, EscapeConfig, TriggerSignal, VelocityComm
 use loomlab_sim::{ObjectTruth, Sim};
 
 use super::Ctx;
-use super::ego::{open_loop_ego, with_camera_rotation};
+use super::ego::open_loop_ego;
 use super::rows::{Row, Tail};
 use super::trace::ClosedLoop;
 use crate::deadline::EscapeDeadline;
@@ -36,7 +36,7 @@ pub(super) fn ideal_tail(
     })?;
     let camera = sim.camera().clone();
     let mut decide = |agent: &mut EscapeAgent, t: f64, truth: &[ObjectTruth], applied: VelocityCommand| {
-        let ego = with_camera_rotation(Ego::of(applied, [0.0; 3]), Some(&camera), t);
+        let ego = Ego::of(applied, camera.shake_rotation(t));
         let (value, side, object) = observer.update(t, truth, ego);
         agent
             .decide_about(t, side, value, object, ep.cruise.command_at(t))
@@ -128,7 +128,7 @@ pub(super) fn reference_rows<'a>(
             let mut observer = observer();
             (0..frames)
                 .map(|k| {
-                    let ego = with_camera_rotation(open_loop_ego(ep, t_s, k), camera.as_ref(), t_s[k]);
+                    let ego = open_loop_ego(ep, t_s, k, camera.as_ref());
                     let objects = match only {
                         Some(id) => truth[k]
                             .iter()

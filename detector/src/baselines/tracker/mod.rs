@@ -91,7 +91,7 @@ mod measure;
 mod region;
 mod track;
 
-use crate::compensation::{CompensatedDifference, Mat3, rotation_matrix};
+use crate::compensation::{CompensatedDifference, IDENTITY, Mat3, rotation_matrix};
 use crate::registry::{Registration, Signal};
 use crate::{Detector, DetectorError, EfferenceCopy, Frame, ImageRegion, Signals};
 
@@ -220,8 +220,6 @@ pub struct Tracker {
     /// directions in the current camera's axes to those of that first frame (module docs, step 4).
     turn: Mat3,
 }
-
-const IDENTITY: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 
 impl Tracker {
     /// Builds the model after validating `config`; the first frame fixes n.
