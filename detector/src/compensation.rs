@@ -202,9 +202,12 @@ impl Warper {
     ///   `P = (h·R·d − (up·d)·T) / (−up·d)`, whose positive factor the projection cancels), so
     ///   each row needs its start and step only (computed in `f64`), and each pixel one
     ///   multiplication and one addition per coordinate and one division, in `f32` without
-    ///   branches, which the compiler vectorises eight wide (AVX2 where the CPU has it, chosen at
-    ///   run time; the same bits either way); coordinates inside the image are non-negative, so
-    ///   truncation replaces `floor`;
+    ///   branches, which the compiler vectorises sixteen or eight wide (AVX-512 or AVX2 where the
+    ///   CPU has it, chosen at run time; the same bits every way); coordinates inside the image
+    ///   are non-negative, so truncation replaces `floor`;
+    /// - `up · d` is monotone along a row, so the ground is a prefix or a suffix of it: each row
+    ///   is split where the case changes (found by bisection on the same `f32` expression), and
+    ///   each part computes its own case only;
     /// - the bilinear samples of [`GROUP`] pixels whose top-left pixels are consecutive (the
     ///   usual case: the static world's image moves smoothly) take contiguous loads.
     ///
@@ -237,6 +240,11 @@ impl Warper {
         let setup = self.setup(r, t, ego);
         #[cfg(target_arch = "x86_64")]
         {
+            if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512vl") {
+                // SAFETY: the CPU supports AVX-512 F and VL (checked just above).
+                unsafe { predict_avx512(&setup, &self.rays, earlier, sink) };
+                return;
+            }
             if std::arch::is_x86_feature_detected!("avx2") {
                 // SAFETY: the CPU supports AVX2 (checked just above).
                 unsafe { predict_avx2(&setup, &self.rays, earlier, sink) };
@@ -281,6 +289,12 @@ unsafe fn predict_avx2(setup: &Setup, rays: &[[f64; 2]], earlier: &[f32], sink: 
     predict_kernel(setup, rays, earlier, sink);
 }
 
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2")]
+unsafe fn predict_avx512(setup: &Setup, rays: &[[f64; 2]], earlier: &[f32], sink: impl FnMut(usize, &[f32])) {
+    predict_kernel(setup, rays, earlier, sink);
+}
+
 fn predict_generic(setup: &Setup, rays: &[[f64; 2]], earlier: &[f32], sink: impl FnMut(usize, &[f32])) {
     predict_kernel(setup, rays, earlier, sink);
 }
@@ -292,6 +306,74 @@ struct RowLines {
     sky: [[f32; 2]; 3],
     ground: [[f32; 2]; 3],
     s: [f32; 2],
+}
+
+/// The per-warp constants of a row's geometry: image coordinates `j = α − β·y/x`,
+/// `i = α − β·z/x`, inside `[0, max]`.
+struct Geometry<'a> {
+    alpha: f32,
+    beta: f32,
+    max: f32,
+    n: usize,
+    /// `c as f32` of every column `c`.
+    columns: &'a [f32],
+}
+
+impl Geometry<'_> {
+    /// The top-left pixels (`corner`, see [`sample_row`]) and weights (`fi`, `fj`) of the columns
+    /// `cols` of one row, all on the ground (`GROUND`) or all above the horizon; without branches
+    /// (vectorised).
+    #[inline(always)]
+    fn segment<const GROUND: bool>(
+        &self,
+        line: &RowLines,
+        cols: std::ops::Range<usize>,
+        (corner, fi, fj): (&mut [i32], &mut [f32], &mut [f32]),
+    ) {
+        let &Self {
+            alpha,
+            beta,
+            max,
+            n,
+            columns,
+        } = self;
+        let lines = if GROUND { &line.ground } else { &line.sky };
+        let edge = (n - 1) as i32;
+        let (corner, fi, fj) = (&mut corner[cols.clone()], &mut fi[cols.clone()], &mut fj[cols.clone()]);
+        for (((&cf, corner), fi), fj) in columns[cols].iter().zip(corner).zip(fi).zip(fj) {
+            let x = lines[0][0] + cf * lines[0][1];
+            let y = lines[1][0] + cf * lines[1][1];
+            let z = lines[2][0] + cf * lines[2][1];
+            // in front of the earlier camera: the point's x above 1e-9 (the ground's divided by
+            // −up·d > 0)
+            let front = if GROUND {
+                1e-9 * -(line.s[0] + cf * line.s[1])
+            } else {
+                1e-9
+            };
+            let q = beta / x;
+            let jf = alpha - y * q;
+            let i_f = alpha - z * q;
+            let inside = (x > front) & (jf >= 0.0) & (jf <= max) & (i_f >= 0.0) & (i_f <= max);
+            // inside the image the coordinates are non-negative: truncation is the floor
+            let (i_in, j_in) = if inside { (i_f, jf) } else { (0.0, 0.0) };
+            // SAFETY: `i_in` and `j_in` lie in [0, n − 1] (checked just above), and n < 2³⁰ (the
+            // n² rays of `Warper::new`, 16 bytes each, fit in memory), so their truncations are
+            // representable as i32.
+            let (i0, j0): (i32, i32) = unsafe { (i_in.to_int_unchecked(), j_in.to_int_unchecked()) };
+            // the top-left pixel's index; −1: no prediction; ≤ −2: on the last row or column
+            let index = i0 * n as i32 + j0;
+            *corner = if !inside {
+                -1
+            } else if (i0 < edge) & (j0 < edge) {
+                index
+            } else {
+                -2 - index
+            };
+            *fi = i_in - i0 as f32;
+            *fj = j_in - j0 as f32;
+        }
+    }
 }
 
 /// The warp of [`Warper::predict_rows`]; inlined into each instruction-set variant.
@@ -323,54 +405,55 @@ fn predict_kernel(setup: &Setup, rays: &[[f64; 2]], earlier: &[f32], mut sink: i
     let mut fiv = vec![0.0f32; n];
     let mut fjv = vec![0.0f32; n];
     let mut pred = vec![0.0f32; n];
-    let edge = (n - 1) as i32;
     for i in 0..n {
         let [a0, b] = rays[i * n];
-        let sky = [0, 1, 2].map(|k| [r0[k] + a0 * r1[k] + b * r2[k], step_a * r1[k]]);
+        // (plain loops: closures over arrays here cost more than the row's geometry)
         let s = [up[0] + up[1] * a0 + up[2] * b, up[1] * step_a];
-        let line = RowLines {
-            sky: sky.map(|[p, d]| [p as f32, d as f32]),
-            ground: [0, 1, 2].map(|k| {
-                [
-                    (h * sky[k][0] - s[0] * t[k]) as f32,
-                    (h * sky[k][1] - s[1] * t[k]) as f32,
-                ]
-            }),
+        let mut line = RowLines {
+            sky: [[0.0; 2]; 3],
+            ground: [[0.0; 2]; 3],
             s: [s[0] as f32, s[1] as f32],
         };
-        // the geometry, without branches (vectorised)
-        for c in 0..n {
-            let cf = columns[c];
-            let s = line.s[0] + cf * line.s[1];
-            let on_ground = s < ground_below;
-            let lines = if on_ground { &line.ground } else { &line.sky };
-            let x = lines[0][0] + cf * lines[0][1];
-            let y = lines[1][0] + cf * lines[1][1];
-            let z = lines[2][0] + cf * lines[2][1];
-            // in front of the earlier camera: the point's x above 1e-9 (the ground's divided by
-            // −up·d > 0)
-            let front = if on_ground { 1e-9 * -s } else { 1e-9 };
-            let q = beta / x;
-            let jf = alpha - y * q;
-            let i_f = alpha - z * q;
-            let inside = (x > front) & (jf >= 0.0) & (jf <= max) & (i_f >= 0.0) & (i_f <= max);
-            // inside the image the coordinates are non-negative: truncation is the floor
-            let (i_in, j_in) = if inside { (i_f, jf) } else { (0.0, 0.0) };
-            // SAFETY: `i_in` and `j_in` lie in [0, n − 1] (checked just above), and n < 2³⁰ (the
-            // n² rays of `Warper::new`, 16 bytes each, fit in memory), so their truncations are
-            // representable as i32.
-            let (i0, j0): (i32, i32) = unsafe { (i_in.to_int_unchecked(), j_in.to_int_unchecked()) };
-            // the top-left pixel's index; −1: no prediction; ≤ −2: on the last row or column
-            let index = i0 * n as i32 + j0;
-            corner[c] = if !inside {
-                -1
-            } else if (i0 < edge) & (j0 < edge) {
-                index
-            } else {
-                -2 - index
-            };
-            fiv[c] = i_in - i0 as f32;
-            fjv[c] = j_in - j0 as f32;
+        for k in 0..3 {
+            let sky = [r0[k] + a0 * r1[k] + b * r2[k], step_a * r1[k]];
+            line.sky[k] = [sky[0] as f32, sky[1] as f32];
+            line.ground[k] = [(h * sky[0] - s[0] * t[k]) as f32, (h * sky[1] - s[1] * t[k]) as f32];
+        }
+        // `up · d` is monotone along the row (so is its `f32` evaluation: rounding is monotone),
+        // so the ground is a prefix or a suffix of the row: find where the case changes, by
+        // bisection on the same expression, and run each part's geometry without the other's
+        let s_at = |c: usize| line.s[0] + columns[c] * line.s[1];
+        let first_on_ground = s_at(0) < ground_below;
+        let switch = if (s_at(n - 1) < ground_below) == first_on_ground {
+            n
+        } else {
+            // the first column of the other case: in (lo, hi]
+            let (mut lo, mut hi) = (0, n - 1);
+            while hi - lo > 1 {
+                let mid = (lo + hi) / 2;
+                if (s_at(mid) < ground_below) == first_on_ground {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            hi
+        };
+        let geometry = Geometry {
+            alpha,
+            beta,
+            max,
+            n,
+            columns: &columns,
+        };
+        let (head, tail) = (0..switch, switch..n);
+        let out = (&mut corner[..], &mut fiv[..], &mut fjv[..]);
+        if first_on_ground {
+            geometry.segment::<true>(&line, head, (&mut *out.0, &mut *out.1, &mut *out.2));
+            geometry.segment::<false>(&line, tail, out);
+        } else {
+            geometry.segment::<false>(&line, head, (&mut *out.0, &mut *out.1, &mut *out.2));
+            geometry.segment::<true>(&line, tail, out);
         }
         sample_row(earlier, n, &corner, &fiv, &fjv, &mut pred);
         sink(i * n, &pred);
@@ -660,14 +743,28 @@ mod tests {
                 let (a, b) = compare_with_literal(n, fov, &earlier, &r, t, &ego, &got);
                 inside += a;
                 outside += b;
-                // the variant for CPUs without AVX2 gives the same bits (`predict` takes the AVX2
-                // one where it can)
-                let mut generic = vec![0.0f32; n * n];
-                predict_generic(&w.setup(&r, t, &ego), &w.rays, &earlier, |start, pred| {
-                    generic[start..start + pred.len()].copy_from_slice(pred)
+                // every instruction-set variant gives the same bits (`predict` takes the widest
+                // one the CPU has)
+                let setup = w.setup(&r, t, &ego);
+                let mut variants: Vec<(&str, Vec<f32>)> = vec![("generic", vec![0.0f32; n * n])];
+                predict_generic(&setup, &w.rays, &earlier, |start, pred| {
+                    variants[0].1[start..start + pred.len()].copy_from_slice(pred)
                 });
-                for (k, (a, g)) in got.iter().zip(&generic).enumerate() {
-                    assert_eq!(a.to_bits(), g.to_bits(), "n {n}, pixel {k}, generic: {g} vs {a}");
+                #[cfg(target_arch = "x86_64")]
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    let mut v = vec![0.0f32; n * n];
+                    // SAFETY: the CPU supports AVX2 (checked just above).
+                    unsafe {
+                        predict_avx2(&setup, &w.rays, &earlier, |start, pred| {
+                            v[start..start + pred.len()].copy_from_slice(pred)
+                        })
+                    };
+                    variants.push(("avx2", v));
+                }
+                for (name, v) in &variants {
+                    for (k, (a, g)) in got.iter().zip(v).enumerate() {
+                        assert_eq!(a.to_bits(), g.to_bits(), "n {n}, pixel {k}, {name}: {g} vs {a}");
+                    }
                 }
                 // the rows of predict_rows cover every pixel once, in order
                 let mut next = 0;

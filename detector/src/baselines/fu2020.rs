@@ -32,7 +32,7 @@ use super::common::{FrameStep, PreviousFrame, Range, check, check3, zeroed};
 use super::lowpass::LowPass;
 use super::stencil::{SymKernel, corr3_classes_rows, corr3_rows, max_abs};
 use crate::registry::{DetectorConfig, Registration, Signal};
-use crate::simd::avx2_dispatch;
+use crate::simd::simd_dispatch;
 use crate::{Detector, DetectorError, EfferenceCopy, Frame, Signals};
 
 /// Parameters of [`Fu2020`]. Defaults: docs/detectors.md, fu2020 §3 (all from `lgmd2OpenSource.cs`,
@@ -479,9 +479,9 @@ impl Fu2020 {
     }
 }
 
-avx2_dispatch! {
+simd_dispatch! {
     /// One frame of docs/detectors.md, fu2020 §2, for the LGMD2 `lgmd` with input `sign·p`
-    /// (with AVX2 where the CPU has it, `crate::simd`).
+    /// (with AVX-512 or AVX2 where the CPU has it, `crate::simd`).
     fn lgmd2_step(
         lgmd: &mut Lgmd2,
         p: &[f64],

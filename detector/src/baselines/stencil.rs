@@ -6,7 +6,7 @@
 //! the FuHuPe20 reference code; the unit tests check that the row-slice implementations
 //! here give bit-identical results to naive per-pixel clamped loops.
 
-use crate::simd::avx2_dispatch;
+use crate::simd::simd_dispatch;
 
 /// A symmetric 3×3 kernel given by position class.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -73,7 +73,7 @@ fn corr_row(k: SymKernel, c_row: &[f64], n_rows: [&[f64]; 3], d_rows: [&[f64]; 3
     }
 }
 
-avx2_dispatch! {
+simd_dispatch! {
     /// Correlation of a symmetric kernel where each position class reads its own map
     /// (`centre_map` for the centre, `near_map` for the 4 nearest neighbours, `diag_map` for
     /// the diagonals); with all three maps equal this is an ordinary correlation. Each
@@ -132,7 +132,7 @@ pub(crate) fn max_abs(values: &[f64], start: f64) -> f64 {
     lanes.into_iter().fold(start, |m, v| if v > m { v } else { m })
 }
 
-avx2_dispatch! {
+simd_dispatch! {
     /// One explicit-Euler diffusion step with the 5-point Laplacian and clamp-to-edge
     /// (zero-flux) borders: `dst = src + κ·(up + down + left + right − 4·src)`.
     pub(crate) fn diffuse_step(n: usize, kappa: f64, src: &[f64], dst: &mut [f64]) {

@@ -676,10 +676,12 @@ impl EgoHighPass {
     /// (all zero on the first frame and on a uniform, dropped frame, which leaves M̃ unchanged).
     pub fn high_pass(&mut self, frame: &[f32], ego: &crate::EfferenceCopy) -> &[f32] {
         // uniform: every pixel that is a number equal to the first (NaN pixels ignored, as by a
-        // min/max over the frame); stops at the first pixel that differs
-        let mut numbers = frame.iter().filter(|v| !v.is_nan());
-        let uniform = match numbers.next() {
-            Some(&first) => numbers.all(|&v| v == first),
+        // min/max over the frame); stops at the first block of 64 pixels that differs (a block
+        // is tested without branches: rendered frames often start with rows of uniform sky)
+        let uniform = match frame.iter().find(|v| !v.is_nan()) {
+            Some(&first) => frame
+                .chunks(64)
+                .all(|block| block.iter().fold(true, |same, &v| same & ((v == first) | v.is_nan()))),
             None => true,
         };
         if self.mean.is_empty() || uniform {
