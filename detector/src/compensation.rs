@@ -240,7 +240,7 @@ impl Warper {
         let setup = self.setup(r, t, ego);
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512vl") {
+            if crate::simd::has_avx512() {
                 // SAFETY: the CPU supports AVX-512 F and VL (checked just above).
                 unsafe { predict_avx512(&setup, &self.rays, earlier, sink) };
                 return;

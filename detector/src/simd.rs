@@ -30,7 +30,7 @@ macro_rules! simd_dispatch {
                 unsafe fn avx2($($arg: $ty),*) $(-> $ret)? {
                     kernel($($arg),*)
                 }
-                if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512vl") {
+                if $crate::simd::has_avx512() {
                     // SAFETY: the CPU supports AVX-512 F and VL (checked just above).
                     return unsafe { avx512($($arg),*) };
                 }
@@ -44,3 +44,9 @@ macro_rules! simd_dispatch {
     };
 }
 pub(crate) use simd_dispatch;
+
+/// Whether the CPU has the AVX-512 subsets the wide kernels are compiled for (F and VL).
+#[cfg(target_arch = "x86_64")]
+pub(crate) fn has_avx512() -> bool {
+    std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512vl")
+}
