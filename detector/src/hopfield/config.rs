@@ -42,8 +42,13 @@
 //!   constant τ = `adaptation_tau_s` (seconds, default 0.1) and the frame rate
 //!   f = `frame_rate_hz` (default 120, the simulator's camera default), so the filter has
 //!   the same time constant at any frame rate. Static structure (ground texture, backdrops)
-//!   fades from the query within about τ, and what moves or grows stays. See
-//!   [`super::processing`] for start-up and blank frames.
+//!   fades from the query within about τ, and what moves or grows stays. M starts from the
+//!   first frame, and for two time constants after it (`warm_up_frames`: 24 frames at
+//!   τ = 0.1 s and 120 Hz) the query is withheld (no evidence, nothing stored in the delayed
+//!   memory) while M follows the frames: until then G holds a shorter history of the image's
+//!   changes than later, and a delayed query from that period retrieved a template as soon as
+//!   a later query met it (a θ̂ of tens of degrees at 0.06 s that no object caused). See
+//!   [`super::processing`] for blank frames.
 //! - `front_end = "compensated"`: the adapted high-pass, taken on the camera image after the
 //!   static world's image motion is removed. The per-pixel running mean M̃ of the camera
 //!   images is, every frame, first warped to the current view by the camera's motion since the
@@ -55,7 +60,7 @@
 //!   then run on G̃ unchanged, in both implementations (which therefore agree as on the paper
 //!   front end). Without an efference copy (`step`, or an unknown motion) the mean is not
 //!   warped: the adapted high-pass on the camera image. A uniform camera frame (dropped) is
-//!   skipped (no evidence; M̃ unchanged).
+//!   skipped (no evidence; M̃ unchanged). The same warm-up as the adapted front end's.
 //!
 //! # Angular-size readouts
 //! - `readout = "paper"` (default): θ̂ from √(z_on·z_off) read as a template index.

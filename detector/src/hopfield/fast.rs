@@ -158,7 +158,7 @@ impl FastHopfield {
             // Start-up: M = the first non-blank F, so G = 0 (no evidence).
             let (_, sumsq) = self.processor.processed(frame, &mut self.query);
             if !camera_frame_is_blank(sumsq) {
-                adapt.running_mean = self.query.clone();
+                adapt.start(&self.query);
             }
             return None;
         }
@@ -169,6 +169,9 @@ impl FastHopfield {
         if camera_frame_is_blank(sums.raw_sumsq) {
             // A dropped camera frame: M stays as it was.
             undo_running_mean(&mut adapt.running_mean, &self.query, weight);
+            return None;
+        }
+        if adapt.warming_up() {
             return None;
         }
         normalisation(&self.query, sums.sum, sums.sumsq)

@@ -259,14 +259,35 @@ pub(crate) fn undo_running_mean(running_mean: &mut [f64], g: &[f64], weight: f64
     }
 }
 
+/// How many frames a high-pass front end (adapted, compensated) withholds its output after its
+/// running mean starts from the first frame: two of the mean's time constants, `−2 / ln(1 − w)`
+/// frames for the per-frame weight `w` (rounded; 24 frames, 0.2 s, for τ = 0.1 s at 120 Hz).
+///
+/// Until then the high-pass is not yet what it will be: started from one frame, the mean has
+/// followed the scene for a few frames only, so the high-pass holds a shorter history of the
+/// image's changes than it will later, and its structure changes from frame to frame. Queries
+/// of that period fill the delayed memory, and the first frame that meets one of them there (the
+/// delay later) retrieves a template instead — a one-frame θ̂ of tens of degrees, decaying
+/// through the read-out filter, that no object caused. During the warm-up the mean follows the
+/// frames as usual and the query is blank: no evidence, nothing stored.
+pub fn warm_up_frames(weight: f64) -> usize {
+    if !(weight > 0.0 && weight < 1.0) {
+        return 0;
+    }
+    (-2.0 / (-weight).ln_1p()).round() as usize
+}
+
 /// The adapted front end's state, shared by both implementations: the running mean M of the
-/// processed frames (row-major; empty until the first non-blank frame) and its weight.
+/// processed frames (row-major; empty until the first non-blank frame), its weight and the
+/// frames of its warm-up still to come ([`warm_up_frames`]).
 #[derive(Debug, Clone)]
 pub struct Adaptation {
     /// Update weight w per frame.
     pub weight: f64,
     /// M, row-major n×n, or empty before the first non-blank frame.
     pub running_mean: Vec<f64>,
+    /// Frames (not dropped) whose query is still withheld after M started.
+    pub warm_up_left: usize,
 }
 
 /// What the adapted front end makes of one processed frame.
@@ -284,12 +305,27 @@ impl Adaptation {
         Self {
             weight,
             running_mean: Vec::new(),
+            warm_up_left: 0,
         }
     }
 
     /// Forgets the running mean.
     pub fn reset(&mut self) {
         self.running_mean.clear();
+        self.warm_up_left = 0;
+    }
+
+    /// Starts M from the processed frame `f` (the first non-blank one), and the warm-up.
+    pub fn start(&mut self, f: &[f64]) {
+        self.running_mean = f.to_vec();
+        self.warm_up_left = warm_up_frames(self.weight);
+    }
+
+    /// Whether the query of this (non-dropped) frame is withheld by the warm-up; counts it.
+    pub fn warming_up(&mut self) -> bool {
+        let warming = self.warm_up_left > 0;
+        self.warm_up_left = self.warm_up_left.saturating_sub(1);
+        warming
     }
 
     /// The literal high-pass, for the reference implementation: turns the processed frame `f`
@@ -301,7 +337,7 @@ impl Adaptation {
             return AdaptedFrame::Dropped;
         }
         if self.running_mean.is_empty() {
-            self.running_mean = f.to_vec();
+            self.start(f);
             f.fill(0.0);
             return AdaptedFrame::Query;
         }
@@ -309,6 +345,9 @@ impl Adaptation {
             *v -= m;
         }
         update_running_mean(&mut self.running_mean, f, self.weight);
+        if self.warming_up() {
+            f.fill(0.0);
+        }
         AdaptedFrame::Query
     }
 }
@@ -649,6 +688,8 @@ mod tests {
 pub struct EgoHighPass {
     warper: crate::compensation::Warper,
     weight: f64,
+    /// Frames (not dropped) whose output is still withheld after M̃ started ([`warm_up_frames`]).
+    warm_up_left: usize,
     mean: Vec<f32>,
     /// The next running mean while a frame is processed (swapped with `mean` after it).
     next: Vec<f32>,
@@ -661,6 +702,7 @@ impl EgoHighPass {
         Self {
             warper: crate::compensation::Warper::new(n, fov_deg),
             weight,
+            warm_up_left: 0,
             mean: Vec::new(),
             next: vec![0.0; n * n],
             out: vec![0.0; n * n],
@@ -670,10 +712,12 @@ impl EgoHighPass {
     /// Forgets the running mean.
     pub fn reset(&mut self) {
         self.mean.clear();
+        self.warm_up_left = 0;
     }
 
     /// G̃ = F̃ − warp(M̃) of the camera frame `frame` (n·n) with its efference copy, updating M̃
-    /// (all zero on the first frame and on a uniform, dropped frame, which leaves M̃ unchanged).
+    /// (all zero on the first frame, on a uniform, dropped frame, which leaves M̃ unchanged, and
+    /// during the warm-up after the first frame, [`warm_up_frames`], which updates M̃).
     pub fn high_pass(&mut self, frame: &[f32], ego: &crate::EfferenceCopy) -> &[f32] {
         // uniform: every pixel that is a number equal to the first (NaN pixels ignored, as by a
         // min/max over the frame); stops at the first block of 64 pixels that differs (a block
@@ -687,6 +731,7 @@ impl EgoHighPass {
         if self.mean.is_empty() || uniform {
             if self.mean.is_empty() && !uniform {
                 self.mean = frame.to_vec();
+                self.warm_up_left = warm_up_frames(self.weight);
             }
             self.out.fill(0.0);
             return &self.out;
@@ -714,6 +759,10 @@ impl EgoHighPass {
             update(0, mean, out, next);
         }
         std::mem::swap(&mut self.mean, &mut self.next);
+        if self.warm_up_left > 0 {
+            self.warm_up_left -= 1;
+            self.out.fill(0.0);
+        }
         &self.out
     }
 }

@@ -1,6 +1,7 @@
 //! Unit tests of the Hopfield detector on small self-made frames (stimulus-file based tests
 //! live in `detector/tests/hopfield*.rs`).
 
+use super::processing::warm_up_frames;
 use super::*;
 
 /// Deterministic pseudo-random numbers in [0, 1) (SplitMix64).
@@ -548,15 +549,64 @@ fn adapted_front_end_starts_silent_and_ignores_static_scenes() {
                 assert_eq!((s.iterations_on, s.iterations_off, s.winner_on), (0, 0, 0));
             }
         }
-        // Motion after a still start: activity only from the second moving frame on (the first
-        // frame with evidence is compared with itself, as at start-up).
+        // Motion after a still start that outlasts the warm-up: activity only from the second
+        // moving frame on (the first frame with evidence is compared with itself, as at start-up).
+        let warm_up = warm_up_frames(cfg.adaptation_weight());
         let frames = &videos(n)[0].1;
-        let mut still = vec![frames[0].clone(); 4];
+        let mut still = vec![frames[0].clone(); warm_up + 2];
         still.extend(frames[1..].iter().cloned());
         let s = run(cfg, &still);
-        assert!(s[..4].iter().all(|s| s.iterations_on == 0), "{implementation}");
-        assert_eq!((s[4].z_hat_on, s[4].z_hat_off), (1.0, 1.0), "{implementation}");
-        assert!(s[4].iterations_on > 0);
+        let first = warm_up + 2;
+        assert!(s[..first].iter().all(|s| s.iterations_on == 0), "{implementation}");
+        assert_eq!((s[first].z_hat_on, s[first].z_hat_off), (1.0, 1.0), "{implementation}");
+        assert!(s[first].iterations_on > 0);
+    }
+}
+
+#[test]
+fn a_high_pass_front_end_warms_up_for_two_time_constants() {
+    // two time constants in frames, at any frame rate
+    for (fps, tau_s, frames) in [(120.0, 0.1, 24), (30.0, 0.1, 6), (120.0, 0.25, 60), (1000.0, 0.1, 200)] {
+        let cfg = HopfieldConfig {
+            frame_rate_hz: fps,
+            adaptation_tau_s: tau_s,
+            ..HopfieldConfig::adapted()
+        };
+        assert_eq!(warm_up_frames(cfg.adaptation_weight()), frames, "{fps} Hz, τ {tau_s} s");
+    }
+    assert_eq!(warm_up_frames(1.0), 0);
+    assert_eq!(warm_up_frames(0.0), 0);
+    // Motion from the first frame on (a drifting grating): the adapted and the compensated front
+    // end give no evidence until the warm-up has passed, then they do (and a grating that only
+    // drifts retrieves no template). The start-up θ̂ that the warm-up removes is checked on a
+    // rendered scene (scenarios/tests/hopfield_rendered.rs).
+    let n = 32;
+    let grating: Vec<Frame> = (0..60)
+        .map(|t| {
+            frame(n, |y, _| {
+                (0.5 + 0.5 * (2.0 * std::f64::consts::PI * (4.0 * y / n as f64 + t as f64 / 30.0)).sin()) as f32
+            })
+        })
+        .collect();
+    for front_end in [FrontEnd::Adapted, FrontEnd::Compensated] {
+        for implementation in [Implementation::Fast, Implementation::Reference] {
+            let cfg = HopfieldConfig {
+                front_end,
+                ..HopfieldConfig::adapted_for_size(n).with_implementation(implementation)
+            };
+            let warm_up = warm_up_frames(cfg.adaptation_weight());
+            let s = run(cfg, &grating);
+            let label = format!("{front_end:?} {implementation}");
+            assert!(s[..=warm_up].iter().all(|s| s.iterations_on == 0), "{label}");
+            assert!(s[warm_up + 1].iterations_on > 0, "{label}");
+            for (k, s) in s.iter().enumerate() {
+                assert_eq!(
+                    (s.winner_on, s.winner_off, s.angular_size_deg),
+                    (0, 0, 0.0),
+                    "{label}, frame {k}"
+                );
+            }
+        }
     }
 }
 
