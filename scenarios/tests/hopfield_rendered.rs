@@ -48,34 +48,13 @@ params = {params}
 }
 
 /// The default suite's `head_on_ball` (its first episode: the robot cruising at 1 m/s over a
-/// checkered ground, the ball resting 11 m ahead until its launch at 0.1 s) at n = 96 with one
-/// Hopfield detector with `params`.
+/// checkered ground, the ball resting 11 m ahead until its launch at 0.1 s), with the suite's
+/// camera and sky, and one Hopfield detector with `params`.
 fn cruising_episode(params: &str) -> loomlab_scenarios::EpisodeSpec {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("suites/default/head_on_ball.toml");
+    let text = std::fs::read_to_string(file).unwrap();
     scenario(&format!(
-        r#"
-name = "head_on_ball_cruising"
-[episode]
-duration_s = 2.6
-seed = 101
-[world]
-sky_luminance = 0.8
-camera = {{ n = 96, fov_deg = 60.0 }}
-ground = {{ texture = {{ kind = "checker", size_m = 1.0, dark = 0.3, light = 0.5 }} }}
-[[world.projectiles]]
-name = "ball"
-target = "camera"
-radius_m = 0.25
-speed_mps = 5.0
-launch_distance_m = 11.0
-launch_elevation_deg = 3.0
-arrival_time_s = 2.3
-texture = {{ kind = "uniform", luminance = 0.1 }}
-[robot]
-forward_mps = 1.0
-[[detectors]]
-id = "hopfield"
-params = {params}
-"#
+        "{text}\n[world]\nsky_luminance = 0.8\ncamera = {{ n = 96, fov_deg = 60.0 }}\n\n[[detectors]]\nid = \"hopfield\"\nparams = {params}\n"
     ))
 }
 
