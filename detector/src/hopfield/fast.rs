@@ -171,7 +171,7 @@ impl FastHopfield {
             undo_running_mean(&mut adapt.running_mean, &self.query, weight);
             return None;
         }
-        if adapt.warming_up() {
+        if adapt.warm_up.withholds() {
             return None;
         }
         normalisation(&self.query, sums.sum, sums.sumsq)

@@ -277,6 +277,28 @@ pub fn warm_up_frames(weight: f64) -> usize {
     (-2.0 / (-weight).ln_1p()).round() as usize
 }
 
+/// The frames of a high-pass front end's warm-up still to come ([`warm_up_frames`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct WarmUp {
+    left: usize,
+}
+
+impl WarmUp {
+    /// A warm-up for a running mean of per-frame weight `weight` that starts now.
+    pub fn start(weight: f64) -> Self {
+        Self {
+            left: warm_up_frames(weight),
+        }
+    }
+
+    /// Whether this (non-dropped) frame's output is withheld; counts it.
+    pub fn withholds(&mut self) -> bool {
+        let withheld = self.left > 0;
+        self.left = self.left.saturating_sub(1);
+        withheld
+    }
+}
+
 /// The adapted front end's state, shared by both implementations: the running mean M of the
 /// processed frames (row-major; empty until the first non-blank frame), its weight and the
 /// frames of its warm-up still to come ([`warm_up_frames`]).
@@ -286,8 +308,8 @@ pub struct Adaptation {
     pub weight: f64,
     /// M, row-major n×n, or empty before the first non-blank frame.
     pub running_mean: Vec<f64>,
-    /// Frames (not dropped) whose query is still withheld after M started.
-    pub warm_up_left: usize,
+    /// The warm-up after M started.
+    pub warm_up: WarmUp,
 }
 
 /// What the adapted front end makes of one processed frame.
@@ -305,27 +327,20 @@ impl Adaptation {
         Self {
             weight,
             running_mean: Vec::new(),
-            warm_up_left: 0,
+            warm_up: WarmUp::default(),
         }
     }
 
     /// Forgets the running mean.
     pub fn reset(&mut self) {
         self.running_mean.clear();
-        self.warm_up_left = 0;
+        self.warm_up = WarmUp::default();
     }
 
     /// Starts M from the processed frame `f` (the first non-blank one), and the warm-up.
     pub fn start(&mut self, f: &[f64]) {
         self.running_mean = f.to_vec();
-        self.warm_up_left = warm_up_frames(self.weight);
-    }
-
-    /// Whether the query of this (non-dropped) frame is withheld by the warm-up; counts it.
-    pub fn warming_up(&mut self) -> bool {
-        let warming = self.warm_up_left > 0;
-        self.warm_up_left = self.warm_up_left.saturating_sub(1);
-        warming
+        self.warm_up = WarmUp::start(self.weight);
     }
 
     /// The literal high-pass, for the reference implementation: turns the processed frame `f`
@@ -345,7 +360,7 @@ impl Adaptation {
             *v -= m;
         }
         update_running_mean(&mut self.running_mean, f, self.weight);
-        if self.warming_up() {
+        if self.warm_up.withholds() {
             f.fill(0.0);
         }
         AdaptedFrame::Query
@@ -688,8 +703,8 @@ mod tests {
 pub struct EgoHighPass {
     warper: crate::compensation::Warper,
     weight: f64,
-    /// Frames (not dropped) whose output is still withheld after M̃ started ([`warm_up_frames`]).
-    warm_up_left: usize,
+    /// The warm-up after M̃ started.
+    warm_up: WarmUp,
     mean: Vec<f32>,
     /// The next running mean while a frame is processed (swapped with `mean` after it).
     next: Vec<f32>,
@@ -702,7 +717,7 @@ impl EgoHighPass {
         Self {
             warper: crate::compensation::Warper::new(n, fov_deg),
             weight,
-            warm_up_left: 0,
+            warm_up: WarmUp::default(),
             mean: Vec::new(),
             next: vec![0.0; n * n],
             out: vec![0.0; n * n],
@@ -712,7 +727,7 @@ impl EgoHighPass {
     /// Forgets the running mean.
     pub fn reset(&mut self) {
         self.mean.clear();
-        self.warm_up_left = 0;
+        self.warm_up = WarmUp::default();
     }
 
     /// G̃ = F̃ − warp(M̃) of the camera frame `frame` (n·n) with its efference copy, updating M̃
@@ -731,7 +746,7 @@ impl EgoHighPass {
         if self.mean.is_empty() || uniform {
             if self.mean.is_empty() && !uniform {
                 self.mean = frame.to_vec();
-                self.warm_up_left = warm_up_frames(self.weight);
+                self.warm_up = WarmUp::start(self.weight);
             }
             self.out.fill(0.0);
             return &self.out;
@@ -759,8 +774,7 @@ impl EgoHighPass {
             update(0, mean, out, next);
         }
         std::mem::swap(&mut self.mean, &mut self.next);
-        if self.warm_up_left > 0 {
-            self.warm_up_left -= 1;
+        if self.warm_up.withholds() {
             self.out.fill(0.0);
         }
         &self.out
