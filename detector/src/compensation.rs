@@ -405,9 +405,16 @@ fn predict_kernel(setup: &Setup, rays: &[[f64; 2]], earlier: &[f32], mut sink: i
     let mut fiv = vec![0.0f32; n];
     let mut fjv = vec![0.0f32; n];
     let mut pred = vec![0.0f32; n];
+    let geometry = Geometry {
+        alpha,
+        beta,
+        max,
+        n,
+        columns: &columns,
+    };
     for i in 0..n {
         let [a0, b] = rays[i * n];
-        // (plain loops: closures over arrays here cost more than the row's geometry)
+        // (plain loops: closures over arrays here cost a function call per row)
         let s = [up[0] + up[1] * a0 + up[2] * b, up[1] * step_a];
         let mut line = RowLines {
             sky: [[0.0; 2]; 3],
@@ -439,22 +446,10 @@ fn predict_kernel(setup: &Setup, rays: &[[f64; 2]], earlier: &[f32], mut sink: i
             }
             hi
         };
-        let geometry = Geometry {
-            alpha,
-            beta,
-            max,
-            n,
-            columns: &columns,
-        };
         let (head, tail) = (0..switch, switch..n);
-        let out = (&mut corner[..], &mut fiv[..], &mut fjv[..]);
-        if first_on_ground {
-            geometry.segment::<true>(&line, head, (&mut *out.0, &mut *out.1, &mut *out.2));
-            geometry.segment::<false>(&line, tail, out);
-        } else {
-            geometry.segment::<false>(&line, head, (&mut *out.0, &mut *out.1, &mut *out.2));
-            geometry.segment::<true>(&line, tail, out);
-        }
+        let (on_ground, above) = if first_on_ground { (head, tail) } else { (tail, head) };
+        geometry.segment::<true>(&line, on_ground, (&mut corner, &mut fiv, &mut fjv));
+        geometry.segment::<false>(&line, above, (&mut corner, &mut fiv, &mut fjv));
         sample_row(earlier, n, &corner, &fiv, &fjv, &mut pred);
         sink(i * n, &pred);
     }
