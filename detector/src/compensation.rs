@@ -309,11 +309,10 @@ struct RowLines {
 }
 
 /// The per-warp constants of a row's geometry: image coordinates `j = α − β·y/x`,
-/// `i = α − β·z/x`, inside `[0, max]`.
+/// `i = α − β·z/x`, inside `[0, n − 1]`.
 struct Geometry<'a> {
     alpha: f32,
     beta: f32,
-    max: f32,
     n: usize,
     /// `c as f32` of every column `c`.
     columns: &'a [f32],
@@ -333,10 +332,10 @@ impl Geometry<'_> {
         let &Self {
             alpha,
             beta,
-            max,
             n,
             columns,
         } = self;
+        let max = (n - 1) as f32;
         let lines = if GROUND { &line.ground } else { &line.sky };
         let edge = (n - 1) as i32;
         let (corner, fi, fj) = (&mut corner[cols.clone()], &mut fi[cols.clone()], &mut fj[cols.clone()]);
@@ -394,7 +393,6 @@ fn predict_kernel(setup: &Setup, rays: &[[f64; 2]], earlier: &[f32], mut sink: i
     // image coordinates: j = α − β·y/x, i = α − β·z/x
     let alpha = (n as f64 / 2.0 - 0.5) as f32;
     let beta = (inv_t * n as f64 / 2.0) as f32;
-    let max = (n - 1) as f32;
     let ground_below = if ground {
         -(HORIZON_MARGIN as f32)
     } else {
@@ -408,7 +406,6 @@ fn predict_kernel(setup: &Setup, rays: &[[f64; 2]], earlier: &[f32], mut sink: i
     let geometry = Geometry {
         alpha,
         beta,
-        max,
         n,
         columns: &columns,
     };
