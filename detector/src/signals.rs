@@ -11,8 +11,8 @@ pub struct Signals {
     pub angular_size_deg: Option<f64>,
     /// Named auxiliary signals (e.g. `("on", z_on)`), written as `<id>_<name>` CSV columns.
     pub aux: Vec<(&'static str, f64)>,
-    /// Where the looming object is in the image, for models that localise it (`tracker`); `None`
-    /// for the others. The escape agent turns it into the object's azimuth, elevation and image
+    /// Where the looming object is in the image, for models that localise it (`tracker`, and
+    /// `hopfield` with `attention = "tracker"`); `None` for the others. The escape agent turns it into the object's azimuth, elevation and image
     /// extent for the collision-course gate (`agents/src/strategy.rs`).
     pub region: Option<ImageRegion>,
 }

@@ -16,8 +16,11 @@
 //! frame_border = "replicate" # or "zero": padding of the 3×3 S_odd convolution
 //! front_end = "paper"     # or "adapted": temporal high-pass before retrieval
 //! adaptation_tau_s = 0.1  # adapted front end: time constant of the running mean (seconds)
-//! readout = "paper"       # angular size from √z; or "winner": from the winning template
-//! readout_alpha = 0.0     # winner readout: low-pass coefficient (0 = none)
+//! readout = "paper"       # angular size from √z; or "winner": from the winning template;
+//!                         # or "template": from the best-matching template alone
+//! readout_alpha = 0.0     # winner and template readouts: low-pass coefficient (0 = none)
+//! min_template_cosine = 0.05 # template readout: smallest cosine that reads a size
+//! attention = "none"      # or "tracker": the query centred on the object `tracker` follows
 //! mask = { radius_frac = 0.9, blur_sigma_px = 20.0 }   # or mask = "none" / mask = false
 //! # mask = { radius_frac = 0.9, blur_sigma_frac = 0.078 } # blur proportional to n
 //!
@@ -66,6 +69,26 @@
 //! - `readout = "paper"` (default): θ̂ from √(z_on·z_off) read as a template index.
 //! - `readout = "winner"`: θ̂ from the template that wins the retrieval this frame, per
 //!   channel, optionally low-passed with `readout_alpha` (see [`super`]).
+//! - `readout = "template"`: θ̂ from the template whose cosine with this frame's query is the
+//!   largest in magnitude — the first retrieval step's winner in a memory of the templates alone,
+//!   without the delayed column — when that cosine is at least `min_template_cosine`, low-passed
+//!   with `readout_alpha` over consecutive frames that read a size; 0 otherwise (see [`super`]).
+//!   Once the query is centred on an object (`attention = "tracker"`), the delayed column holds
+//!   the same object a few frames earlier and wins most frames: its winner says "no change", not
+//!   the object's size.
+//!
+//! # Attention
+//! - `attention = "none"` (default): the query is the whole frame, as in the paper, whose
+//!   templates are discs centred on the image.
+//! - `attention = "tracker"` (with the paper or the compensated front end; the adapted one's
+//!   high-pass would run on the centred view, which moves with the object): the detector runs
+//!   the `tracker` reference detector (its defaults, the camera's field of view) on the same
+//!   frames and efference copies, and shifts the front end's output by whole pixels so that the pixel holding the tracked object's centroid
+//!   lands on the templates' centre before the edge filter; while the tracker reports no object
+//!   the query is empty (no evidence). What the Hopfield memory reads is then the size of the
+//!   object the tracker localises; its θ̂ comes with that object's image position (a box θ̂ wide
+//!   and high around the centroid, and the tracker's track number) for the collision-course gate
+//!   (see [`super::attention`]).
 //!
 //! Every key keeps its own default: `front_end = "adapted"` alone keeps the paper readout,
 //! which with the adapted front end reads too small (median error 28–35 % on the cluttered
@@ -362,6 +385,10 @@ pub enum Readout {
     /// From the template that wins this frame's retrieval (per channel; the larger of ON and
     /// OFF), optionally low-passed with `readout_alpha`.
     Winner,
+    /// From the template that matches this frame's query best (the delayed column left out),
+    /// when its cosine is at least `min_template_cosine`, optionally low-passed with
+    /// `readout_alpha`.
+    Template,
 }
 
 /// Keys of [`HopfieldConfig`] that describe the camera rather than the detector: the frame side
@@ -419,10 +446,30 @@ pub struct HopfieldConfig {
     pub adaptation_tau_s: f64,
     /// Angular-size readout. Default paper.
     pub readout: Readout,
-    /// Low-pass coefficient of the winner readout, in [0, 1): θ̂ scale ← a·old + (1 − a)·new
-    /// each frame with evidence; 0 (default) = the raw per-frame winner. Ignored by the paper
-    /// readout.
+    /// Low-pass coefficient of the winner and template readouts, in [0, 1): θ̂ scale ←
+    /// a·old + (1 − a)·new each frame with evidence (the template readout: each frame that reads
+    /// a size, starting afresh after one that does not and with each new tracked object); 0
+    /// (default) = the raw per-frame template. Ignored by the paper readout.
     pub readout_alpha: f64,
+    /// Template readout: the smallest cosine (in magnitude) between the query and its
+    /// best-matching template that reads as a size, in (0, 1] (default 0.05: measured on the
+    /// default suite's frames, 0.1–0.3 for the best template on an object, at most about 0.01 on
+    /// the residual noise of the compensated front end). Ignored by the other readouts.
+    pub min_template_cosine: f64,
+    /// Where the query looks: the whole frame (default `none`) or the object that the `tracker`
+    /// detector follows (`tracker`).
+    pub attention: Attention,
+}
+
+/// Where the query looks (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Attention {
+    /// The whole frame, as in the paper. Default.
+    #[default]
+    None,
+    /// Centred on the object that the `tracker` detector follows in the same frames.
+    Tracker,
 }
 
 impl Default for HopfieldConfig {
@@ -444,9 +491,14 @@ impl Default for HopfieldConfig {
             adaptation_tau_s: 0.1,
             readout: Readout::Paper,
             readout_alpha: 0.0,
+            min_template_cosine: DEFAULT_MIN_TEMPLATE_COSINE,
+            attention: Attention::None,
         }
     }
 }
+
+/// Default of [`HopfieldConfig::min_template_cosine`].
+pub const DEFAULT_MIN_TEMPLATE_COSINE: f64 = 0.05;
 
 fn invalid(name: &'static str, value: impl fmt::Display, reason: impl Into<String>) -> DetectorError {
     DetectorError::InvalidParameter {
@@ -620,7 +672,24 @@ impl HopfieldConfig {
             return Err(invalid(
                 "readout_alpha",
                 self.readout_alpha,
-                "low-pass of the winner readout must be in [0, 1) (0 = unfiltered)",
+                "low-pass of the winner and template readouts must be in [0, 1) (0 = unfiltered)",
+            ));
+        }
+        if self.attention == Attention::Tracker && self.front_end == FrontEnd::Adapted {
+            return Err(invalid(
+                "attention",
+                "tracker",
+                "the adapted front end's high-pass would run on the centred view, which moves with \
+                 the object; use front_end = \"compensated\" (its high-pass runs before the query is \
+                 centred) or \"paper\" with attention = \"tracker\"",
+            ));
+        }
+        if !(self.min_template_cosine.is_finite() && self.min_template_cosine > 0.0 && self.min_template_cosine <= 1.0)
+        {
+            return Err(invalid(
+                "min_template_cosine",
+                self.min_template_cosine,
+                "the template readout's smallest cosine must be in (0, 1] (default 0.05)",
             ));
         }
         if self.implementation == Implementation::Reference {
@@ -967,6 +1036,27 @@ mod tests {
     }
 
     #[test]
+    fn attention_and_the_template_readout_parse() {
+        let c = HopfieldConfig::default();
+        assert_eq!(
+            (c.attention, c.min_template_cosine),
+            (Attention::None, DEFAULT_MIN_TEMPLATE_COSINE)
+        );
+        let c = HopfieldConfig::from_toml_str(
+            "attention = \"tracker\"\nreadout = \"template\"\nmin_template_cosine = 0.1\nreadout_alpha = 0.5\n",
+        )
+        .unwrap();
+        assert_eq!(
+            (c.attention, c.readout, c.min_template_cosine, c.readout_alpha),
+            (Attention::Tracker, Readout::Template, 0.1, 0.5)
+        );
+        let e = HopfieldConfig::from_toml_str("attention = \"gaze\"\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("attention") && e.contains("tracker"), "{e}");
+    }
+
+    #[test]
     fn new_keys_parse_with_paper_defaults() {
         let c = HopfieldConfig::default();
         assert_eq!(
@@ -1134,6 +1224,35 @@ mod tests {
                 "readout_alpha",
                 HopfieldConfig {
                     readout_alpha: -0.1,
+                    ..d
+                },
+            ),
+            (
+                "attention",
+                HopfieldConfig {
+                    attention: Attention::Tracker,
+                    front_end: FrontEnd::Adapted,
+                    ..d
+                },
+            ),
+            (
+                "min_template_cosine",
+                HopfieldConfig {
+                    min_template_cosine: 0.0,
+                    ..d
+                },
+            ),
+            (
+                "min_template_cosine",
+                HopfieldConfig {
+                    min_template_cosine: 1.5,
+                    ..d
+                },
+            ),
+            (
+                "min_template_cosine",
+                HopfieldConfig {
+                    min_template_cosine: f64::NAN,
                     ..d
                 },
             ),

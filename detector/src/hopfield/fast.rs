@@ -135,6 +135,16 @@ impl FastHopfield {
         &self.ring_query[(self.head + len - 1) % len]
     }
 
+    /// Tᵀξ(t) of the last processed frame: each template's cosine with the query, template 1
+    /// first (all zero for a frame without evidence).
+    pub fn last_template_cosines(&self) -> &[f64] {
+        let len = self.ring_s.len();
+        if len == 0 || self.last_blank {
+            return &self.s;
+        }
+        &self.ring_s[(self.head + len - 1) % len]
+    }
+
     /// Forgets all past frames.
     pub fn reset(&mut self) {
         self.head = 0;

@@ -70,7 +70,15 @@
 //!   and reads 0 while neither channel responds; its smallest non-zero value is the smallest
 //!   template's angle (with the paper's schedule 2·atan(0.1·tan(fov/2)), 6.6° at 60°).
 //!
-//! z (the detector's `output`) is the same for both readouts.
+//! - **Template** (`readout = "template"`, [`best_template`]): each frame, the template whose
+//!   cosine with the query is the largest in magnitude (the delayed column left out: the first
+//!   retrieval step's winner in a memory of the templates alone), when that cosine is at least
+//!   `min_template_cosine`; its scale is low-passed with `readout_alpha` over consecutive frames
+//!   that read one, and θ̂ is 0 on a frame that does not. Meant for a query centred on an object
+//!   ([`attention`]), whose delayed column holds the same object a few frames earlier and would
+//!   win most frames.
+//!
+//! z (the detector's `output`) is the same for every readout.
 
 //! # Template phase and centre (why the defaults)
 //! Measured with the stimulus renderer (n = 64, 128, 256; the paper's approach: 0.5 m disk,
@@ -91,6 +99,7 @@
 //!   disk's true size); the default 0.5 centres the template on pixel row n/2, the usual
 //!   integer-grid convention, half a pixel below the geometric centre used by the stimuli.
 
+pub mod attention;
 pub mod config;
 pub mod fast;
 pub mod processing;
@@ -98,8 +107,8 @@ pub mod reference;
 pub mod templates;
 
 pub use config::{
-    FrameBorder, FrontEnd, HopfieldConfig, Implementation, MaskConfig, Readout, ScaleSchedule, TemplateConfig,
-    TemplateKind,
+    Attention, FrameBorder, FrontEnd, HopfieldConfig, Implementation, MaskConfig, Readout, ScaleSchedule,
+    TemplateConfig, TemplateKind,
 };
 pub use fast::FastHopfield;
 pub use reference::ReferenceHopfield;
@@ -205,6 +214,19 @@ pub fn winner_scale(winner_on: usize, winner_off: usize, cfg: &HopfieldConfig) -
     scale(winner_on).max(scale(winner_off))
 }
 
+/// The template readout's template for one frame: the 1-based index and the cosine magnitude
+/// of the template whose cosine with the query is the largest in magnitude (the first on ties),
+/// when that magnitude is at least `min_cosine`.
+pub fn best_template(cosines: &[f64], min_cosine: f64) -> Option<(usize, f64)> {
+    let mut best: Option<(usize, f64)> = None;
+    for (i, c) in cosines.iter().enumerate() {
+        if c.abs() >= min_cosine && best.is_none_or(|(_, b)| c.abs() > b) {
+            best = Some((i + 1, c.abs()));
+        }
+    }
+    best
+}
+
 /// Everything the Hopfield detector reports for one frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HopfieldSignals {
@@ -253,8 +275,10 @@ pub struct Hopfield {
     ego_high_pass: Option<processing::EgoHighPass>,
     z_on: f64,
     z_off: f64,
-    /// The winner readout's (low-passed) scale.
+    /// The winner or template readout's (low-passed) scale.
     readout_scale: f64,
+    /// The attention's tracker (`attention = "tracker"`; `None` for the whole frame).
+    attention: Option<attention::TrackerAttention>,
 }
 
 impl Hopfield {
@@ -267,6 +291,10 @@ impl Hopfield {
         };
         let ego_high_pass = (config.front_end == FrontEnd::Compensated)
             .then(|| processing::EgoHighPass::new(config.n, config.fov_deg, config.adaptation_weight()));
+        let attention = match config.attention {
+            Attention::None => None,
+            Attention::Tracker => Some(attention::TrackerAttention::new(config.n, config.fov_deg)?),
+        };
         Ok(Self {
             config,
             engine,
@@ -274,6 +302,7 @@ impl Hopfield {
             z_on: 1.0,
             z_off: 1.0,
             readout_scale: 0.0,
+            attention,
         })
     }
 
@@ -327,9 +356,21 @@ impl Hopfield {
                 got: frame.n(),
             });
         }
+        if let Some(attention) = &mut self.attention {
+            let track = |r: Option<crate::ImageRegion>| r.and_then(|r| r.track);
+            let before = track(attention.region());
+            if track(attention.follow(frame, ego)?) != before {
+                // another object: its size is not the last one's
+                self.readout_scale = 0.0;
+            }
+        }
         let input = match &mut self.ego_high_pass {
             Some(hp) => hp.high_pass(frame.data(), ego),
             None => frame.data(),
+        };
+        let input = match &mut self.attention {
+            Some(attention) => attention.centre(input),
+            None => input,
         };
         let r = match &mut self.engine {
             Engine::Reference(e) => e.retrieve(input),
@@ -351,10 +392,28 @@ impl Hopfield {
                 };
             }
         }
+        if self.config.readout == Readout::Template {
+            let best = match &self.engine {
+                Engine::Reference(e) => best_template(&e.last_template_cosines(), self.config.min_template_cosine),
+                Engine::Fast(e) => best_template(e.last_template_cosines(), self.config.min_template_cosine),
+            };
+            self.readout_scale = match best {
+                Some((i, _)) => {
+                    let s = self.config.template.scale(self.config.n, i);
+                    let a = self.config.readout_alpha;
+                    if self.readout_scale > 0.0 {
+                        a * self.readout_scale + (1.0 - a) * s
+                    } else {
+                        s
+                    }
+                }
+                None => 0.0,
+            };
+        }
         let z = self.z_on * self.z_off;
         let angular_size_deg = match self.config.readout {
             Readout::Paper => angular_size_deg(z, &self.config),
-            Readout::Winner => scale_to_deg(self.readout_scale, &self.config),
+            Readout::Winner | Readout::Template => scale_to_deg(self.readout_scale, &self.config),
         };
         Ok(HopfieldSignals {
             z_on: self.z_on,
@@ -367,6 +426,25 @@ impl Hopfield {
             angular_size_deg,
             iterations_on: r.iterations_on,
             iterations_off: r.iterations_off,
+        })
+    }
+
+    /// With attention, the attended object's image region for the collision-course gate: the
+    /// tracker's centroid and track number, and a box θ̂ wide and high centred on the centroid
+    /// (the Hopfield memory's size, not the tracker's box); `None` without attention, an object or
+    /// a size.
+    fn attended_region(&self, theta_deg: f64) -> Option<crate::ImageRegion> {
+        let region = self.attention.as_ref()?.region()?;
+        if theta_deg <= 0.0 {
+            return None;
+        }
+        let tan_half_fov = (0.5 * self.config.fov_deg).to_radians().tan();
+        let half = (0.5 * theta_deg).to_radians().tan() / tan_half_fov;
+        let [x, y] = region.centroid;
+        Some(crate::ImageRegion {
+            x: [x - half, x + half],
+            y: [y - half, y + half],
+            ..region
         })
     }
 }
@@ -384,6 +462,9 @@ impl Detector for Hopfield {
         self.z_on = 1.0;
         self.z_off = 1.0;
         self.readout_scale = 0.0;
+        if let Some(attention) = &mut self.attention {
+            attention.reset();
+        }
         if let Some(hp) = &mut self.ego_high_pass {
             hp.reset();
         }
@@ -403,7 +484,7 @@ impl Detector for Hopfield {
             output: s.z,
             angular_size_deg: Some(s.angular_size_deg),
             aux: vec![("on", s.z_on), ("off", s.z_off)],
-            region: None,
+            region: self.attended_region(s.angular_size_deg),
         })
     }
 }

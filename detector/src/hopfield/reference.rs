@@ -90,6 +90,21 @@ impl ReferenceHopfield {
         &self.last_query
     }
 
+    /// x_iᵀξ(t) of the last processed frame for the templates i = 1..=N: each template's cosine
+    /// with the query (all zero for a frame without evidence).
+    pub fn last_template_cosines(&self) -> Vec<f64> {
+        let d = self.d;
+        (1..self.columns)
+            .map(|i| {
+                self.on[i * d..(i + 1) * d]
+                    .iter()
+                    .zip(&self.last_query)
+                    .map(|(x, q)| x * q)
+                    .sum()
+            })
+            .collect()
+    }
+
     /// Forgets all past frames.
     pub fn reset(&mut self) {
         self.history.clear();
