@@ -293,7 +293,15 @@ impl Hopfield {
             .then(|| processing::EgoHighPass::new(config.n, config.fov_deg, config.adaptation_weight()));
         let attention = match config.attention {
             Attention::None => None,
-            Attention::Tracker => Some(attention::TrackerAttention::new(config.n, config.fov_deg)?),
+            Attention::Tracker => {
+                // what the query image holds outside the frame: no edge in a camera frame, no
+                // change in the compensated front end's high-pass
+                let outside = match config.front_end {
+                    FrontEnd::Compensated => attention::Outside::Zero,
+                    FrontEnd::Paper | FrontEnd::Adapted => attention::Outside::Replicate,
+                };
+                Some(attention::TrackerAttention::new(config.n, config.fov_deg, outside)?)
+            }
         };
         Ok(Self {
             config,
