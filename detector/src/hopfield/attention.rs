@@ -11,8 +11,8 @@
 //! end) its border pixels repeated, no edge where the frame ends; for the compensated front end's
 //! temporal high-pass, 0, no change (measured on held-out seed 7: repeating the high-pass's border
 //! instead gave the suite row 25 false alarms of 200 against 17, the same 30 hits). While the
-//! tracker reports no object the query is all zero: no evidence. The size still comes from the Hopfield memory alone; the
-//! tracker's box size is not used.
+//! tracker reports no object the query is all zero: no evidence. The size still comes from the
+//! Hopfield memory alone; the tracker's box size is not used.
 
 use crate::baselines::{Tracker, TrackerConfig};
 use crate::{Detector, DetectorError, EfferenceCopy, Frame, ImageRegion};

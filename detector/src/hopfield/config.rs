@@ -83,12 +83,12 @@
 //! - `attention = "tracker"` (with the paper or the compensated front end; the adapted one's
 //!   high-pass would run on the centred view, which moves with the object): the detector runs
 //!   the `tracker` reference detector (its defaults, the camera's field of view) on the same
-//!   frames and efference copies, and shifts the front end's output by whole pixels so that the pixel holding the tracked object's centroid
-//!   lands on the templates' centre before the edge filter; while the tracker reports no object
-//!   the query is empty (no evidence). What the Hopfield memory reads is then the size of the
-//!   object the tracker localises; its θ̂ comes with that object's image position (a box θ̂ wide
-//!   and high around the centroid, and the tracker's track number) for the collision-course gate
-//!   (see [`super::attention`]).
+//!   frames and efference copies, and shifts the front end's output by whole pixels so that the
+//!   pixel holding the tracked object's centroid lands on the templates' centre before the edge
+//!   filter; while the tracker reports no object the query is empty (no evidence). What the
+//!   Hopfield memory reads is then the size of the object the tracker localises; its θ̂ comes
+//!   with that object's image position (a box θ̂ wide and high around the centroid, and the
+//!   tracker's track number) for the collision-course gate (see [`super::attention`]).
 //!
 //! Every key keeps its own default: `front_end = "adapted"` alone keeps the paper readout,
 //! which with the adapted front end reads too small (median error 28–35 % on the cluttered
@@ -449,7 +449,7 @@ pub struct HopfieldConfig {
     /// Low-pass coefficient of the winner and template readouts, in [0, 1): θ̂ scale ←
     /// a·old + (1 − a)·new each frame with evidence (the template readout: each frame that reads
     /// a size, starting afresh after one that does not and with each new tracked object); 0
-    /// (default) = the raw per-frame template. Ignored by the paper readout.
+    /// (default) = the raw per-frame winner or template. Ignored by the paper readout.
     pub readout_alpha: f64,
     /// Template readout: the smallest cosine (in magnitude) between the query and its
     /// best-matching template that reads as a size, in (0, 1] (default 0.05: measured on the

@@ -245,7 +245,8 @@ pub struct HopfieldSignals {
     /// Winning OFF memory column.
     pub winner_off: usize,
     /// Angular size θ̂ in degrees from the configured readout: from √z
-    /// ([`angular_size_deg`]) or from the winning templates ([`winner_scale`]).
+    /// ([`angular_size_deg`]), from the winning templates ([`winner_scale`]) or from the
+    /// best-matching template ([`best_template`]).
     pub angular_size_deg: f64,
     /// Updates made by the ON channel this frame.
     pub iterations_on: usize,
