@@ -168,6 +168,12 @@ pub struct EscapeConfig {
     /// the threshold on that many consecutive frames — for any threshold, so a calibration of the
     /// threshold sees the same rule ([`crate::strategy`]).
     pub persistence_frames: usize,
+    /// The window of the persistence rule (frames, `persistence_frames`–[`MAX_PERSISTENCE_FRAMES`];
+    /// default: `persistence_frames`, i.e. consecutive frames): with a longer window M the
+    /// decision value is the K-th largest of the last M frames' values (K = `persistence_frames`),
+    /// so an alarm needs the value at or above the threshold on any K of the last M frames — a
+    /// K-of-M confirmation that a single frame's dropout does not reset ([`crate::strategy`]).
+    pub persistence_window_frames: Option<usize>,
     /// Closing speed the course gate assumes to turn τ̂ into a distance (m/s, > 0; default 10: a
     /// thrown ball). An object closing faster looks nearer the robot's axis than it is (a fast near
     /// pass may get through), a slower one farther (a slow graze of the body's edge may be gated
@@ -238,6 +244,7 @@ impl Default for EscapeConfig {
             tau_window_s: 0.1,
             course: Course::Off,
             persistence_frames: 1,
+            persistence_window_frames: None,
             course_closing_speed_mps: 10.0,
             course_window_s: 0.25,
             side_memory_s: 0.5,
@@ -314,6 +321,18 @@ impl EscapeConfig {
                 &format!("must be a whole number of frames from 1 (no persistence) to {MAX_PERSISTENCE_FRAMES}"),
             ));
         }
+        if let Some(m) = self.persistence_window_frames
+            && !(self.persistence_frames..=MAX_PERSISTENCE_FRAMES).contains(&m)
+        {
+            return Err(invalid(
+                "escape.persistence_window_frames",
+                m,
+                &format!(
+                    "must be a whole number of frames from escape.persistence_frames ({}) to {MAX_PERSISTENCE_FRAMES}",
+                    self.persistence_frames
+                ),
+            ));
+        }
         non_negative("escape.side_memory_s", self.side_memory_s)?;
         if let Some(v) = self.max_dodge_offset_m
             && !(v.is_finite() && v > 0.0)
@@ -380,6 +399,7 @@ impl EscapeConfig {
             window_s: self.tau_window_s,
             course: self.course,
             persistence_frames: self.persistence_frames,
+            persistence_window_frames: self.persistence_window_frames.unwrap_or(self.persistence_frames),
             closing_speed_mps: self.course_closing_speed_mps,
             course_window_s: self.course_window_s,
             body_half_width_m: self.body_half_width_m,

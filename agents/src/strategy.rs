@@ -86,7 +86,7 @@
 //! looming side: a μ from the temporal-contrast centroid is too noisy to choose a side (with it, 4
 //! hits of `hopfield_adapted_tau` in `multi_object` dodged into an object).
 //!
-//! # Persistence (`persistence_frames`)
+//! # Persistence (`persistence_frames`, `persistence_window_frames`)
 //! With `persistence_frames = K > 1` the decision value is the smallest of the last K frames'
 //! values (after the τ rule and the gate; 0 — NaN for an output — until K frames have been seen
 //! or while one of them is NaN): the controller alarms only when the value has been at or above
@@ -94,6 +94,13 @@
 //! threshold calibrated on the decision values (`--calibrate`) calibrates the persistent rule. It
 //! trades hits for false alarms: an alarm comes K − 1 frames later, and a percept that is wrong for
 //! fewer frames raises none.
+//!
+//! With a window `persistence_window_frames = M > K` the value is the K-th largest of the last M
+//! frames' values that are numbers (idle while fewer than K are): the controller alarms once the
+//! value has been at or above its threshold on any K of the last M frames (a K-of-M confirmation,
+//! as radar trackers confirm a track) — again for any threshold. A percept that flickers (a
+//! noisy τ̂ that leaves the threshold for a frame or two on its way down) still raises an alarm,
+//! where K consecutive frames would start counting afresh; M = K is the rule above.
 //!
 //! # `trigger = "angular_size"` / `"output"`
 //! Stateless: the value is θ̂ (degrees) or the detector's output, compared with `threshold`; the
@@ -183,8 +190,11 @@ pub struct StrategyParams {
     pub window_s: f64,
     /// The course gate.
     pub course: Course,
-    /// Persistence: the value is the smallest of the last this many frames' (1: none).
+    /// Persistence: the value is the K-th largest (K = this) of the last
+    /// `persistence_window_frames` frames' values (1: none).
     pub persistence_frames: usize,
+    /// The persistence window M (frames, ≥ `persistence_frames`; equal: K consecutive frames).
+    pub persistence_window_frames: usize,
     /// Closing speed assumed by the gate (m/s).
     pub closing_speed_mps: f64,
     /// Length of the window over which the gate estimates the bearing and expansion rates (s).
@@ -273,8 +283,10 @@ struct Sample {
 pub struct Strategy {
     params: StrategyParams,
     window: VecDeque<Sample>,
-    /// The last `persistence_frames` values before the persistence step.
+    /// The last `persistence_window_frames` values before the persistence step.
     recent: VecDeque<f64>,
+    /// Scratch space of the persistence step (the window's values that are numbers).
+    ranked: Vec<f64>,
 }
 
 /// Least-squares fit of `y` against `x`: `(slope, mean x, mean y)` (None with fewer than
@@ -355,7 +367,8 @@ impl Strategy {
         Self {
             params,
             window: VecDeque::new(),
-            recent: VecDeque::with_capacity(params.persistence_frames.clamp(1, 64)),
+            recent: VecDeque::with_capacity(params.persistence_window_frames.clamp(1, 64)),
+            ranked: Vec::new(),
         }
     }
 
@@ -373,7 +386,14 @@ impl Strategy {
     /// Whether this strategy keeps state (τ trigger, course gate or persistence): only then does
     /// `update` differ from the raw value.
     pub fn is_stateful(&self) -> bool {
-        self.params.tau || self.params.course != Course::Off || self.params.persistence_frames > 1
+        self.params.tau || self.params.course != Course::Off || self.persistence_window() > 1
+    }
+
+    /// The persistence window M (at least K).
+    fn persistence_window(&self) -> usize {
+        self.params
+            .persistence_window_frames
+            .max(self.params.persistence_frames)
     }
 
     /// Take this frame's percept at time `t_s` and return the decision quantities.
@@ -574,20 +594,25 @@ impl Strategy {
         }
     }
 
-    /// The persistence step (module docs, "Persistence"): the smallest of the last
-    /// `persistence_frames` values (`idle` while fewer have been seen, or when one is NaN).
+    /// The persistence step (module docs, "Persistence"): the K-th largest of the last M values
+    /// that are numbers (`idle` while fewer than K are); with M = K the smallest of the last K
+    /// values (`idle` while fewer have been seen, or when one is NaN).
     fn persist(&mut self, value: f64, idle: f64) -> f64 {
-        let k = self.params.persistence_frames;
-        if k <= 1 {
+        let (k, m) = (self.params.persistence_frames.max(1), self.persistence_window());
+        if m <= 1 {
             return value;
         }
-        if self.recent.len() == k {
+        if self.recent.len() == m {
             self.recent.pop_front();
         }
         self.recent.push_back(value);
-        if self.recent.len() < k || self.recent.iter().any(|v| v.is_nan()) {
+        self.ranked.clear();
+        self.ranked.extend(self.recent.iter().copied().filter(|v| !v.is_nan()));
+        if self.ranked.len() < k {
             return idle;
         }
-        self.recent.iter().copied().fold(f64::INFINITY, f64::min)
+        // the K-th largest: index K − 1 in descending order
+        let (_, kth, _) = self.ranked.select_nth_unstable_by(k - 1, |a, b| b.total_cmp(a));
+        *kth
     }
 }

@@ -1426,3 +1426,73 @@ fn persistence_is_the_minimum_of_the_last_frames_for_any_threshold() {
         assert!(e.contains("escape.persistence_frames"), "{e}");
     }
 }
+
+/// `persistence_window_frames = M > K`: the decision value is the K-th largest of the last M
+/// values that are numbers (idle while fewer than K are), so for every threshold it alarms exactly
+/// where the raw value was at or above it on at least K of the last M frames; M = K is the
+/// consecutive rule, value for value.
+#[test]
+fn a_persistence_window_alarms_on_any_k_of_the_last_m_frames_for_any_threshold() {
+    use loomlab_agents::{Ego, Percept};
+    let raw = [5.0, 1.0, 5.0, 5.0, f64::NAN, 6.0, 2.0, 7.0, 0.5, 7.0, 7.0, 3.0];
+    for (trigger, idle) in [(TriggerSignal::Output, f64::NAN), (TriggerSignal::AngularSizeDeg, 0.0)] {
+        let run = |k: usize, m: Option<usize>| -> Vec<f64> {
+            let cfg = EscapeConfig {
+                trigger,
+                persistence_frames: k,
+                persistence_window_frames: m,
+                ..Default::default()
+            };
+            cfg.validate().unwrap();
+            let mut s = cfg.strategy();
+            raw.iter()
+                .enumerate()
+                .map(|(i, &v)| {
+                    let p = Percept {
+                        value: v,
+                        ..Default::default()
+                    };
+                    s.update(i as f64 / 120.0, p, Ego::default()).value
+                })
+                .collect()
+        };
+        let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| x == y || (x.is_nan() && y.is_nan()));
+        for k in 1..5 {
+            assert!(same(&run(k, None), &run(k, Some(k))), "M = K = {k}");
+        }
+        let (k, m) = (3, 5);
+        let values = run(k, Some(m));
+        for (i, v) in values.iter().enumerate() {
+            let window: Vec<f64> = raw[i.saturating_sub(m - 1)..=i]
+                .iter()
+                .copied()
+                .filter(|v| !v.is_nan())
+                .collect();
+            if window.len() < k {
+                assert!(v == &idle || (v.is_nan() && idle.is_nan()), "frame {i}: {values:?}");
+                continue;
+            }
+            for threshold in [0.5, 1.0, 2.0, 3.0, 5.0, 6.0, 7.0, 8.0] {
+                let held = window.iter().filter(|&&x| x >= threshold).count() >= k;
+                assert_eq!(*v >= threshold, held, "threshold {threshold}, frame {i}: {values:?}");
+            }
+        }
+        // a one-frame dip does not restart the count, as it does for consecutive frames
+        assert!(values[7] >= 5.0 && run(k, None)[7] < 5.0, "{values:?}");
+    }
+    // at least K and bounded, named in the error
+    for (k, m) in [(3, 2), (3, loomlab_agents::escape::MAX_PERSISTENCE_FRAMES + 1)] {
+        let e = EscapeConfig {
+            persistence_frames: k,
+            persistence_window_frames: Some(m),
+            ..Default::default()
+        }
+        .validate()
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("escape.persistence_window_frames") && e.contains("persistence_frames (3)"),
+            "{e}"
+        );
+    }
+}

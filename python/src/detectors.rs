@@ -113,6 +113,7 @@ pub(crate) fn registry_with(entries: Vec<PythonEntry>) -> PyResult<(Registry, Ve
             min_angular_size_deg: None,
             course: None,
             persistence_frames: None,
+            persistence_window_frames: None,
             params: None,
         });
     }

@@ -118,7 +118,7 @@ fn respond(ep: loomlab_scenarios::EpisodeSpec) -> Response {
 const ADAPTED: &str = r#"{ front_end = "adapted", readout = "winner", readout_alpha = 0.5 }"#;
 const COMPENSATED: &str = r#"{ front_end = "compensated", readout = "winner", readout_alpha = 0.5 }"#;
 /// The default suite's `hopfield_attended_tau_persistent` row's parameters.
-const ATTENDED: &str = r#"{ front_end = "compensated", readout = "template", readout_alpha = 0.5, attention = "tracker", template = { schedule = "footnote", scale_start_px = 3.0, scale_step = 0.005208333 } }"#;
+const ATTENDED: &str = r#"{ front_end = "compensated", readout = "template", readout_alpha = 0.7, attention = "tracker", template = { kind = "uniform_disk", schedule = "footnote", scale_start_px = 3.0, scale_step = 0.005208333 } }"#;
 
 #[test]
 fn high_pass_front_ends_give_no_estimate_from_their_start_up_on_a_cruising_robot() {

@@ -192,6 +192,7 @@ fn a_registered_detector_is_a_detector_everywhere() {
         min_angular_size_deg: None,
         course: None,
         persistence_frames: None,
+        persistence_window_frames: None,
         params: None,
     };
     let world = ep.world.clone();

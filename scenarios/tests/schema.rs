@@ -536,6 +536,7 @@ fn reference_labels_are_reserved_for_detectors() {
         min_angular_size_deg: None,
         course: None,
         persistence_frames: None,
+        persistence_window_frames: None,
         params: None,
     };
     let (key, reason) = resolve_detector(&desc("oracle"), default_camera(32)).unwrap_err();
@@ -566,6 +567,7 @@ fn detectors_are_built_for_the_camera_facts() {
         min_angular_size_deg: None,
         course: None,
         persistence_frames: None,
+        persistence_window_frames: None,
         params: None,
     };
     let spec = resolve_detector(&d, facts).unwrap();
@@ -664,6 +666,26 @@ fn tau_and_course_strategies_need_theta_and_their_own_keys() {
     let ep = s.episode(0).unwrap();
     assert!(ep.detectors[0].is_strategy());
     assert_eq!(ep.detectors[0].controller(&ep.controller).persistence_frames, 5);
+    // a persistence window reaches it too (absent: the consecutive rule, M = K)
+    assert_eq!(
+        ep.detectors[0].controller(&ep.controller).persistence_window_frames,
+        Some(5)
+    );
+    let s = parse(&format!(
+        "{BASE}\n[[detectors]]\nid = \"soc\"\npersistence_frames = 8\npersistence_window_frames = 11\n"
+    ))
+    .unwrap();
+    let ep = s.episode(0).unwrap();
+    let c = ep.detectors[0].controller(&ep.controller);
+    assert_eq!((c.persistence_frames, c.persistence_window_frames), (8, Some(11)));
+    let s = parse(&format!(
+        "{BASE}\n[[detectors]]\nid = \"soc\"\npersistence_window_frames = 4\n"
+    ))
+    .unwrap();
+    assert!(
+        s.episode(0).unwrap().detectors[0].is_strategy(),
+        "1 of 4 frames is a strategy"
+    );
     // `angular_size` is today's trigger
     let s = parse(&format!(
         "{BASE}\n[[detectors]]\nid = \"hopfield\"\ntrigger = \"angular_size\"\n"
@@ -702,6 +724,11 @@ fn tau_and_course_strategies_need_theta_and_their_own_keys() {
             "id = \"soc\"\npersistence_frames = 20000",
             "persistence_frames",
             "10000",
+        ),
+        (
+            "id = \"soc\"\npersistence_frames = 6\npersistence_window_frames = 5",
+            "persistence_window_frames",
+            "from persistence_frames (6)",
         ),
     ] {
         let e = parse(&format!("{BASE}\n[[detectors]]\n{entry}\n"))

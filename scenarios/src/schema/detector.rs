@@ -40,8 +40,11 @@ pub struct DetectorSpec {
     pub min_angular_size_deg: Option<f64>,
     /// The collision-course gate.
     pub course: Course,
-    /// Consecutive frames the decision value must stay at or above the threshold (1: none).
+    /// Frames the decision value must be at or above the threshold (1: none) within the last
+    /// `persistence_window_frames`.
     pub persistence_frames: usize,
+    /// The persistence window (frames, ≥ `persistence_frames`; equal: consecutive frames).
+    pub persistence_window_frames: usize,
     /// Validated parameters (camera keys such as the Hopfield `n` and `fov_deg` already match the
     /// camera).
     pub params: DetectorParams,
@@ -66,6 +69,7 @@ impl DetectorSpec {
             min_angular_size_deg: self.min_angular_size_deg.unwrap_or(base.min_angular_size_deg),
             course: self.course,
             persistence_frames: self.persistence_frames,
+            persistence_window_frames: Some(self.persistence_window_frames),
             ..base.clone()
         }
     }
@@ -73,7 +77,7 @@ impl DetectorSpec {
     /// Whether this row runs a stateful decision strategy (τ, the course gate or persistence): its
     /// decision value is not the raw trigger signal.
     pub fn is_strategy(&self) -> bool {
-        self.trigger == TriggerSignal::Tau || self.course != Course::Off || self.persistence_frames > 1
+        self.trigger == TriggerSignal::Tau || self.course != Course::Off || self.persistence_window_frames > 1
     }
 }
 
@@ -219,6 +223,15 @@ pub fn resolve_detector_in(
             ),
         ));
     }
+    let persistence_window_frames = d.persistence_window_frames.unwrap_or(persistence_frames);
+    if !(persistence_frames..=MAX_PERSISTENCE_FRAMES).contains(&persistence_window_frames) {
+        return Err((
+            "persistence_window_frames".into(),
+            format!(
+                "{persistence_window_frames} must be a whole number of frames from persistence_frames ({persistence_frames}) to {MAX_PERSISTENCE_FRAMES}"
+            ),
+        ));
+    }
     let params = reg
         .configure(d.params.as_ref(), &camera)
         .map_err(|e| (e.key, e.reason))?;
@@ -230,6 +243,7 @@ pub fn resolve_detector_in(
         min_angular_size_deg: d.min_angular_size_deg,
         course,
         persistence_frames,
+        persistence_window_frames,
         params,
     })
 }
@@ -294,6 +308,7 @@ pub(super) fn bare(id: &str) -> DetectorDesc {
         min_angular_size_deg: None,
         course: None,
         persistence_frames: None,
+        persistence_window_frames: None,
         params: None,
     }
 }

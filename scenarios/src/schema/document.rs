@@ -196,6 +196,11 @@ pub struct DetectorDesc {
     /// consecutive frames (1–10 000; default 1: at once; `EscapeConfig::persistence_frames`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub persistence_frames: Option<usize>,
+    /// Persistence window: an alarm needs the decision value at or above the threshold on any
+    /// `persistence_frames` of the last this many frames (`persistence_frames`–10 000; default
+    /// `persistence_frames`: consecutive frames; `EscapeConfig::persistence_window_frames`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub persistence_window_frames: Option<usize>,
     /// Detector parameters: keys of the detector's config type (its
     /// [`loomlab_detector::DetectorConfig`], e.g. `HopfieldConfig` except `n`, `fov_deg` and
     /// `frame_rate_hz`, which come from `world.camera`, or `SocConfig`).

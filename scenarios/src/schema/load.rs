@@ -129,6 +129,7 @@ pub fn parse_scenario(
             "min_angular_size_deg",
             "course",
             "persistence_frames",
+            "persistence_window_frames",
         ] {
             if c.contains_key(k) {
                 return Err(ScenarioError::key(
