@@ -1375,32 +1375,37 @@ mod replay_on_signals {
     }
 }
 
+/// The decision values of a persistence rule (K, window M) over raw values, one frame at 120 Hz.
+fn persisted(trigger: TriggerSignal, k: usize, m: Option<usize>, raw: &[f64]) -> Vec<f64> {
+    use loomlab_agents::{Ego, Percept};
+    let cfg = EscapeConfig {
+        trigger,
+        persistence_frames: k,
+        persistence_window_frames: m,
+        ..Default::default()
+    };
+    cfg.validate().unwrap();
+    let mut s = cfg.strategy();
+    raw.iter()
+        .enumerate()
+        .map(|(i, &v)| {
+            let p = Percept {
+                value: v,
+                ..Default::default()
+            };
+            s.update(i as f64 / 120.0, p, Ego::default()).value
+        })
+        .collect()
+}
+
 /// `persistence_frames = K`: the decision value is the smallest of the last K values (the idle
 /// value before K frames), so for every threshold it alarms exactly where the raw value was at or
 /// above it on K consecutive frames; K = 1 passes the value through.
 #[test]
 fn persistence_is_the_minimum_of_the_last_frames_for_any_threshold() {
-    use loomlab_agents::{Ego, Percept};
     let raw = [5.0, 5.0, 1.0, 5.0, 5.0, 5.0, 2.0, 7.0, 7.0, 7.0];
     for (trigger, idle) in [(TriggerSignal::Output, f64::NAN), (TriggerSignal::AngularSizeDeg, 0.0)] {
-        let run = |k: usize| -> Vec<f64> {
-            let cfg = EscapeConfig {
-                trigger,
-                persistence_frames: k,
-                ..Default::default()
-            };
-            let mut s = cfg.strategy();
-            raw.iter()
-                .enumerate()
-                .map(|(i, &v)| {
-                    let p = Percept {
-                        value: v,
-                        ..Default::default()
-                    };
-                    s.update(i as f64 / 120.0, p, Ego::default()).value
-                })
-                .collect()
-        };
+        let run = |k: usize| persisted(trigger, k, None, &raw);
         assert_eq!(run(1), raw.to_vec());
         let three = run(3);
         let expected = [idle, idle, 1.0, 1.0, 1.0, 5.0, 2.0, 2.0, 2.0, 7.0];
@@ -1433,29 +1438,9 @@ fn persistence_is_the_minimum_of_the_last_frames_for_any_threshold() {
 /// consecutive rule, value for value.
 #[test]
 fn a_persistence_window_alarms_on_any_k_of_the_last_m_frames_for_any_threshold() {
-    use loomlab_agents::{Ego, Percept};
     let raw = [5.0, 1.0, 5.0, 5.0, f64::NAN, 6.0, 2.0, 7.0, 0.5, 7.0, 7.0, 3.0];
     for (trigger, idle) in [(TriggerSignal::Output, f64::NAN), (TriggerSignal::AngularSizeDeg, 0.0)] {
-        let run = |k: usize, m: Option<usize>| -> Vec<f64> {
-            let cfg = EscapeConfig {
-                trigger,
-                persistence_frames: k,
-                persistence_window_frames: m,
-                ..Default::default()
-            };
-            cfg.validate().unwrap();
-            let mut s = cfg.strategy();
-            raw.iter()
-                .enumerate()
-                .map(|(i, &v)| {
-                    let p = Percept {
-                        value: v,
-                        ..Default::default()
-                    };
-                    s.update(i as f64 / 120.0, p, Ego::default()).value
-                })
-                .collect()
-        };
+        let run = |k: usize, m: Option<usize>| persisted(trigger, k, m, &raw);
         let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| x == y || (x.is_nan() && y.is_nan()));
         for k in 1..5 {
             assert!(same(&run(k, None), &run(k, Some(k))), "M = K = {k}");
