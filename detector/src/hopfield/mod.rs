@@ -392,13 +392,7 @@ impl Hopfield {
             self.z_on = (alpha * self.z_on + (1.0 - alpha) * r.z_hat_on).clamp(1.0, top);
             self.z_off = (alpha * self.z_off + (1.0 - alpha) * r.z_hat_off).clamp(1.0, top);
             if self.config.readout == Readout::Winner {
-                let a = self.config.readout_alpha;
-                let s = winner_scale(r.winner_on, r.winner_off, &self.config);
-                self.readout_scale = if a == 0.0 {
-                    s
-                } else {
-                    a * self.readout_scale + (1.0 - a) * s
-                };
+                self.readout_scale = self.low_passed_scale(winner_scale(r.winner_on, r.winner_off, &self.config));
             }
         }
         if self.config.readout == Readout::Template {
@@ -407,15 +401,11 @@ impl Hopfield {
                 Engine::Fast(e) => best_template(e.last_template_cosines(), self.config.min_template_cosine),
             };
             self.readout_scale = match best {
-                Some((i, _)) => {
-                    let s = self.config.template.scale(self.config.n, i);
-                    let a = self.config.readout_alpha;
-                    if self.readout_scale > 0.0 {
-                        a * self.readout_scale + (1.0 - a) * s
-                    } else {
-                        s
-                    }
+                // afresh after a frame that read no size
+                Some((i, _)) if self.readout_scale > 0.0 => {
+                    self.low_passed_scale(self.config.template.scale(self.config.n, i))
                 }
+                Some((i, _)) => self.config.template.scale(self.config.n, i),
                 None => 0.0,
             };
         }
@@ -436,6 +426,13 @@ impl Hopfield {
             iterations_on: r.iterations_on,
             iterations_off: r.iterations_off,
         })
+    }
+
+    /// The winner or template readout's scale after this frame's `scale`: a·old + (1 − a)·scale
+    /// with a = `readout_alpha` (0: the frame's own scale).
+    fn low_passed_scale(&self, scale: f64) -> f64 {
+        let a = self.config.readout_alpha;
+        a * self.readout_scale + (1.0 - a) * scale
     }
 
     /// With attention, the attended object's image region for the collision-course gate: the
