@@ -1,10 +1,10 @@
 //! Vector-environment throughput, batched against unbatched rendering, side by side in one run:
-//! `cargo run --release -p loomlab-env --example vector_bench -- [--num-envs 16] [--n 64] [--seconds 5] [--rounds 2]`.
+//! `cargo run --release -p loomlab-env --example vector_bench -- [--num-envs 16] [--n 64] [--seconds 5] [--rounds 2] [--only batched|unbatched]`.
 //!
 //! Steps `EscapeVectorEnv` on the Gymnasium environment's default scenario (all five of its
 //! detectors, `python/python/loomlab/scenarios/escape_default.toml`) with a constant continuous
 //! action, once with each camera period's views rendered in one batch (the default) and once with
-//! every environment rendering its own (`set_batched(false)`, the path before batching); the two
+//! every environment rendering its own (`set_batched(false)`, the path before batching; `--only` runs one of them); the two
 //! alternate for `--rounds` rounds and the best steps/s of each (environment steps, N per call,
 //! auto-resets included) is printed with the ratio. A benchmark, not a test.
 
@@ -21,6 +21,7 @@ fn value<T: std::str::FromStr>(args: &[String], i: usize, flag: &str) -> Result<
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let (mut num_envs, mut n, mut seconds, mut rounds) = (16usize, 64u32, 5.0f64, 2usize);
+    let mut modes = vec![false, true];
     let mut i = 1;
     while i < args.len() {
         match args[i].as_str() {
@@ -28,6 +29,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--n" => n = value(&args, i, "--n")?,
             "--seconds" => seconds = value(&args, i, "--seconds")?,
             "--rounds" => rounds = value(&args, i, "--rounds")?,
+            "--only" => {
+                modes = match args.get(i + 1).map(String::as_str) {
+                    Some("batched") => vec![true],
+                    Some("unbatched") => vec![false],
+                    _ => return Err("--only needs `batched` or `unbatched`".into()),
+                }
+            }
             other => return Err(format!("unknown argument {other:?} (see the file's docs)").into()),
         }
         i += 2;
@@ -41,7 +49,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let mut best = [0.0f64; 2];
     for _ in 0..rounds {
-        for (k, batched) in [false, true].into_iter().enumerate() {
+        for &batched in &modes {
+            let k = usize::from(batched);
             let mut env = EscapeVectorEnv::new(scenario.clone(), options.clone(), num_envs)?;
             env.set_batched(batched);
             env.reset(Some(0))?;
@@ -63,11 +72,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             );
         }
     }
-    println!(
-        "best: unbatched {:.0} steps/s, batched {:.0} steps/s, ratio {:.2}x",
-        best[0],
-        best[1],
-        best[1] / best[0]
-    );
+    if modes.len() == 2 {
+        println!(
+            "best: unbatched {:.0} steps/s, batched {:.0} steps/s, ratio {:.2}x",
+            best[0],
+            best[1],
+            best[1] / best[0]
+        );
+    } else {
+        println!("best: {:.0} steps/s", best[usize::from(modes[0])]);
+    }
     Ok(())
 }

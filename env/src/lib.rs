@@ -75,6 +75,16 @@ pub fn shared_gpu_context() -> Result<Arc<GpuContext>, EnvError> {
     }
 }
 
+/// A second process-wide GPU context on the same adapter, for the environments' background work
+/// (preparing the next episode: `episode::prefetch`), so that its rendering does not queue ahead of
+/// the environments' own frames (a device renders its submissions in order; lavapipe on one
+/// thread per device). `None` when it cannot be created: the background then uses
+/// [`shared_gpu_context`]. Views rendered on either are identical (same adapter and driver).
+pub(crate) fn background_gpu_context() -> Option<Arc<GpuContext>> {
+    static CTX: OnceLock<Option<Arc<GpuContext>>> = OnceLock::new();
+    CTX.get_or_init(|| GpuContext::new().ok()).clone()
+}
+
 /// The seed stream of an environment: SplitMix64 (Steele et al. 2014), whose whole state is one
 /// `u64`, so it is trivially saved and restored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

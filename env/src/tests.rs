@@ -140,6 +140,51 @@ fn same_seed_and_actions_repeat_exactly_and_snapshots_replay() {
     assert_eq!(a.reset(None).unwrap(), c.reset(None).unwrap());
 }
 
+/// Resets that find their episode prepared in the background (`episode::prefetch`) equal resets
+/// that compute it inline, step for step to the episode's end (the escape deadline included: the
+/// episode summary's scores depend on it), for threats and near misses of the Gymnasium
+/// environment's default scenario.
+#[test]
+fn prefetched_resets_equal_inline_ones() {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../python/python/loomlab/scenarios/escape_default.toml");
+    let scenario = EnvScenario::from_file(&path).unwrap();
+    let options = EnvOptions {
+        frame_size: Some(32),
+        ..Default::default()
+    };
+    let mut a = EscapeEnv::new(scenario.clone(), options.clone()).unwrap();
+    a.reset(Some(5)).unwrap();
+    let action = Action::Continuous([0.0, 0.0, 0.0]);
+    let (mut threats, mut deadlines) = (0, 0);
+    for episode in 0..4 {
+        // b starts from a's seed stream with nothing prepared
+        let mut b = EscapeEnv::new(scenario.clone(), options.clone()).unwrap();
+        let stream = EpisodeSnapshot {
+            start: None,
+            actions: Vec::new(),
+            ..a.snapshot()
+        };
+        b.restore(&stream).unwrap();
+        assert_eq!(a.reset(None).unwrap(), b.reset(None).unwrap(), "episode {episode}");
+        assert_eq!(b.prefetched_resets(), 0);
+        loop {
+            let (x, y) = (a.step(action).unwrap(), b.step(action).unwrap());
+            assert_eq!(x, y, "episode {episode}");
+            if let Some(out) = &x.info.outcome {
+                threats += usize::from(out.threat);
+                deadlines += usize::from(out.agent.t_deadline_s.is_some());
+                break;
+            }
+        }
+    }
+    assert_eq!(a.prefetched_resets(), 4);
+    assert!(
+        threats >= 1 && deadlines >= 1,
+        "{threats} threats, {deadlines} deadlines"
+    );
+}
+
 #[test]
 fn bad_actions_are_action_errors_and_change_nothing() {
     let mut env = EscapeEnv::new(scenario(), options(ActionKind::Continuous)).unwrap();

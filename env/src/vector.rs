@@ -2,7 +2,7 @@
 //! (one submission, one readback: `loomlab_sim::Sim::step_batch`), everything else (the
 //! detectors, rewards, resets) in parallel on Rust threads.
 
-use loomlab_sim::{Renderer, Sim, StepOutput};
+use loomlab_sim::{Renderer, Sim};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -181,43 +181,49 @@ impl EscapeVectorEnv {
             if stepping.is_empty() {
                 break;
             }
-            let commands: Vec<loomlab_sim::Command> = stepping
-                .iter()
-                .filter_map(|&i| pending[i].map(|(c, _)| c.to_sim()))
-                .collect();
-            let outs = {
-                let mut sims: Vec<&mut Sim> = self
-                    .envs
-                    .iter_mut()
-                    .zip(&pending)
-                    .filter(|(_, p)| p.is_some())
-                    .filter_map(|(env, _)| env.sim_mut())
-                    .collect();
-                if sims.len() != stepping.len() {
-                    return Err(EnvError::State("step() called before reset(); call reset() first"));
-                }
-                Sim::step_batch(&mut sims, &commands, &mut self.renderer)?
-            };
-            let mut outs: Vec<Option<StepOutput>> = {
-                let mut it = outs.into_iter();
-                pending.iter().map(|p| p.and_then(|_| it.next())).collect()
-            };
-            let finished: Vec<Option<StepResult>> = self
+            // In groups (`Sim::batch_group`): the device renders group g's views while this
+            // thread steps group g + 1's physics, and group g's detectors run on the pool while
+            // the device renders the groups after it.
+            let group = Sim::batch_group(stepping.len(), &self.renderer);
+            let mut going: Vec<(usize, &mut EscapeEnv)> = self
                 .envs
-                .par_iter_mut()
-                .zip(pending.par_iter())
-                .zip(outs.par_iter_mut())
+                .iter_mut()
                 .enumerate()
-                .map(|(i, ((env, p), out))| match (p, out.take()) {
-                    (Some((command, cruise)), Some(out)) => env
-                        .finish_command(*command, *cruise, out)
-                        .map(Some)
-                        .map_err(|e| e.in_env(i)),
-                    _ => Ok(None),
-                })
-                .collect::<Result<Vec<_>, EnvError>>()?;
-            for (i, next) in finished.into_iter().enumerate() {
-                let Some(next) = next else { continue };
+                .filter(|(i, _)| pending[*i].is_some())
+                .collect();
+            let renderer = &mut self.renderer;
+            let mut submitted = Vec::with_capacity(going.len().div_ceil(group));
+            for chunk in going.chunks_mut(group) {
+                let commands: Vec<loomlab_sim::Command> = chunk
+                    .iter()
+                    .filter_map(|(i, _)| pending[*i].map(|(c, _)| c.to_sim()))
+                    .collect();
+                submitted.push(Sim::step_submit(&mut sims_of(chunk)?, &commands, renderer)?);
+            }
+            let mut finished: Vec<Option<Result<StepResult, EnvError>>> = (0..going.len()).map(|_| None).collect();
+            let pending = &pending;
+            rayon::in_place_scope(|scope| -> Result<(), EnvError> {
+                for ((chunk, steps), slots) in going.chunks_mut(group).zip(submitted).zip(finished.chunks_mut(group)) {
+                    let outs = Sim::step_collect(&mut sims_of(chunk)?, renderer, steps)?;
+                    scope.spawn(move |_| {
+                        chunk
+                            .par_iter_mut()
+                            .zip(outs)
+                            .zip(slots.par_iter_mut())
+                            .for_each(|(((i, env), out), slot)| {
+                                *slot = Some(match pending[*i] {
+                                    Some((command, cruise)) => {
+                                        env.finish_command(command, cruise, out).map_err(|e| e.in_env(*i))
+                                    }
+                                    None => Err(EnvError::State("an environment stepped without a command").in_env(*i)),
+                                });
+                            });
+                    });
+                }
+                Ok(())
+            })?;
+            for (&i, next) in stepping.iter().zip(finished) {
+                let next = next.unwrap_or_else(|| Err(EnvError::State("an environment took no step").in_env(i)))?;
                 results[i] = Some(match results[i].take() {
                     Some(r) if period > 0 => combine_steps(r, next),
                     _ => {
@@ -285,6 +291,16 @@ impl EscapeVectorEnv {
         self.autoreset.clone_from(&snapshot.autoreset);
         Ok(out)
     }
+}
+
+/// The simulators of a group of environments (all of them running).
+fn sims_of<'a>(group: &'a mut [(usize, &mut EscapeEnv)]) -> Result<Vec<&'a mut Sim>, EnvError> {
+    let n = group.len();
+    let sims: Vec<&mut Sim> = group.iter_mut().filter_map(|(_, env)| env.sim_mut()).collect();
+    if sims.len() != n {
+        return Err(EnvError::State("step() called before reset(); call reset() first"));
+    }
+    Ok(sims)
 }
 
 /// The result of an auto-reset step: the first observation, reward 0, not done.

@@ -252,7 +252,37 @@ pub fn escape_deadline_cancellable(
     contact_frame: usize,
     cancel: &AtomicBool,
 ) -> Result<Option<EscapeDeadline>, SimError> {
-    let end = contact_frame.min(sides.len()).min(t_s.len());
+    let end = contact_frame.min(sides.len());
+    search(ep, seed, controller, |k| Ok(sides[k]), t_s, end, cancel)
+}
+
+/// [`escape_deadline`] with the looming side of open-loop frame `k` given by `side_at(k)` on
+/// demand: the search asks for frames from the contact backwards and stops at the deadline, so a
+/// caller that renders the open-loop views to find the sides renders only those frames (and the
+/// one before each, for the temporal contrast) instead of the whole pass.
+pub fn escape_deadline_with(
+    ep: &EpisodeSpec,
+    seed: u64,
+    controller: &EscapeController,
+    side_at: impl FnMut(usize) -> Result<Option<f32>, SimError>,
+    t_s: &[f64],
+    contact_frame: usize,
+) -> Result<EscapeDeadline, SimError> {
+    let never = AtomicBool::new(false);
+    Ok(search(ep, seed, controller, side_at, t_s, contact_frame, &never)?.expect("never cancelled"))
+}
+
+/// The backward search of frames `0..end` (module docs, "Search").
+fn search(
+    ep: &EpisodeSpec,
+    seed: u64,
+    controller: &EscapeController,
+    mut side_at: impl FnMut(usize) -> Result<Option<f32>, SimError>,
+    t_s: &[f64],
+    end: usize,
+    cancel: &AtomicBool,
+) -> Result<Option<EscapeDeadline>, SimError> {
+    let end = end.min(t_s.len());
     let Some((interval, kept)) = checkpoints(ep, seed, end, cancel)? else {
         return Ok(None);
     };
@@ -271,7 +301,7 @@ pub fn escape_deadline_cancellable(
             sim: c.sim.fork_physics_only(),
             command: c.command,
         };
-        match replay_from(ep, start, controller, k, sides[k], cancel)? {
+        match replay_from(ep, start, controller, k, side_at(k)?, cancel)? {
             None => return Ok(None),
             Some(Some(_)) => {}
             Some(None) => {

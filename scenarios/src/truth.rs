@@ -16,9 +16,9 @@
 
 use loomlab_agents::{EscapeController, LoomingSideEstimator};
 use loomlab_detector::Frame;
-use loomlab_sim::{Contact, ObjectKind, Sim, SimError, StepOutput};
+use loomlab_sim::{CapturedView, Contact, ObjectKind, Renderer, Sim, SimError, StepOutput};
 
-use crate::deadline::{EscapeDeadline, escape_deadline};
+use crate::deadline::{EscapeDeadline, escape_deadline_with};
 
 use crate::schema::EpisodeSpec;
 
@@ -216,31 +216,84 @@ pub fn open_loop_truth(spec: &EpisodeSpec, seed: u64) -> Result<EpisodeTruth, Si
     Ok(recorder.finish())
 }
 
-/// The escape deadline of episode `spec` (simulator seed `seed`) whose open-loop ground truth is
-/// `truth` (`None` for a non-threat). The looming sides at the candidate trigger frames come from
-/// rendering the open-loop pass again up to the contact on `sim`, which must render; `sim` is left
-/// reset to the episode's start.
-pub fn threat_deadline(
+/// The open-loop ground truth of episode `spec` (simulator seed `seed`, as [`open_loop_truth`]
+/// gives it) and, for a threat, its escape deadline under `controller`, from **one** physics-only
+/// pass that captures each step's view ([`Sim::capture_view`]). The deadline's backward search
+/// ([`escape_deadline_with`]) asks for the looming sides of the frames it replays, from the contact
+/// back to the deadline; those views (and the one before each) are rendered on `renderer` in
+/// batches of 32, each bit-identical to the frame a rendering pass draws, so the
+/// deadline is what a rendered open-loop pass gives (test `env::tests`: the Gymnasium
+/// environment's deadline equals the runner's) at a fraction of the rendering: before, the
+/// environment's resets rendered the whole pass up to the contact one view per submission.
+pub fn open_loop_truth_and_deadline(
     spec: &EpisodeSpec,
     seed: u64,
-    truth: &EpisodeTruth,
     controller: &EscapeController,
-    sim: &mut Sim,
-) -> Result<Option<EscapeDeadline>, SimError> {
-    let Some(contact) = &truth.contact else {
-        return Ok(None);
-    };
-    sim.reset(&spec.world, seed)?;
-    let n = spec.world.camera.n as usize;
-    let mut side = LoomingSideEstimator::default();
-    let mut sides = Vec::with_capacity(contact.frame + 1);
-    let mut t_s = Vec::with_capacity(contact.frame + 1);
-    for _ in 0..=contact.frame {
+    renderer: &mut Renderer,
+) -> Result<(EpisodeTruth, Option<EscapeDeadline>), SimError> {
+    let mut sim = Sim::new_physics_only(&spec.world, seed)?;
+    let mut recorder = TruthRecorder::new(&sim);
+    let mut views = Vec::new();
+    let mut t_s = Vec::new();
+    for _ in 0..spec.frames() {
         let cmd = spec.cruise.command_at(sim.time());
         let out = sim.step(&cmd.to_sim())?;
         t_s.push(out.t_s);
-        sides.push(Frame::from_f32(n, out.frame).ok().and_then(|f| side.update(&f)));
+        views.push(sim.capture_view());
+        if recorder.record(&out).is_some() {
+            break;
+        }
     }
-    sim.reset(&spec.world, seed)?;
-    escape_deadline(spec, seed, controller, &sides, &t_s, contact.frame).map(Some)
+    let truth = recorder.finish();
+    let Some(contact) = &truth.contact else {
+        return Ok((truth, None));
+    };
+    let mut sides = ViewSides {
+        n: spec.world.camera.n as usize,
+        views: &views,
+        renderer,
+        sides: vec![None; views.len()],
+        pixels: Vec::new(),
+    };
+    let deadline = escape_deadline_with(spec, seed, controller, |k| sides.side(k), &t_s, contact.frame)?;
+    Ok((truth, Some(deadline)))
+}
+
+/// Views rendered together by [`open_loop_truth_and_deadline`] (plus the one before them).
+const SIDE_BATCH: usize = 32;
+
+/// The looming sides of captured open-loop views, rendered on demand: asking for frame `k` renders
+/// frames `k − SIDE_BATCH .. k` in one batch (the side of a frame comes from it and the frame
+/// before: [`LoomingSideEstimator`]), so a search going backwards renders each view about once.
+struct ViewSides<'a> {
+    n: usize,
+    views: &'a [CapturedView],
+    renderer: &'a mut Renderer,
+    /// `Some(side)` once frame k's side is known.
+    sides: Vec<Option<Option<f32>>>,
+    pixels: Vec<Vec<f32>>,
+}
+
+impl ViewSides<'_> {
+    fn side(&mut self, k: usize) -> Result<Option<f32>, SimError> {
+        if let Some(side) = self.sides[k] {
+            return Ok(side);
+        }
+        let lo = (k + 1).saturating_sub(SIDE_BATCH);
+        // frame lo - 1 too: frame lo's side needs its predecessor (frame 0 has none)
+        let first = lo.saturating_sub(1);
+        let descs: Vec<_> = self.views[first..=k].iter().map(CapturedView::desc).collect();
+        self.pixels.resize_with(descs.len(), Vec::new);
+        self.renderer.render_batch(&descs, &mut self.pixels[..descs.len()])?;
+        let mut estimator = LoomingSideEstimator::default();
+        for (j, px) in (first..=k).zip(&mut self.pixels) {
+            let side = Frame::from_f32(self.n, std::mem::take(px))
+                .ok()
+                .and_then(|f| estimator.update(&f));
+            if j >= lo {
+                self.sides[j] = Some(side);
+            }
+        }
+        Ok(self.sides[k].flatten())
+    }
 }

@@ -57,7 +57,7 @@ pub use render::{GpuContext, Renderer, frame_to_u8};
 pub use robot::{Command, RobotDesc, RobotState};
 pub use scenery::{BoxDesc, OverpassDesc, PoleDesc, SceneryDesc, WallDesc};
 pub use shape::{PrimKind, ShapeDesc};
-pub use sim::{CapturedView, Sim, StepOutput};
+pub use sim::{CapturedView, Sim, StepOutput, SubmittedSteps};
 pub use texture::{GratingDesc, ResolvedTexture, Texture, TextureKind};
 pub use truth::{Contact, ObjectTruth};
 pub use vehicle::{PartDesc, VehicleDesc};

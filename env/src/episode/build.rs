@@ -98,6 +98,7 @@ impl EscapeEnv {
             privileged: PrivilegedPercept::default(),
             rng: EpisodeRng::from_entropy(),
             running: None,
+            prefetcher: Default::default(),
             scenario,
             options,
             base,

@@ -3,6 +3,7 @@
 mod build;
 mod io;
 mod observe;
+mod prefetch;
 mod running;
 mod slots;
 mod snapshot;
@@ -22,6 +23,7 @@ pub(crate) use step::combine_steps;
 
 use crate::features::{FeatureSpec, Normalizer, PrivilegedPercept, mode_feature_specs};
 use crate::{EnvOptions, EnvScenario, EpisodeRng, ScenarioEpisodes};
+use prefetch::Prefetcher;
 use running::Running;
 use slots::DetectorSlot;
 
@@ -52,6 +54,8 @@ pub struct EscapeEnv {
     privileged: PrivilegedPercept,
     rng: EpisodeRng,
     running: Option<Running>,
+    /// The next drawn episode, prepared in the background ([`prefetch`]).
+    prefetcher: Prefetcher,
 }
 
 impl std::fmt::Debug for EscapeEnv {
@@ -133,6 +137,11 @@ impl EscapeEnv {
     /// The alarm thresholds of the current episode, in detector order.
     pub fn thresholds(&self) -> Vec<f64> {
         self.detectors.iter().map(|d| d.threshold).collect()
+    }
+
+    /// Resets so far that found their episode prepared in the background (see [`Self::reset`]).
+    pub fn prefetched_resets(&self) -> u64 {
+        self.prefetcher.hits
     }
 
     /// The adapter that renders the frames.

@@ -2,12 +2,12 @@
 
 use std::sync::Arc;
 
-use loomlab_agents::{EscapeController, VelocityCommand};
+use loomlab_agents::VelocityCommand;
 use loomlab_scenarios::metrics::TraceSample;
 use loomlab_scenarios::schema::EpisodeSpec;
-use loomlab_scenarios::truth::{open_loop_truth, threat_deadline};
 use loomlab_sim::{RobotState, Sim};
 
+use super::prefetch::{DrawSource, OpenLoop, Prepared, open_loop};
 use super::slots::slot_controller;
 use super::{Action, EpisodeStart, EscapeEnv, Observation, StepInfo};
 use crate::{EnvError, EpisodeRng, RewardTerms};
@@ -46,22 +46,45 @@ pub(super) struct Running {
 impl EscapeEnv {
     /// Starts a new episode drawn from the seed stream. `Some(seed)` restarts the stream
     /// (reproducible); `None` continues it (a fresh environment's stream is seeded from OS entropy).
+    /// Meanwhile the next drawn episode is prepared on a background thread (its open-loop truth
+    /// and escape deadline, most of a reset's cost), so that the next `reset(None)` finds it ready;
+    /// the results are those of computing it then.
     pub fn reset(&mut self, seed: Option<u64>) -> Result<(Observation, StepInfo), EnvError> {
         if let Some(s) = seed {
             self.rng = EpisodeRng::new(s);
         }
         let rng_state = self.rng.state();
-        let sim_seed = self.rng.next_u64();
-        let draw = self.rng.next_u64();
-        let spec = if self.resample {
-            // a fresh expansion of the random ranges (a nonzero seed mixed into the file's)
-            let sc = self.scenario.load(&self.options, draw | 1)?;
-            let i = (self.rng.next_u64() % sc.episodes.len() as u64) as usize;
-            sc.episodes[i].clone()
-        } else {
-            self.base.episodes[(draw % self.base.episodes.len() as u64) as usize].clone()
+        let Prepared { drawn, open_loop } = match self.prefetcher.take(rng_state) {
+            Some(p) => p,
+            None => {
+                let source = DrawSource::new(self.resample, &self.scenario, &self.options, &self.base);
+                let drawn = source.draw(self.rng)?;
+                let open_loop = self.open_loop_inline(&drawn.spec, drawn.sim_seed)?;
+                Prepared { drawn, open_loop }
+            }
         };
-        self.start(spec, sim_seed, EpisodeStart::Drawn { rng_state })
+        self.rng = drawn.rng_after;
+        let r = self.start(drawn.spec, drawn.sim_seed, open_loop, EpisodeStart::Drawn { rng_state });
+        let source = DrawSource::new(self.resample, &self.scenario, &self.options, &self.base);
+        self.prefetcher.start(source, self.rng, &self.ctx, self.n);
+        r
+    }
+
+    /// The open-loop truth and deadline computed now, the views rendered on the episode's
+    /// renderer (a fresh environment's first reset, or a reset the background did not prepare).
+    fn open_loop_inline(&mut self, spec: &EpisodeSpec, sim_seed: u64) -> Result<OpenLoop, EnvError> {
+        let (mut renderer, own) = match self.running.as_mut().and_then(|r| r.sim.take_renderer()) {
+            Some(r) => (r, true),
+            None => (self.prefetcher.take_renderer(&self.ctx, self.n)?, false),
+        };
+        let result = open_loop(spec, sim_seed, &mut renderer);
+        match self.running.as_mut() {
+            Some(r) if own => {
+                r.sim.attach_renderer(renderer)?;
+            }
+            _ => self.prefetcher.keep_renderer(renderer),
+        }
+        result
     }
 
     /// Starts scenario episode `index` (of [`episodes`](Self::episodes)) with simulator seed `seed`
@@ -75,27 +98,26 @@ impl EscapeEnv {
             )
         })?;
         let seed = seed.unwrap_or(spec.seed);
-        self.start(spec, seed, EpisodeStart::Fixed { index, seed })
+        let open_loop = self.open_loop_inline(&spec, seed)?;
+        self.start(spec, seed, open_loop, EpisodeStart::Fixed { index, seed })
     }
 
     fn start(
         &mut self,
         spec: EpisodeSpec,
         sim_seed: u64,
+        (truth, deadline): OpenLoop,
         start_kind: EpisodeStart,
     ) -> Result<(Observation, StepInfo), EnvError> {
         let frames = spec.frames() as u64;
-        let truth = open_loop_truth(&spec, sim_seed)?;
-        let sim = match self.running.take() {
+        let mut sim = match self.running.take() {
             Some(mut r) => {
                 r.sim.reset(&spec.world, sim_seed)?;
                 r.sim
             }
             None => Sim::with_context(&spec.world, sim_seed, Arc::clone(&self.ctx))?,
         };
-        let mut sim = sim;
-        let escape = EscapeController::new(spec.controller.clone())?;
-        let t_deadline_s = threat_deadline(&spec, sim_seed, &truth, &escape, &mut sim)?.and_then(|d| d.t_s);
+        let t_deadline_s = deadline.and_then(|d| d.t_s);
         for (i, (slot, d)) in self.detectors.iter_mut().zip(&spec.detectors).enumerate() {
             if slot.params != d.params {
                 self.agent.replace_detector(i, d.build(self.n as usize)?);

@@ -1,6 +1,7 @@
 //! Batched rendering: stepping or observing many simulators with their views rendered in pipelined groups.
 
 use super::{Sim, StepOutput};
+use crate::Contact;
 use crate::SimError;
 use crate::render::{FrameDesc, PendingViews, Renderer};
 use crate::robot::Command;
@@ -31,13 +32,63 @@ impl Sim {
         }
         // In groups: the device renders one group's views while this thread steps the next
         // group's physics (each simulator's steps and view are independent of the others').
-        let group = pipeline_group(sims.len(), renderer.max_batch());
-        let mut contacts = Vec::with_capacity(sims.len());
-        Self::render_in_groups(sims, renderer, group, |i, sim| {
-            contacts.push(sim.advance(&commands[i])?);
-            Ok(())
-        })?;
-        Ok(sims.iter().zip(contacts).map(|(sim, c)| sim.output(c)).collect())
+        let group = Self::batch_group(sims.len(), renderer);
+        let mut submitted = Vec::with_capacity(sims.len().div_ceil(group));
+        for (sims, commands) in sims.chunks_mut(group).zip(commands.chunks(group)) {
+            submitted.push(Self::step_submit(sims, commands, renderer)?);
+        }
+        let mut outs = Vec::with_capacity(sims.len());
+        for (sims, steps) in sims.chunks_mut(group).zip(submitted) {
+            outs.extend(Self::step_collect(sims, renderer, steps)?);
+        }
+        Ok(outs)
+    }
+
+    /// How many views of a batch of `views` [`Sim::step_batch`] submits together (the groups it
+    /// pipelines; see [`Sim::step_submit`]).
+    pub fn batch_group(views: usize, renderer: &Renderer) -> usize {
+        pipeline_group(views, renderer.max_batch())
+    }
+
+    /// The first half of [`Sim::step_batch`] for one group of at most [`Renderer::max_batch`]
+    /// simulators: steps each one's physics under its command and submits their views; the
+    /// device renders them while the caller goes on (stepping the next group, or working on the
+    /// outputs of the previous one). [`Sim::step_collect`] with the same simulators finishes the
+    /// step. Checked like [`Sim::step_batch`] before anything moves.
+    pub fn step_submit(
+        sims: &mut [&mut Sim],
+        commands: &[Command],
+        renderer: &mut Renderer,
+    ) -> Result<SubmittedSteps, SimError> {
+        if commands.len() != sims.len() {
+            return Err(SimError::invalid(
+                "step_submit commands",
+                commands.len(),
+                format!("must be one per simulator ({} simulators)", sims.len()),
+            ));
+        }
+        Self::check_batch(sims, renderer)?;
+        for c in commands {
+            c.validate()?;
+        }
+        let contacts = sims
+            .iter_mut()
+            .zip(commands)
+            .map(|(sim, c)| sim.advance(c))
+            .collect::<Result<Vec<_>, _>>()?;
+        let views = Self::submit_views(sims, renderer)?;
+        Ok(SubmittedSteps { contacts, views })
+    }
+
+    /// The second half of a step begun with [`Sim::step_submit`]: waits for the views, reads them
+    /// back into the simulators' frames and returns each one's output (what [`Sim::step`] gives).
+    pub fn step_collect(
+        sims: &mut [&mut Sim],
+        renderer: &mut Renderer,
+        steps: SubmittedSteps,
+    ) -> Result<Vec<StepOutput>, SimError> {
+        Self::collect_views(sims, renderer, steps.views)?;
+        Ok(sims.iter().zip(steps.contacts).map(|(sim, c)| sim.output(c)).collect())
     }
 
     /// [`Sim::observe`] of every simulator, their views rendered in one batch (see
@@ -58,26 +109,12 @@ impl Sim {
         }
     }
 
-    /// Renders the current views of `sims` in one batch into their frames.
+    /// Renders the current views of `sims` in one batch into their frames (submissions of at most
+    /// [`Renderer::max_batch`] views, read back once all are submitted).
     fn render_views(sims: &mut [&mut Sim], renderer: &mut Renderer) -> Result<(), SimError> {
-        let group = renderer.max_batch();
-        Self::render_in_groups(sims, renderer, group, |_, _| Ok(()))
-    }
-
-    /// Renders the views of `sims` into their frames in submissions of `group` views: first
-    /// `before(i, sims[i])` for each simulator of a group, then the group's submission; the frames
-    /// are read back once every group is submitted.
-    fn render_in_groups(
-        sims: &mut [&mut Sim],
-        renderer: &mut Renderer,
-        group: usize,
-        mut before: impl FnMut(usize, &mut Sim) -> Result<(), SimError>,
-    ) -> Result<(), SimError> {
+        let group = renderer.max_batch().max(1);
         let mut pending = Vec::with_capacity(sims.len().div_ceil(group));
-        for (g, sims) in sims.chunks_mut(group).enumerate() {
-            for (k, sim) in sims.iter_mut().enumerate() {
-                before(g * group + k, sim)?;
-            }
+        for sims in sims.chunks_mut(group) {
             pending.push(Self::submit_views(sims, renderer)?);
         }
         for (sims, views) in sims.chunks_mut(group).zip(pending) {
@@ -104,6 +141,15 @@ impl Sim {
         }
         result
     }
+}
+
+/// Simulators stepped and their views submitted ([`Sim::step_submit`]), to be collected with
+/// [`Sim::step_collect`].
+#[must_use = "collect the steps with Sim::step_collect"]
+#[derive(Debug)]
+pub struct SubmittedSteps {
+    contacts: Vec<Vec<Contact>>,
+    views: PendingViews,
 }
 
 /// Groups a large batch of [`Sim::step_batch`] is split into: the device renders one group's views

@@ -42,6 +42,7 @@ use crate::world::{BuiltWorld, WorldDesc};
 use contacts::EventLog;
 use dynamic_physics::SubstepStart;
 
+pub use batch::SubmittedSteps;
 pub use view::CapturedView;
 
 /// What one [`Sim::step`] produced.
