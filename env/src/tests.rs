@@ -234,7 +234,9 @@ fn vector_env_equals_single_envs_with_next_step_autoreset() {
         max_episode_steps: Some(30),
         ..options(ActionKind::Continuous)
     };
-    let n = 3;
+    // two groups (9 + 8 views) of the pipelined step: one group's detectors run while the next
+    // renders, and auto-resets alongside
+    let n = 17;
     let mut vec = EscapeVectorEnv::new(scenario(), opts.clone(), n).unwrap();
     let mut singles: Vec<EscapeEnv> = (0..n)
         .map(|_| EscapeEnv::new(scenario(), opts.clone()).unwrap())
@@ -247,7 +249,7 @@ fn vector_env_equals_single_envs_with_next_step_autoreset() {
     let mut resets = 0;
     for t in 0..70 {
         let actions: Vec<Action> = (0..n)
-            .map(|i| Action::Continuous([0.2 * i as f32, 0.1, ((t + i) as f32 * 0.3).sin()]))
+            .map(|i| Action::Continuous([0.2 * (i % 5) as f32, 0.1, ((t + i) as f32 * 0.3).sin()]))
             .collect();
         let got = vec.step(&actions).unwrap();
         for i in 0..n {

@@ -1,6 +1,7 @@
-//! [`EscapeVectorEnv`]: N environments stepped in lockstep, their N views rendered in one batch
-//! (one submission, one readback: `loomlab_sim::Sim::step_batch`), everything else (the
-//! detectors, rewards, resets) in parallel on Rust threads.
+//! [`EscapeVectorEnv`]: N environments stepped in lockstep, their N views rendered in batches
+//! (one submission and one readback per group: `loomlab_sim::Sim::step_submit` and
+//! `step_collect`), everything else (the detectors, rewards, resets) in parallel on Rust threads,
+//! a group's detectors while the device renders the next group.
 
 use loomlab_sim::{Renderer, Sim};
 use rayon::prelude::*;
@@ -149,25 +150,19 @@ impl EscapeVectorEnv {
 
     /// [`step`](Self::step) with the camera periods of all environments in lockstep: period p
     /// steps every environment whose step lasts more than p periods (action repeat, dodge hold)
-    /// and whose episode has not ended, all their views rendered in one batch; the detectors and
-    /// the rest of each period run in parallel. Environments that auto-reset do so in parallel
-    /// first. Each environment goes through exactly the calls of [`EscapeEnv::step`].
+    /// and whose episode has not ended, their views rendered in batches; the detectors and the
+    /// rest of each period run in parallel, and so do the auto-resets (their environments take no
+    /// period). Each environment goes through exactly the calls of [`EscapeEnv::step`].
     fn step_batched(&mut self, actions: &[Action]) -> Result<Vec<StepResult>, EnvError> {
         let n = self.envs.len();
-        let mut results: Vec<Option<StepResult>> = self
-            .envs
-            .par_iter_mut()
-            .zip(self.autoreset.par_iter())
-            .enumerate()
-            .map(|(i, (env, &auto))| auto.then(|| reset_result(env, i)).transpose())
-            .collect::<Result<Vec<_>, EnvError>>()?;
+        let mut results: Vec<Option<StepResult>> = (0..n).map(|_| None).collect();
         let holds: Vec<u32> = self.envs.iter().zip(actions).map(|(e, &a)| e.hold_for(a)).collect();
         let max_hold = holds.iter().copied().max().unwrap_or(1).max(1);
         for period in 0..max_hold {
             // who steps this period, and the commands (validated, bookkept) before anything moves
             let mut pending: Vec<Option<(VelocityCommand, VelocityCommand)>> = vec![None; n];
             for (i, env) in self.envs.iter_mut().enumerate() {
-                // an environment that auto-reset this step takes no period
+                // an environment that auto-resets this step takes no period
                 let going = !self.autoreset[i]
                     && (period == 0
                         || (period < holds[i] && results[i].as_ref().is_some_and(|r| !r.terminated && !r.truncated)));
@@ -178,31 +173,40 @@ impl EscapeVectorEnv {
                 }
             }
             let stepping: Vec<usize> = (0..n).filter(|&i| pending[i].is_some()).collect();
-            if stepping.is_empty() {
+            let resetting: Vec<usize> = (0..n).filter(|&i| period == 0 && self.autoreset[i]).collect();
+            if stepping.is_empty() && resetting.is_empty() {
                 break;
             }
+            let mut going: Vec<(usize, &mut EscapeEnv)> = Vec::with_capacity(stepping.len());
+            let mut reset_envs: Vec<(usize, &mut EscapeEnv)> = Vec::with_capacity(resetting.len());
+            for (i, env) in self.envs.iter_mut().enumerate() {
+                if pending[i].is_some() {
+                    going.push((i, env));
+                } else if period == 0 && self.autoreset[i] {
+                    reset_envs.push((i, env));
+                }
+            }
+            let mut reset_slots: Vec<Option<Result<StepResult, EnvError>>> = (0..resetting.len()).map(|_| None).collect();
+            let mut finished: Vec<Option<Result<StepResult, EnvError>>> = (0..stepping.len()).map(|_| None).collect();
             // In groups (`Sim::batch_group`): the device renders group g's views while this
             // thread steps group g + 1's physics, and group g's detectors run on the pool while
-            // the device renders the groups after it.
-            let group = Sim::batch_group(stepping.len(), &self.renderer);
-            let mut going: Vec<(usize, &mut EscapeEnv)> = self
-                .envs
-                .iter_mut()
-                .enumerate()
-                .filter(|(i, _)| pending[*i].is_some())
-                .collect();
+            // the device renders the groups after it. The auto-resets (of environments that take
+            // no period) run on the pool meanwhile.
+            let group = Sim::batch_group(stepping.len().max(1), &self.renderer);
             let renderer = &mut self.renderer;
-            let mut submitted = Vec::with_capacity(going.len().div_ceil(group));
-            for chunk in going.chunks_mut(group) {
-                let commands: Vec<loomlab_sim::Command> = chunk
-                    .iter()
-                    .filter_map(|(i, _)| pending[*i].map(|(c, _)| c.to_sim()))
-                    .collect();
-                submitted.push(Sim::step_submit(&mut sims_of(chunk)?, &commands, renderer)?);
-            }
-            let mut finished: Vec<Option<Result<StepResult, EnvError>>> = (0..going.len()).map(|_| None).collect();
             let pending = &pending;
             rayon::in_place_scope(|scope| -> Result<(), EnvError> {
+                for ((i, env), slot) in reset_envs.into_iter().zip(reset_slots.iter_mut()) {
+                    scope.spawn(move |_| *slot = Some(reset_result(env, i)));
+                }
+                let mut submitted = Vec::with_capacity(going.len().div_ceil(group));
+                for chunk in going.chunks_mut(group) {
+                    let commands: Vec<loomlab_sim::Command> = chunk
+                        .iter()
+                        .filter_map(|(i, _)| pending[*i].map(|(c, _)| c.to_sim()))
+                        .collect();
+                    submitted.push(Sim::step_submit(&mut sims_of(chunk)?, &commands, renderer)?);
+                }
                 for ((chunk, steps), slots) in going.chunks_mut(group).zip(submitted).zip(finished.chunks_mut(group)) {
                     let outs = Sim::step_collect(&mut sims_of(chunk)?, renderer, steps)?;
                     scope.spawn(move |_| {
@@ -222,6 +226,9 @@ impl EscapeVectorEnv {
                 }
                 Ok(())
             })?;
+            for (&i, reset) in resetting.iter().zip(reset_slots) {
+                results[i] = Some(reset.unwrap_or_else(|| Err(EnvError::State("an environment did not reset").in_env(i)))?);
+            }
             for (&i, next) in stepping.iter().zip(finished) {
                 let next = next.unwrap_or_else(|| Err(EnvError::State("an environment took no step").in_env(i)))?;
                 results[i] = Some(match results[i].take() {
