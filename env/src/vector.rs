@@ -186,7 +186,8 @@ impl EscapeVectorEnv {
                     reset_envs.push((i, env));
                 }
             }
-            let mut reset_slots: Vec<Option<Result<StepResult, EnvError>>> = (0..resetting.len()).map(|_| None).collect();
+            let mut reset_slots: Vec<Option<Result<StepResult, EnvError>>> =
+                (0..resetting.len()).map(|_| None).collect();
             let mut finished: Vec<Option<Result<StepResult, EnvError>>> = (0..stepping.len()).map(|_| None).collect();
             // In groups (`Sim::batch_group`): the device renders group g's views while this
             // thread steps group g + 1's physics, and group g's detectors run on the pool while
@@ -227,7 +228,8 @@ impl EscapeVectorEnv {
                 Ok(())
             })?;
             for (&i, reset) in resetting.iter().zip(reset_slots) {
-                results[i] = Some(reset.unwrap_or_else(|| Err(EnvError::State("an environment did not reset").in_env(i)))?);
+                results[i] =
+                    Some(reset.unwrap_or_else(|| Err(EnvError::State("an environment did not reset").in_env(i)))?);
             }
             for (&i, next) in stepping.iter().zip(finished) {
                 let next = next.unwrap_or_else(|| Err(EnvError::State("an environment took no step").in_env(i)))?;

@@ -221,7 +221,7 @@ pub fn open_loop_truth(spec: &EpisodeSpec, seed: u64) -> Result<EpisodeTruth, Si
 /// pass that captures each step's view ([`Sim::capture_view`]). The deadline's backward search
 /// ([`escape_deadline_with`]) asks for the looming sides of the frames it replays, from the contact
 /// back to the deadline; those views (and the one before each) are rendered on `renderer` in
-/// batches of 32, each bit-identical to the frame a rendering pass draws, so the
+/// batches (32 views at 64²), each bit-identical to the frame a rendering pass draws, so the
 /// deadline is what a rendered open-loop pass gives (test `env::tests`: the Gymnasium
 /// environment's deadline equals the runner's) at a fraction of the rendering: before, the
 /// environment's resets rendered the whole pass up to the contact one view per submission.
@@ -259,11 +259,17 @@ pub fn open_loop_truth_and_deadline(
     Ok((truth, Some(deadline)))
 }
 
-/// Views rendered together by [`open_loop_truth_and_deadline`] (plus the one before them).
-const SIDE_BATCH: usize = 32;
+/// Views rendered together by [`open_loop_truth_and_deadline`] (plus the one before them): 32 at
+/// 64², fewer for larger frames (at most [`SIDE_BATCH_PIXELS`] pixels, at least 4 views).
+fn side_batch(n: usize) -> usize {
+    (SIDE_BATCH_PIXELS / (n * n).max(1)).clamp(4, 32)
+}
+
+/// Pixels of one batch of [`side_batch`] views (what the renderer's layers and readback hold).
+const SIDE_BATCH_PIXELS: usize = 32 * 64 * 64;
 
 /// The looming sides of captured open-loop views, rendered on demand: asking for frame `k` renders
-/// frames `k − SIDE_BATCH .. k` in one batch (the side of a frame comes from it and the frame
+/// frames `k − side_batch(n) .. k` in one batch (the side of a frame comes from it and the frame
 /// before: [`LoomingSideEstimator`]), so a search going backwards renders each view about once.
 struct ViewSides<'a> {
     n: usize,
@@ -279,7 +285,7 @@ impl ViewSides<'_> {
         if let Some(side) = self.sides[k] {
             return Ok(side);
         }
-        let lo = (k + 1).saturating_sub(SIDE_BATCH);
+        let lo = (k + 1).saturating_sub(side_batch(self.n));
         // frame lo - 1 too: frame lo's side needs its predecessor (frame 0 has none)
         let first = lo.saturating_sub(1);
         let descs: Vec<_> = self.views[first..=k].iter().map(CapturedView::desc).collect();

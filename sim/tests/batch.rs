@@ -124,6 +124,12 @@ fn bad_batches_are_errors_and_move_nothing() {
     assert_eq!((a.step_index(), c.step_index()), (0, 0));
     // an empty batch is fine
     assert!(Sim::step_batch(&mut [], &[], &mut renderer).unwrap().is_empty());
+    // the two halves of a step check the same, and a group is collected with as many simulators
+    let err = Sim::step_submit(&mut [&mut a], &[], &mut renderer).unwrap_err();
+    assert!(err.to_string().contains("one per simulator"), "{err}");
+    let steps = Sim::step_submit(&mut [&mut a, &mut c], &[Command::forward(1.0); 2], &mut renderer).unwrap();
+    let err = Sim::step_collect(&mut [&mut a], &mut renderer, steps).unwrap_err();
+    assert!(err.to_string().contains("one per submitted view"), "{err}");
     // render_batch wants one output per frame
     let mut outs = vec![Vec::new(); 2];
     let err = renderer.render_batch(&[], &mut outs).unwrap_err();

@@ -34,8 +34,9 @@ use slots::DetectorSlot;
 /// The scenario is expanded once ([`loomlab_scenarios::schema`]: sweeps × random draws × repeats; scenarios with
 /// a `[random]` table are re-expanded with a fresh seed at every reset). Each
 /// [`reset`](Self::reset) draws one of its episodes and a simulator seed from the seed stream, runs
-/// the open-loop pass in physics-only mode for the ground truth (see the module docs), and renders
-/// the first frame. Each [`step`](Self::step) applies the agent's command for one camera period,
+/// the open-loop pass in physics-only mode for the ground truth and the escape deadline (for a
+/// reset that continues the stream, on a background thread while the previous episode ran), and
+/// renders the first frame. Each [`step`](Self::step) applies the agent's command for one camera period,
 /// renders, steps the detectors and returns observation, reward, termination and ground truth; the
 /// last step scores the episode with [`loomlab_scenarios::metrics`]. Same seed and actions ⇒ same results (on
 /// the same GPU adapter).

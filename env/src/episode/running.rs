@@ -64,10 +64,10 @@ impl EscapeEnv {
             }
         };
         self.rng = drawn.rng_after;
-        let r = self.start(drawn.spec, drawn.sim_seed, open_loop, EpisodeStart::Drawn { rng_state });
+        let first = self.start(drawn.spec, drawn.sim_seed, open_loop, EpisodeStart::Drawn { rng_state })?;
         let source = DrawSource::new(self.resample, &self.scenario, &self.options, &self.base);
         self.prefetcher.start(source, self.rng, &self.ctx, self.n);
-        r
+        Ok(first)
     }
 
     /// The open-loop truth and deadline computed now, the views rendered on the episode's
