@@ -19,17 +19,7 @@ impl Sim {
         commands: &[Command],
         renderer: &mut Renderer,
     ) -> Result<Vec<StepOutput>, SimError> {
-        if commands.len() != sims.len() {
-            return Err(SimError::invalid(
-                "step_batch commands",
-                commands.len(),
-                format!("must be one per simulator ({} simulators)", sims.len()),
-            ));
-        }
-        Self::check_batch(sims, renderer)?;
-        for c in commands {
-            c.validate()?;
-        }
+        Self::check_steps("step_batch commands", sims, commands, renderer)?;
         // In groups: the device renders one group's views while this thread steps the next
         // group's physics (each simulator's steps and view are independent of the others').
         let group = Self::batch_group(sims.len(), renderer);
@@ -60,17 +50,7 @@ impl Sim {
         commands: &[Command],
         renderer: &mut Renderer,
     ) -> Result<SubmittedSteps, SimError> {
-        if commands.len() != sims.len() {
-            return Err(SimError::invalid(
-                "step_submit commands",
-                commands.len(),
-                format!("must be one per simulator ({} simulators)", sims.len()),
-            ));
-        }
-        Self::check_batch(sims, renderer)?;
-        for c in commands {
-            c.validate()?;
-        }
+        Self::check_steps("step_submit commands", sims, commands, renderer)?;
         let contacts = sims
             .iter_mut()
             .zip(commands)
@@ -97,6 +77,19 @@ impl Sim {
         Self::check_batch(sims, renderer)?;
         Self::render_views(sims, renderer)?;
         Ok(sims.iter().map(|sim| sim.observation()).collect())
+    }
+
+    /// One command per simulator, every command valid, every frame size the renderer's.
+    fn check_steps(what: &str, sims: &[&mut Sim], commands: &[Command], renderer: &Renderer) -> Result<(), SimError> {
+        if commands.len() != sims.len() {
+            return Err(SimError::invalid(
+                what,
+                commands.len(),
+                format!("must be one per simulator ({} simulators)", sims.len()),
+            ));
+        }
+        Self::check_batch(sims, renderer)?;
+        commands.iter().try_for_each(Command::validate)
     }
 
     fn check_batch(sims: &[&mut Sim], renderer: &Renderer) -> Result<(), SimError> {
