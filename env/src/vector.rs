@@ -172,13 +172,8 @@ impl EscapeVectorEnv {
                     pending[i] = Some((command, cruise));
                 }
             }
-            let stepping: Vec<usize> = (0..n).filter(|&i| pending[i].is_some()).collect();
-            let resetting: Vec<usize> = (0..n).filter(|&i| period == 0 && self.autoreset[i]).collect();
-            if stepping.is_empty() && resetting.is_empty() {
-                break;
-            }
-            let mut going: Vec<(usize, &mut EscapeEnv)> = Vec::with_capacity(stepping.len());
-            let mut reset_envs: Vec<(usize, &mut EscapeEnv)> = Vec::with_capacity(resetting.len());
+            let mut going: Vec<(usize, &mut EscapeEnv)> = Vec::new();
+            let mut reset_envs: Vec<(usize, &mut EscapeEnv)> = Vec::new();
             for (i, env) in self.envs.iter_mut().enumerate() {
                 if pending[i].is_some() {
                     going.push((i, env));
@@ -186,6 +181,11 @@ impl EscapeVectorEnv {
                     reset_envs.push((i, env));
                 }
             }
+            if going.is_empty() && reset_envs.is_empty() {
+                break;
+            }
+            let stepping: Vec<usize> = going.iter().map(|(i, _)| *i).collect();
+            let resetting: Vec<usize> = reset_envs.iter().map(|(i, _)| *i).collect();
             let mut reset_slots: Vec<Option<Result<StepResult, EnvError>>> =
                 (0..resetting.len()).map(|_| None).collect();
             let mut finished: Vec<Option<Result<StepResult, EnvError>>> = (0..stepping.len()).map(|_| None).collect();

@@ -204,11 +204,22 @@ fn first_contact(frame: usize, c: &Contact) -> FirstContact {
 /// The open-loop ground truth of episode `spec` with simulator seed `seed`, physics only (no
 /// rendering): what the runner's rendered open-loop pass finds, without the frames.
 pub fn open_loop_truth(spec: &EpisodeSpec, seed: u64) -> Result<EpisodeTruth, SimError> {
+    physics_only_pass(spec, seed, |_, _| {})
+}
+
+/// The physics-only open-loop pass of [`open_loop_truth`], calling `each(sim, out)` after every
+/// step (the contact's included).
+fn physics_only_pass(
+    spec: &EpisodeSpec,
+    seed: u64,
+    mut each: impl FnMut(&mut Sim, &StepOutput),
+) -> Result<EpisodeTruth, SimError> {
     let mut sim = Sim::new_physics_only(&spec.world, seed)?;
     let mut recorder = TruthRecorder::new(&sim);
     for _ in 0..spec.frames() {
         let cmd = spec.cruise.command_at(sim.time());
         let out = sim.step(&cmd.to_sim())?;
+        each(&mut sim, &out);
         if recorder.record(&out).is_some() {
             break;
         }
@@ -231,20 +242,11 @@ pub fn open_loop_truth_and_deadline(
     controller: &EscapeController,
     renderer: &mut Renderer,
 ) -> Result<(EpisodeTruth, Option<EscapeDeadline>), SimError> {
-    let mut sim = Sim::new_physics_only(&spec.world, seed)?;
-    let mut recorder = TruthRecorder::new(&sim);
-    let mut views = Vec::new();
-    let mut t_s = Vec::new();
-    for _ in 0..spec.frames() {
-        let cmd = spec.cruise.command_at(sim.time());
-        let out = sim.step(&cmd.to_sim())?;
+    let (mut views, mut t_s) = (Vec::new(), Vec::new());
+    let truth = physics_only_pass(spec, seed, |sim, out| {
         t_s.push(out.t_s);
         views.push(sim.capture_view());
-        if recorder.record(&out).is_some() {
-            break;
-        }
-    }
-    let truth = recorder.finish();
+    })?;
     let Some(contact) = &truth.contact else {
         return Ok((truth, None));
     };
