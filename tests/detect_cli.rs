@@ -235,3 +235,118 @@ fn detect_reads_the_efference_copy_of_a_rendered_video_from_its_truth_csv() {
     assert!(err.contains("has 9 poses") && err.contains("37 frames"), "{err}");
     assert!(!dir.join("bad").exists() && !dir.join("short").exists());
 }
+
+#[test]
+fn efference_csv_with_ambiguous_duplicate_or_marked_columns() {
+    use loomlab::cli::efference::read_poses;
+    let dir = scratch("detect_efference_columns");
+    let read = |name: &str, text: &str| {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        read_poses(&path, 2).map_err(|e| format!("{e:#}"))
+    };
+    // yaw in degrees and in radians: which one is meant is a guess
+    let err = read("both_yaws.csv", "t_s,x,y,yaw_deg,yaw_rad\n0,0,0,90,0\n1,1,0,90,0\n").unwrap_err();
+    assert!(
+        err.contains("both_yaws.csv") && err.contains("`yaw_deg` and `yaw_rad`") && err.contains("ambiguous"),
+        "{err}"
+    );
+    // two x columns
+    let err = read("two_x.csv", "t_s,x,y,x,yaw_deg\n0,0,0,5,0\n1,1,0,6,0\n").unwrap_err();
+    assert!(
+        err.contains("two_x.csv") && err.contains("two columns named `x`") && err.contains("columns 2 and 4"),
+        "{err}"
+    );
+    // two names of one quantity (`x` and `x_m`)
+    let err = read("x_and_x_m.csv", "t_s,x,x_m,y,yaw_deg\n0,0,0,0,0\n1,1,1,0,0\n").unwrap_err();
+    assert!(err.contains("`x_m` and `x`") || err.contains("`x` and `x_m`"), "{err}");
+    // a spreadsheet's byte-order mark before the first column's name
+    let poses = read("bom.csv", "\u{feff}t_s,x,y,yaw_deg\n0,0,0,0\n0.5,1,0,90\n").unwrap();
+    assert_eq!(poses.len(), 2);
+    assert!((poses[1].yaw_rad - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+}
+
+/// Runs `loomlab detect --video VIDEO` with extra flags; (exit code, stderr).
+fn detect_video(video: &Path, out: &Path, extra: &[&str]) -> (Option<i32>, String) {
+    let mut args = vec![
+        "detect",
+        "--video",
+        video.to_str().unwrap(),
+        "-d",
+        "soc",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let o = Command::new(env!("CARGO_BIN_EXE_loomlab"))
+        .args(&args)
+        .output()
+        .unwrap();
+    (o.status.code(), String::from_utf8_lossy(&o.stderr).into_owned())
+}
+
+#[test]
+fn detect_bounds_video_frames_before_allocating_them() {
+    let dir = scratch("detect_frame_bounds");
+    // a 1 000 000 × 1 picture: a few hundred bytes as PNG, 4 TB as an embedded square frame
+    let wide = dir.join("wide.png");
+    image::GrayImage::from_pixel(1_000_000, 1, image::Luma([128u8]))
+        .save(&wide)
+        .unwrap();
+    assert!(std::fs::metadata(&wide).unwrap().len() < 100_000);
+    let (code, err) = detect_video(&wide, &dir.join("embed"), &[]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("wide.png") && err.contains("1000000×1000000") && err.contains("8192"),
+        "{err}"
+    );
+    // cropped, it would be a 1 × 1 frame: smaller than any detector takes
+    let (code, err) = detect_video(&wide, &dir.join("crop"), &["--non-square", "crop"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("1×1") && err.contains("at least 20×20"), "{err}");
+    // a folder of frames is bounded as a whole, before the first frame is decoded
+    let many = dir.join("many");
+    std::fs::create_dir_all(&many).unwrap();
+    for k in 0..20 {
+        image::GrayImage::from_pixel(8000, 1, image::Luma([0u8]))
+            .save(many.join(format!("f{k:02}.png")))
+            .unwrap();
+    }
+    let (code, err) = detect_video(&many, &dir.join("many_out"), &[]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("20 frames of 8000×8000") && err.contains("at most"),
+        "{err}"
+    );
+    assert!(!dir.join("embed").exists() && !dir.join("crop").exists() && !dir.join("many_out").exists());
+}
+
+#[test]
+fn detect_refuses_numbered_frames_with_a_gap() {
+    let dir = scratch("detect_frame_gap");
+    let frames = dir.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for k in [6, 7, 8, 10, 11] {
+        image::GrayImage::from_pixel(24, 24, image::Luma([(k * 20) as u8]))
+            .save(frames.join(format!("frame_{k:05}.png")))
+            .unwrap();
+    }
+    let (code, err) = detect_video(&frames, &dir.join("out"), &[]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("frame_00008.png is followed by") && err.contains("frame_00010.png") && err.contains("missing"),
+        "{err}"
+    );
+    // without the gap the same frames are read, one row per frame
+    std::fs::remove_file(frames.join("frame_00006.png")).unwrap();
+    image::GrayImage::from_pixel(24, 24, image::Luma([180u8]))
+        .save(frames.join("frame_00009.png"))
+        .unwrap();
+    let (code, err) = detect_video(&frames, &dir.join("ok"), &[]);
+    assert_eq!(code, Some(0), "{err}");
+    let rows = std::fs::read_to_string(dir.join("ok/responses.csv"))
+        .unwrap()
+        .lines()
+        .count();
+    assert_eq!(rows, 1 + 5);
+}

@@ -15,6 +15,9 @@
 //! encoded (gamma) values; alpha is ignored; 16-bit images keep their precision. Non-square
 //! frames become square per [`NonSquare`] (embed in mid-grey or crop, paper §2.2.1). All frames
 //! must have the same size.
+//!
+//! Bounds, checked from the files' headers before any frame is decoded: a square frame's side is
+//! at most [`MAX_VIDEO_FRAME_SIDE`] pixels and a whole video holds at most [`MAX_VIDEO_PIXELS`].
 
 use std::cmp::Ordering;
 use std::fs::File;
@@ -24,6 +27,61 @@ use std::path::{Path, PathBuf};
 use image::{AnimationDecoder, DynamicImage, ImageReader};
 
 use crate::{DetectorError, Frame, NonSquare};
+
+/// Largest side of a video's square frames (pixels; the stimulus files' bound): an 8192² frame
+/// holds 256 MiB of `f32` luminance.
+pub const MAX_VIDEO_FRAME_SIDE: usize = crate::stimulus::spec::MAX_SIZE;
+
+/// Most pixels (frames × n²) a whole video may hold: 2³⁰, 4 GiB of `f32` luminance.
+pub const MAX_VIDEO_PIXELS: u64 = 1 << 30;
+
+/// The side of the square frame an image of `w`×`h` pixels becomes.
+fn square_side((w, h): (u32, u32), mode: NonSquare) -> u64 {
+    match mode {
+        NonSquare::Embed => u64::from(w.max(h)),
+        NonSquare::Crop => u64::from(w.min(h)),
+    }
+}
+
+/// Refuses frames too large to hold: `frames` of them, each `dims` before squaring.
+fn check_size(path: &Path, dims: (u32, u32), mode: NonSquare, frames: u64) -> Result<(), DetectorError> {
+    let side = square_side(dims, mode);
+    let (w, h) = dims;
+    if side > MAX_VIDEO_FRAME_SIDE as u64 {
+        let how = match mode {
+            NonSquare::Embed => "embedded in a square",
+            NonSquare::Crop => "cropped to a square",
+        };
+        return Err(io_err(
+            path,
+            format!(
+                "a {w}×{h} frame {how} is {side}×{side} pixels; the most is {MAX_VIDEO_FRAME_SIDE}×{MAX_VIDEO_FRAME_SIDE} \
+                 (scale the video down first, e.g. `ffmpeg -i in.mp4 -vf scale=512:-1 frames/%05d.png`)"
+            ),
+        ));
+    }
+    let pixels = frames.saturating_mul(side * side);
+    if pixels > MAX_VIDEO_PIXELS {
+        return Err(io_err(
+            path,
+            format!(
+                "{frames} frames of {side}×{side} pixels are {pixels} pixels; a video holds at most {MAX_VIDEO_PIXELS} \
+                 (4 GiB): use fewer or smaller frames"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The (width, height) of an image file, read from its header only.
+fn image_dims(path: &Path) -> Result<(u32, u32), DetectorError> {
+    ImageReader::open(path)
+        .map_err(|e| io_err(path, format!("cannot open image: {e}")))?
+        .with_guessed_format()
+        .map_err(|e| io_err(path, format!("cannot read image: {e}")))?
+        .into_dimensions()
+        .map_err(|e| io_err(path, format!("cannot decode image: {e}")))
+}
 
 /// A loaded video: square grayscale frames, in order.
 #[derive(Debug, Clone, PartialEq)]
@@ -87,6 +145,7 @@ pub fn load_video(path: &Path, mode: NonSquare) -> Result<Video, DetectorError> 
     match extension(path).as_deref() {
         Some("gif") => load_gif(path, mode),
         Some("png" | "jpg" | "jpeg") => {
+            check_size(path, image_dims(path)?, mode, 1)?;
             let frame = load_image(path, mode)?.1;
             Ok(Video {
                 frames: vec![frame],
@@ -126,6 +185,12 @@ fn load_dir(dir: &Path, mode: NonSquare) -> Result<Video, DetectorError> {
     let files = frame_files(dir)?;
     if files.is_empty() {
         return Err(io_err(dir, "directory contains no PNG/JPEG frames (.png, .jpg, .jpeg)"));
+    }
+    // bounded before any frame is decoded: every file's header is read first
+    let first_dims = image_dims(&files[0])?;
+    check_size(&files[0], first_dims, mode, files.len() as u64)?;
+    for file in &files[1..] {
+        check_size(file, image_dims(file)?, mode, files.len() as u64)?;
     }
     let mut frames = Vec::with_capacity(files.len());
     let mut first: Option<(PathBuf, (u32, u32))> = None;
@@ -180,9 +245,12 @@ fn load_gif(path: &Path, mode: NonSquare) -> Result<Video, DetectorError> {
     let file = File::open(path).map_err(|e| io_err(path, format!("cannot open GIF: {e}")))?;
     let decoder = image::codecs::gif::GifDecoder::new(BufReader::new(file))
         .map_err(|e| io_err(path, format!("cannot decode GIF: {e}")))?;
+    let dims = image::ImageDecoder::dimensions(&decoder);
+    check_size(path, dims, mode, 1)?;
     let mut frames = Vec::new();
     let mut delays_ms = Vec::new();
     for (k, f) in decoder.into_frames().enumerate() {
+        check_size(path, dims, mode, k as u64 + 1)?;
         let f = f.map_err(|e| io_err(path, format!("cannot decode GIF frame {k}: {e}")))?;
         let (num, den) = f.delay().numer_denom_ms();
         delays_ms.push(if den == 0 { 0.0 } else { num as f64 / den as f64 });

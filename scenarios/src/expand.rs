@@ -381,22 +381,30 @@ impl Variation {
             .flat_map(|(k, ps, _)| ps.iter().map(move |p| (k, p)))
             .chain(out.random.iter().map(|(k, p, _)| (k, p)))
             .collect();
-        let mut seen = std::collections::HashSet::new();
+        // Compared in canonical form: `a.0.b` and `a[0].b` name the same value.
+        let mut seen = std::collections::HashMap::new();
         for (key, path) in &varied {
-            if !seen.insert(path.to_string()) {
+            if let Some(first) = seen.insert(path.canonical(), *key) {
+                let spelling = if first == *key {
+                    String::new()
+                } else {
+                    format!(" (also as `{first}`: `a.0.b` and `a[0].b` are the same key)")
+                };
                 return Err((
                     (*key).clone(),
-                    "this key is varied twice (in [sweep] and/or [random])".into(),
+                    format!("this key is varied twice (in [sweep] and/or [random]){spelling}; vary it once"),
                 ));
             }
         }
         // A varied key that holds another (`world` and `world.projectiles[0].speed_mps`): setting
         // the outer one replaces the table the inner one lives in.
+        let segments = |p: &KeyPath| KeyPath::parse(&p.canonical()).map_or_else(|_| p.0.clone(), |c| c.0);
         for (key, path) in &varied {
-            if let Some((inner, _)) = varied
-                .iter()
-                .find(|(_, p)| p.0.len() > path.0.len() && p.0.starts_with(&path.0))
-            {
+            let outer = segments(path);
+            if let Some((inner, _)) = varied.iter().find(|(_, p)| {
+                let p = segments(p);
+                p.len() > outer.len() && p.starts_with(&outer)
+            }) {
                 return Err((
                     (*key).clone(),
                     format!("this key holds the varied key `{inner}`: vary one or the other, not both"),
@@ -496,6 +504,15 @@ fn parse_range(here: &str, spec: Value) -> Result<RandomRange, KeyError> {
             };
             if !(a.is_finite() && b.is_finite()) || a > b {
                 return Err((here.into(), format!("need finite min <= max, got min = {a}, max = {b}")));
+            }
+            if !(b - a).is_finite() {
+                return Err((
+                    here.into(),
+                    format!(
+                        "the range from min = {a} to max = {b} is wider than the largest number ({:e}); narrow it",
+                        f64::MAX
+                    ),
+                ));
             }
             Ok(RandomRange::Real { min: a, max: b })
         }

@@ -146,13 +146,19 @@ fn toml_files(dir: &Path) -> Result<Vec<PathBuf>, ScenarioError> {
                 files.push(p);
             } else if !p.is_dir() {
                 // a dangling symlink (or an unreadable entry) would shrink the suite silently
-                let reason = match std::fs::read_link(&p) {
-                    Ok(target) => format!(
+                let reason = match (std::fs::read_link(&p), std::fs::metadata(&p)) {
+                    (Ok(target), Err(e)) if e.kind() != std::io::ErrorKind::NotFound => format!(
+                        "{} is a symbolic link to {} that cannot be followed ({e}: a loop of links?) (a suite never \
+                         skips a scenario file; fix or remove the link)",
+                        p.display(),
+                        target.display()
+                    ),
+                    (Ok(target), _) => format!(
                         "{} is a symbolic link to {}, which does not exist (a suite never skips a scenario file; fix or remove the link)",
                         p.display(),
                         target.display()
                     ),
-                    Err(_) => format!("{} is not a readable file", p.display()),
+                    (Err(_), _) => format!("{} is not a readable file", p.display()),
                 };
                 return Err(ScenarioError::Suite {
                     path: dir.into(),

@@ -470,6 +470,8 @@ const AWKWARD: &[&str] = &[
     "{ min = 0.0, max = 1e300 }",
     "{ min = nan, max = 1.0 }",
     "{ min = 5.0, max = 1.0 }",
+    "{ min = -1.7e308, max = 1.7e308 }",
+    "{ min = -9223372036854775808, max = 9223372036854775807 }",
     "true",
     "false",
     "1979-05-27T07:32:00Z",
@@ -760,6 +762,70 @@ fn fuzz_scenario_files() {
         "scenario/mutated",
         1000,
         mutated(scenario_examples()),
+        parse_as_scenario,
+    );
+}
+
+/// Any number, finite or not, as a TOML value (`nan`, `inf`, `-inf` for the non-finite ones).
+fn any_number() -> impl Strategy<Value = Value> {
+    prop_oneof![
+        3 => any::<f64>().prop_map(Value::Float),
+        1 => prop::sample::select(&[f64::NAN, f64::INFINITY, f64::NEG_INFINITY, f64::MAX, -f64::MAX, 0.0][..])
+            .prop_map(Value::Float),
+        2 => any::<i64>().prop_map(Value::Integer),
+        1 => prop::sample::select(&[i64::MIN, i64::MAX, 0][..]).prop_map(Value::Integer),
+    ]
+}
+
+/// A real scenario with one of its values (any leaf, the `i`-th mod their number) randomised over
+/// `{ min, max }` of any two numbers: the expansion draws from the range when the file loads.
+fn randomised(examples: Vec<String>) -> impl Strategy<Value = String> {
+    // a third of the ranges are as wide as numbers go (their width overflows f64 or i64)
+    let huge = prop::sample::select(&[1e300, 9e307, 1.7e308, f64::MAX][..]);
+    let range = prop_oneof![
+        2 => (any_number(), any_number()),
+        1 => huge.prop_map(|v| (Value::Float(-v), Value::Float(v))),
+        1 => Just((Value::Integer(i64::MIN), Value::Integer(i64::MAX))),
+    ];
+    (prop::sample::select(examples), any::<usize>(), range).prop_map(|(ex, i, (min, max))| {
+        let Ok(mut table) = toml::from_str::<Table>(&ex) else {
+            return ex;
+        };
+        let (mut out, mut tables) = (Vec::new(), Vec::new());
+        leaves(&Value::Table(table.clone()), &mut Vec::new(), &mut out, &mut tables);
+        let out: Vec<_> = out
+            .into_iter()
+            .filter(|p| !matches!(p.first(), Some(Seg::Key(k)) if k == "sweep" || k == "random"))
+            .collect();
+        if out.is_empty() {
+            return ex;
+        }
+        let path: String = out[i % out.len()]
+            .iter()
+            .enumerate()
+            .map(|(j, seg)| match seg {
+                Seg::Key(k) if j == 0 => k.clone(),
+                Seg::Key(k) => format!(".{k}"),
+                Seg::Index(n) => format!("[{n}]"),
+            })
+            .collect();
+        let range = Table::from_iter([("min".to_string(), min), ("max".to_string(), max)]);
+        let random = table.entry("random").or_insert_with(|| Value::Table(Table::new()));
+        if let Value::Table(random) = random {
+            random.insert(path, Value::Table(range));
+        }
+        toml::to_string(&table).unwrap_or(ex)
+    })
+}
+
+/// Random ranges of any numbers, finite or not, at any key of the real scenarios: a clean error
+/// or a valid draw, never a panic (a range wider than `f64::MAX` once panicked in the draw).
+#[test]
+fn fuzz_random_ranges_of_any_numbers() {
+    fuzz(
+        "scenario/random_ranges",
+        600,
+        randomised(scenario_examples()),
         parse_as_scenario,
     );
 }

@@ -767,3 +767,88 @@ fn default_suite_non_threats_are_not_threats_cut_short() {
         cut.join(", ")
     );
 }
+
+#[test]
+fn one_key_varied_under_two_spellings_is_refused() {
+    // `a.0.b` and `a[0].b` name one value: only one of the two would be used
+    let e = err(&format!(
+        "{BASE}[sweep]\n\"world.projectiles.0.speed_mps\" = [6.0, 9.0]\n\"world.projectiles[0].speed_mps\" = [7.0, 8.0]\n"
+    ));
+    assert!(e.contains("varied twice") && e.contains("the same key"), "{e}");
+    let e = err(&format!(
+        "{BASE}[sweep]\n\"world.projectiles.0.speed_mps\" = [6.0, 9.0]\n[random]\n\"world.projectiles[0].speed_mps\" = {{ min = 5.0, max = 7.0 }}\n"
+    ));
+    assert!(e.contains("varied twice"), "{e}");
+    // one spelling holding the other's table is refused whichever way each is written
+    let e = err(&format!(
+        "{BASE}[sweep]\n\"world.projectiles.0\" = [{{ speed_mps = 6.0 }}]\n\"world.projectiles[0].speed_mps\" = [7.0, 8.0]\n"
+    ));
+    assert!(e.contains("holds the varied key"), "{e}");
+}
+
+#[test]
+fn the_name_and_tier_cannot_be_varied() {
+    for (table, value) in [("sweep", "[\"a\", \"b\"]"), ("random", "{ choices = [\"a\", \"b\"] }")] {
+        let e = err(&format!("{BASE}[{table}]\nname = {value}\n"));
+        assert!(
+            e.contains("dir/test.toml")
+                && e.contains(&format!("{table}.\"name\""))
+                && e.contains("one per scenario file"),
+            "{e}"
+        );
+    }
+    let e = err(&format!("tier = 1\n{BASE}[sweep]\ntier = [1, 2]\n"));
+    assert!(e.contains("sweep.\"tier\"") && e.contains("one file per tier"), "{e}");
+}
+
+#[test]
+fn a_random_range_wider_than_the_largest_number_is_refused() {
+    let e = err(&format!(
+        "{BASE}[random]\n\"world.projectiles.0.speed_mps\" = {{ min = -1.7e308, max = 1.7e308 }}\n"
+    ));
+    assert!(
+        e.contains("random.\"world.projectiles.0.speed_mps\"") && e.contains("wider than the largest number"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_decision_rule_that_can_never_fire_is_refused() {
+    // 1 s at 120 Hz: 121 frames (frame 0 and 120 steps)
+    let detectors = |entry: &str| format!("{BASE}[[detectors]]\n{entry}\n");
+    let e = err(&detectors("id = \"tracker\"\npersistence_frames = 10000"));
+    assert!(
+        e.contains("detectors[0].persistence_frames") && e.contains("10000") && e.contains("never fire"),
+        "{e}"
+    );
+    let e = err(&detectors(
+        "id = \"tracker\"\ntrigger = \"tau\"\nmin_angular_size_deg = 200.0",
+    ));
+    assert!(
+        e.contains("detectors[0].min_angular_size_deg") && e.contains("field of view (60°)"),
+        "{e}"
+    );
+    let e = err(&detectors(
+        "id = \"tracker\"\ntrigger = \"angular_size_deg\"\nthreshold = 75.0",
+    ));
+    assert!(e.contains("detectors[0].threshold") && e.contains("never alarm"), "{e}");
+    // the bounds themselves are fine
+    parse(&detectors(
+        "id = \"tracker\"\npersistence_frames = 100\nthreshold = 10.0\ntrigger = \"angular_size_deg\"",
+    ))
+    .unwrap();
+}
+
+#[cfg(unix)]
+#[test]
+fn a_loop_of_links_in_a_suite_is_named_as_such() {
+    let dir = tmp_dir("link-loop");
+    std::fs::write(dir.join("ok.toml"), BASE).unwrap();
+    std::os::unix::fs::symlink("b.toml", dir.join("a.toml")).unwrap();
+    std::os::unix::fs::symlink("a.toml", dir.join("b.toml")).unwrap();
+    let e = load_suite(&dir, &LoadOptions::default()).unwrap_err().to_string();
+    assert!(
+        e.contains("cannot be followed") && e.contains("loop") && !e.contains("does not exist"),
+        "{e}"
+    );
+}

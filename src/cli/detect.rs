@@ -9,8 +9,8 @@ use clap::{Args, ValueEnum};
 use loomlab_detector::hopfield::config::CAMERA_KEYS;
 use loomlab_detector::hopfield::{HopfieldConfig, Implementation};
 use loomlab_detector::stimulus::StimulusSpec;
-use loomlab_detector::video::load_video;
-use loomlab_detector::{DetectorSet, Frame, NonSquare, parse_detector_list};
+use loomlab_detector::video::{frame_files, load_video};
+use loomlab_detector::{DetectorSet, Frame, MIN_FRAME_SIZE, NonSquare, parse_detector_list};
 
 use super::efference::{CameraMount, efference_copies, read_poses};
 use loomlab_report::plot::{LineChart, Series, line_chart};
@@ -145,7 +145,24 @@ fn load_input(args: &DetectArgs) -> anyhow::Result<Input> {
             args.fov_deg
         );
     }
+    if path.is_dir() {
+        check_frame_numbers(&frame_files(path)?)?;
+    }
     let video = load_video(path, mode)?;
+    if video.frame_size() < MIN_FRAME_SIZE {
+        bail!(
+            "{}: the frames are {n}×{n} pixels once made square (--non-square {}); the detectors need at least \
+             {MIN_FRAME_SIZE}×{MIN_FRAME_SIZE}{}",
+            path.display(),
+            if mode == NonSquare::Crop { "crop" } else { "embed" },
+            if mode == NonSquare::Crop {
+                " (cropping keeps the shorter side: try --non-square embed)"
+            } else {
+                ""
+            },
+            n = video.frame_size()
+        );
+    }
     let fps = video.fps.unwrap_or(args.fps);
     if !(fps.is_finite() && fps > 0.0) {
         bail!("--fps = {fps}: must be a positive number of frames per second, e.g. 120");
@@ -168,6 +185,46 @@ fn load_input(args: &DetectArgs) -> anyhow::Result<Input> {
         },
         label: path.display().to_string(),
     })
+}
+
+/// Refuses numbered frame files with a gap (`frame_8`, `frame_10`): frame k is shown at k / fps,
+/// so a missing file would shift every later frame's time. Files are numbered when every name
+/// ends in digits after the same prefix; the numbers must then step evenly.
+fn check_frame_numbers(files: &[PathBuf]) -> anyhow::Result<()> {
+    let numbered: Option<Vec<(&str, u64)>> = files
+        .iter()
+        .map(|f| {
+            let stem = f.file_stem()?.to_str()?;
+            let digits = stem.len() - stem.trim_end_matches(|c: char| c.is_ascii_digit()).len();
+            let (prefix, number) = stem.split_at(stem.len() - digits);
+            Some((prefix, number.parse().ok()?))
+        })
+        .collect();
+    let Some(numbered) = numbered else {
+        return Ok(());
+    };
+    if numbered.len() < 3 || numbered.iter().any(|(prefix, _)| *prefix != numbered[0].0) {
+        return Ok(());
+    }
+    // sorted in natural order, so the numbers ascend; the smallest step is the video's
+    let steps: Vec<u64> = numbered.windows(2).map(|p| p[1].1 - p[0].1).collect();
+    let step = steps.iter().copied().min().unwrap_or(1);
+    for (k, &d) in steps.iter().enumerate() {
+        if d == 0 || d != step {
+            let why = if d == 0 {
+                "both have the same frame number".to_string()
+            } else {
+                format!("frame numbers step by {step} elsewhere but by {d} here, so frames are missing")
+            };
+            bail!(
+                "{} is followed by {}: {why}, and every later frame would be shown at the wrong time; add the \
+                 missing frames or renumber the files",
+                files[k].display(),
+                files[k + 1].display()
+            );
+        }
+    }
+    Ok(())
 }
 
 /// One output column of responses.csv.

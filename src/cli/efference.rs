@@ -58,22 +58,23 @@ pub fn read_poses(path: &Path, frames: usize) -> anyhow::Result<Vec<PlanarPose>>
         Some(line) => line.with_context(|| format!("cannot read {shown}"))?,
         None => bail!("{shown} is empty: it needs a header with t_s, x, y and yaw columns"),
     };
-    let names: Vec<&str> = header.split(',').map(str::trim).collect();
-    let find = |accepted: &[&str]| accepted.iter().find_map(|a| names.iter().position(|n| n == a));
-    let missing = |what: &str, accepted: &[&str]| {
-        anyhow::anyhow!(
-            "{shown} has no {what} column (its columns: {}); name it one of {}",
-            names.join(", "),
-            accepted.join(", ")
-        )
-    };
-    let time = find(&TIME).ok_or_else(|| missing("time", &TIME))?;
-    let x = find(&X).ok_or_else(|| missing("x position", &X))?;
-    let y = find(&Y).ok_or_else(|| missing("y position", &Y))?;
-    let (yaw, yaw_scale) = match (find(&YAW_DEG), find(&YAW_RAD)) {
-        (Some(c), _) => (c, 1f64.to_radians()),
-        (None, Some(c)) => (c, 1.0),
-        (None, None) => return Err(missing("yaw", &[&YAW_DEG[..], &YAW_RAD[..]].concat())),
+    // a byte-order mark (spreadsheets write one) is not part of the first column's name
+    let names: Vec<&str> = header
+        .trim_start_matches('\u{feff}')
+        .split(',')
+        .map(str::trim)
+        .collect();
+    let shown_name = shown.to_string();
+    let columns = Columns::of(&names, &shown_name)?;
+    let time = columns.one("time", &TIME)?;
+    let x = columns.one("x position", &X)?;
+    let y = columns.one("y position", &Y)?;
+    let yaw_names = [&YAW_DEG[..], &YAW_RAD[..]].concat();
+    let yaw = columns.one("yaw", &yaw_names)?;
+    let yaw_scale = if YAW_DEG.contains(&names[yaw]) {
+        1f64.to_radians()
+    } else {
+        1.0
     };
     let mut poses: Vec<PlanarPose> = Vec::with_capacity(frames.min(1 << 20));
     for (i, line) in lines.enumerate() {
@@ -121,6 +122,53 @@ pub fn read_poses(path: &Path, frames: usize) -> anyhow::Result<Vec<PlanarPose>>
         );
     }
     Ok(poses)
+}
+
+/// A CSV header's column names, each checked to appear once.
+struct Columns<'a> {
+    names: &'a [&'a str],
+    shown: &'a str,
+}
+
+impl<'a> Columns<'a> {
+    /// Refuses a header that names a column twice (which of them would be read is a guess).
+    fn of(names: &'a [&'a str], shown: &'a str) -> anyhow::Result<Self> {
+        for (i, name) in names.iter().enumerate() {
+            if let Some(j) = names[i + 1..].iter().position(|n| n == name) {
+                bail!(
+                    "{shown} has two columns named `{name}` (columns {} and {}); rename or remove one",
+                    i + 1,
+                    i + j + 2
+                );
+            }
+        }
+        Ok(Self { names, shown })
+    }
+
+    /// The index of the one column holding `what`, named one of `accepted`; refuses none or several.
+    fn one(&self, what: &str, accepted: &[&str]) -> anyhow::Result<usize> {
+        let found: Vec<usize> = accepted
+            .iter()
+            .filter_map(|a| self.names.iter().position(|n| n == a))
+            .collect();
+        match found.as_slice() {
+            [c] => Ok(*c),
+            [] => bail!(
+                "{} has no {what} column (its columns: {}); name it one of {}",
+                self.shown,
+                self.names.join(", "),
+                accepted.join(", ")
+            ),
+            several => {
+                let named: Vec<String> = several.iter().map(|&c| format!("`{}`", self.names[c])).collect();
+                bail!(
+                    "{} has several {what} columns ({}); it is ambiguous which one to read: keep one of them",
+                    self.shown,
+                    named.join(" and ")
+                )
+            }
+        }
+    }
 }
 
 /// The efference copy of each frame (the first knows the pose, not the motion).

@@ -183,18 +183,23 @@ pub fn parse_scenario(
         Some(v) => Some(crate::tier::parse_tier_value(&v).map_err(|reason| ScenarioError::key(path, "tier", reason))?),
     };
     let variation = Variation::take_from(&mut tree).map_err(kerr)?;
-    if variation
+    for (table, key, path_key) in variation
         .sweep
         .iter()
-        .flat_map(|(_, ps, _)| ps.iter().map(KeyPath::canonical))
-        .chain(variation.random.iter().map(|(_, p, _)| p.canonical()))
-        .any(|k| k == "tier")
+        .flat_map(|(k, ps, _)| ps.iter().map(move |p| ("sweep", k, p)))
+        .chain(variation.random.iter().map(|(k, p, _)| ("random", k, p)))
     {
-        return Err(ScenarioError::key(
-            path,
-            "sweep.tier",
-            "the tier is one per scenario file and cannot be swept or sampled: split the file into one file per tier",
-        ));
+        let reason = match path_key.canonical().as_str() {
+            "tier" => {
+                "the tier is one per scenario file and cannot be swept or sampled: split the file into one file per tier"
+            }
+            "name" => {
+                "the name is one per scenario file (it names the scenario's rows and files) and cannot be swept or \
+                 sampled: the sweep's parameters already tell its episodes apart, so remove this key"
+            }
+            _ => continue,
+        };
+        return Err(ScenarioError::key(path, format!("{table}.\"{key}\""), reason));
     }
     let episode: EpisodeDesc = typed(
         tree.get("episode").cloned().unwrap_or(Value::Table(Table::new())),

@@ -1,5 +1,6 @@
 //! Validation of a typed scenario: its world, episode length, cruise, controller, scoring and detector rows.
 
+use loomlab_agents::TriggerSignal;
 use loomlab_sim::WorldDesc;
 
 use super::detector::{DetectorSpec, bare, camera_facts, resolve_detector_in};
@@ -27,10 +28,11 @@ pub(super) fn resolve(
         other => ("world".to_string(), other.to_string()),
     })?;
     // one cap on frames per episode, shared with `loomlab render`
-    loomlab_sim::episode_frames("episode.duration_s", doc.episode.duration_s, world.dt()).map_err(|e| match e {
-        loomlab_sim::SimError::Duration { key, value, reason } => (key, format!("{value}: {reason}")),
-        other => ("episode.duration_s".into(), other.to_string()),
-    })?;
+    let frames =
+        loomlab_sim::episode_frames("episode.duration_s", doc.episode.duration_s, world.dt()).map_err(|e| match e {
+            loomlab_sim::SimError::Duration { key, value, reason } => (key, format!("{value}: {reason}")),
+            other => ("episode.duration_s".into(), other.to_string()),
+        })?;
     let dynamic = world.physics == loomlab_sim::PhysicsMode::Dynamic;
     doc.robot.validate(dynamic.then_some(&world.robot))?;
     doc.controller
@@ -95,6 +97,7 @@ pub(super) fn resolve(
             None => format!("detectors.{k}"),
         };
         let spec = resolve_detector_in(&opts.registry, &d, camera_facts(&world)).map_err(|(k, r)| (key(&k), r))?;
+        check_can_fire(&spec, frames, f64::from(world.camera.fov_deg)).map_err(|(k, r)| (key(k), r))?;
         if specs.iter().any(|s| s.label == spec.label) {
             return Err((
                 key("label"),
@@ -107,4 +110,34 @@ pub(super) fn resolve(
         specs.push(spec);
     }
     Ok((world, specs))
+}
+
+/// Refuses a decision rule that can never alarm in this world: a persistence count longer than the
+/// episode, or an angular size larger than the camera's field of view (θ̂ is measured in the image).
+fn check_can_fire(spec: &DetectorSpec, frames: u64, fov_deg: f64) -> Result<(), (&'static str, String)> {
+    if spec.persistence_frames as u64 > frames {
+        return Err((
+            "persistence_frames",
+            format!(
+                "{}: an episode of this scenario has {frames} frames, so the alarm could never fire; \
+                 give at most {frames} (or a longer episode.duration_s)",
+                spec.persistence_frames
+            ),
+        ));
+    }
+    let angle_limit = |what: &str, value: f64| {
+        format!(
+            "{value}°: an angular size measured in the image is at most the camera's field of view ({fov_deg}°), so \
+             the {what} could never be reached and the row would never alarm; give less than {fov_deg}"
+        )
+    };
+    if let Some(m) = spec.min_angular_size_deg
+        && m >= fov_deg
+    {
+        return Err(("min_angular_size_deg", angle_limit("minimum angular size", m)));
+    }
+    if spec.trigger == TriggerSignal::AngularSizeDeg && spec.threshold >= fov_deg {
+        return Err(("threshold", angle_limit("angular-size threshold", spec.threshold)));
+    }
+    Ok(())
 }
