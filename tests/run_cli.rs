@@ -493,6 +493,152 @@ fn overwrite_deletes_only_the_files_the_run_wrote() {
 }
 
 #[test]
+fn a_file_of_the_users_where_a_run_writes_is_never_replaced() {
+    let dir = tmp("userfiles");
+    let suite = tiny_suite(&dir);
+    for (i, rel) in [
+        "traces/ball_0000.csv",
+        "traces/.ball_0001.csv.tmp",
+        "exemplars/ball_0001.gif",
+        "plot_samples.jsonl",
+        ".report.json.tmp",
+        ".manifest.json.tmp",
+        "tier_evasion.png",
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let out = dir.join(format!("out{i}"));
+        let mine = out.join(rel);
+        std::fs::create_dir_all(mine.parent().unwrap()).unwrap();
+        std::fs::write(&mine, "mine").unwrap();
+        let o = loomlab(&["run", s(&suite), "--out", s(&out), "--limit", "2", "--traces"]);
+        let e = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{rel}: {e}");
+        assert!(
+            e.contains(&mine.display().to_string()) && e.contains("a file of yours"),
+            "{rel}: {e}"
+        );
+        assert_eq!(std::fs::read_to_string(&mine).unwrap(), "mine", "{rel}");
+        assert!(!out.join("manifest.json").exists(), "{rel}: nothing written");
+    }
+    // files that the run does not write are no obstacle (other names, other episodes)
+    let out = dir.join("others");
+    for rel in [
+        "traces/ball_0003.csv",
+        "traces/ball_00000.csv",
+        "exemplars/other_0000.gif",
+        "notes.png",
+    ] {
+        std::fs::create_dir_all(out.join(rel).parent().unwrap()).unwrap();
+        std::fs::write(out.join(rel), "mine").unwrap();
+    }
+    let o = loomlab(&["run", s(&suite), "--out", s(&out), "--limit", "2", "--traces"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(out.join("traces/ball_0000.csv").is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn links_in_the_output_folder_never_lead_a_write_or_a_delete_outside_it() {
+    use std::os::unix::fs::symlink;
+    let dir = tmp("links");
+    let suite = tiny_suite(&dir);
+    let outside = dir.join("outside");
+    std::fs::create_dir_all(outside.join("traces")).unwrap();
+    std::fs::create_dir_all(outside.join("exemplars")).unwrap();
+    let nothing_outside = |what: &str| {
+        let mut found = Vec::new();
+        for sub in ["", "traces", "exemplars"] {
+            for e in std::fs::read_dir(outside.join(sub)).unwrap() {
+                let p = e.unwrap().path();
+                if p.is_file() {
+                    found.push(p.display().to_string());
+                }
+            }
+        }
+        assert!(found.is_empty(), "{what}: written outside --out: {found:?}");
+    };
+    // a dangling link at a file the run writes, links at the folders it writes into
+    for (i, (rel, target)) in [
+        ("plot_samples.jsonl", outside.join("samples.jsonl")),
+        ("episodes.csv", outside.join("episodes.csv")),
+        (".manifest.json.tmp", outside.join("manifest.json")),
+        ("traces", outside.join("traces")),
+        ("exemplars", outside.join("exemplars")),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let out = dir.join(format!("out{i}"));
+        std::fs::create_dir_all(&out).unwrap();
+        symlink(&target, out.join(rel)).unwrap();
+        for extra in [&[][..], &["--overwrite"]] {
+            let o = loomlab(
+                &[
+                    &["run", s(&suite), "--out", s(&out), "--limit", "2", "--traces"][..],
+                    extra,
+                ]
+                .concat(),
+            );
+            let e = text(&o.stderr);
+            assert_eq!(o.status.code(), Some(2), "{rel} {extra:?}: {e}");
+            // a link at a run file makes the folder look like an earlier run's: refused as such
+            assert!(
+                (e.contains(&out.join(rel).display().to_string()) && e.contains("symbolic link"))
+                    || (extra.is_empty() && e.contains("already holds")),
+                "{rel} {extra:?}: {e}"
+            );
+            nothing_outside(rel);
+            assert!(
+                std::fs::symlink_metadata(out.join(rel))
+                    .unwrap()
+                    .file_type()
+                    .is_symlink()
+            );
+        }
+    }
+    // --overwrite after the run's traces folder became a link: the files out there stay
+    let out = dir.join("overwrite");
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--limit",
+        "2",
+        "--traces",
+        "--no-html",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    std::fs::remove_dir_all(out.join("traces")).unwrap();
+    symlink(outside.join("traces"), out.join("traces")).unwrap();
+    std::fs::write(outside.join("traces/ball_0000.csv"), "precious").unwrap();
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--limit",
+        "1",
+        "--overwrite",
+        "--no-html",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert_eq!(
+        std::fs::read_to_string(outside.join("traces/ball_0000.csv")).unwrap(),
+        "precious"
+    );
+    assert!(
+        std::fs::symlink_metadata(out.join("traces"))
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn a_name_with_a_path_is_refused_before_anything_is_written() {
     let dir = tmp("escape");
     for name in [

@@ -564,3 +564,284 @@ fn an_interrupt_while_the_report_is_written_is_not_reported_as_a_finished_run() 
     assert!(out.join("report.html").is_file());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Rows of episodes.csv, 0 while it does not exist yet.
+fn row_count(dir: &Path) -> usize {
+    std::fs::read_to_string(dir.join("episodes.csv")).map_or(0, |t| t.lines().count().saturating_sub(1))
+}
+
+/// Waits (at most `secs`) until `ready()`, failing with `what` otherwise.
+fn wait_until(secs: u64, what: &str, mut ready: impl FnMut() -> bool) {
+    let started = Instant::now();
+    while !ready() {
+        assert!(started.elapsed() < Duration::from_secs(secs), "{what}");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+/// Every file name under `dir` (recursively) that holds `.tmp`.
+fn tmp_files(dir: &Path) -> Vec<String> {
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let p = entry.unwrap().path();
+        if p.is_dir() {
+            out.extend(tmp_files(&p));
+        } else if p.file_name().unwrap().to_string_lossy().contains(".tmp") {
+            out.push(p.display().to_string());
+        }
+    }
+    out
+}
+
+#[test]
+fn a_second_run_into_a_folder_in_use_is_refused_and_the_first_stays_true() {
+    let dir = tmp("locked");
+    // 40 episodes at one worker: several seconds, while the other runs try the folder
+    let suite = dir.join("suite");
+    std::fs::create_dir_all(&suite).unwrap();
+    let many: Vec<String> = (0..40).map(|i| format!("{:.2}", 0.05 * f64::from(i))).collect();
+    std::fs::write(
+        suite.join("ball.toml"),
+        BALL.replace("[0.0, 0.1, 0.6, 1.0, 1.5, 2.0]", &format!("[{}]", many.join(", "))),
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let args = [
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--jobs",
+        "1",
+        "--no-html",
+        "--no-plots",
+        "--quiet",
+    ];
+    let mut a = loomlab_command()
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_until(120, "run A did not start its episodes", || row_count(&out) > 0);
+    for extra in [&["--overwrite"][..], &["--resume"], &[]] {
+        let o = loomlab(&[&args[..], extra].concat());
+        let e = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {e}");
+        assert!(
+            e.contains(&format!(
+                "{} is in use by another loomlab run (process {}",
+                out.display(),
+                a.id()
+            )),
+            "{extra:?}: {e}"
+        );
+        assert!(
+            a.try_wait().unwrap().is_none(),
+            "run A finished before the refused run: the test needs a longer suite"
+        );
+    }
+    let o = a.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    // A's files are whole and its manifest tells the truth
+    assert_eq!(manifest_state(&out), "complete");
+    let episodes = report(&out, "report.json")["episodes"].as_u64().unwrap() as usize;
+    assert_eq!(episodes, 40);
+    let rows = rows(&out);
+    let per_episode = rows.len() / episodes;
+    assert!(
+        per_episode > 0 && rows.len() == per_episode * episodes,
+        "{} rows",
+        rows.len()
+    );
+    assert!(
+        !out.join(".loomlab-run.lock").exists(),
+        "the lock file is deleted at the end"
+    );
+
+    // a lock file left by a dead run (kill -9) is taken over
+    let stale = dir.join("stale");
+    std::fs::create_dir_all(&stale).unwrap();
+    std::fs::write(stale.join(".loomlab-run.lock"), "999999\n").unwrap();
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&stale),
+        "--limit",
+        "1",
+        "--no-html",
+        "--no-plots",
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert_eq!(manifest_state(&stale), "complete");
+    let listed = std::fs::read_to_string(stale.join("written.txt")).unwrap();
+    assert!(!listed.contains("lock"), "{listed}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_full_disk_leaves_a_resumable_run_and_no_temporary_file() {
+    // LOOMLAB_TEST_DISK_BYTES: the run's writers see a disk with that many bytes free (the
+    // manifest, written.txt and episodes.csv fit, under 1 kB, then the first episode's plot
+    // samples, about 5.6 kB); once full, every later write fails too, the manifest's last update
+    // included
+    let dir = tmp("full");
+    let suite = suite(&dir);
+    let out = dir.join("out");
+    let args = [
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--jobs",
+        "1",
+        "--no-html",
+        "--no-plots",
+    ];
+    let o = loomlab_command()
+        .args(args)
+        .env("LOOMLAB_TEST_DISK_BYTES", "9000")
+        .output()
+        .unwrap();
+    let e = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{e}");
+    assert!(e.contains("No space left on device"), "{e}");
+    assert!(e.contains("resume with:") && e.contains("--resume"), "{e}");
+    assert_eq!(tmp_files(&out), Vec::<String>::new(), "temporary files left");
+    // the manifest could not be updated: it is the last one written, whole
+    assert_eq!(manifest_state(&out), "running");
+    let before = rows(&out);
+    assert!(
+        !before.is_empty(),
+        "no episode was saved before the disk was full: raise the budget"
+    );
+    // with space again, --resume finishes the run: every episode once, the saved ones kept
+    let o = loomlab(&[&args[..], &["--resume"]].concat());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert_eq!(manifest_state(&out), "complete");
+    let all = rows(&out);
+    assert_eq!(report(&out, "report.json")["episodes"], EPISODES);
+    assert_eq!(all.len() % EPISODES, 0);
+    assert_eq!(all[..before.len()], before[..]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_resume_after_the_suite_changed_suggests_what_works() {
+    let dir = tmp("edited");
+    let suite = suite(&dir);
+    let out = dir.join("out");
+    let args = [
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--limit",
+        "2",
+        "--jobs",
+        "1",
+        "--no-html",
+        "--no-plots",
+        "--quiet",
+    ];
+    let o = loomlab(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let file = suite.join("ball.toml");
+    let t = std::fs::read_to_string(&file).unwrap();
+    std::fs::write(&file, t.replace("speed_mps = 4.0", "speed_mps = 4.5")).unwrap();
+    let o = loomlab(&[&args[..], &["--resume"]].concat());
+    let e = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    // not the command that just failed again, but one that works
+    assert!(
+        !e.contains(&format!("{} --out {}", s(&suite), s(&out))),
+        "suggests the same command again: {e}"
+    );
+    assert!(e.contains("changed") && e.contains("--overwrite"), "{e}");
+    let o = loomlab(&[&args[..], &["--overwrite"]].concat());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert_eq!(manifest_state(&out), "complete");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_resume_of_a_huge_suite_starts_at_once_and_its_check_can_be_interrupted() {
+    // a million episodes (one random draw each): a fresh run checks every one before it starts
+    // (tens of seconds); a resume of the same suite continues at once
+    let dir = tmp("huge");
+    let suite = dir.join("huge");
+    std::fs::create_dir_all(&suite).unwrap();
+    let huge = BALL.replace(
+        "[sweep]\n\"world.projectiles.0.miss_distance_m\" = [0.0, 0.1, 0.6, 1.0, 1.5, 2.0]",
+        "[random]\nsamples = 1000000\n\"world.projectiles.0.miss_distance_m\" = { min = 0.0, max = 2.0 }",
+    );
+    assert!(huge.contains("samples = 1000000"));
+    std::fs::write(suite.join("huge.toml"), huge).unwrap();
+    let out = dir.join("out");
+    let args = [
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--jobs",
+        "1",
+        "--no-html",
+        "--no-plots",
+    ];
+
+    // Ctrl-C while the episodes are checked: the normal interrupt, nothing written
+    let early = dir.join("early");
+    let child = loomlab_command()
+        .args(["run", s(&suite), "--out", s(&early), "--jobs", "1"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    interrupt(&child);
+    let o = child.wait_with_output().unwrap();
+    let e = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{e}");
+    assert!(e.contains("interrupted while checking the suite's episodes"), "{e}");
+    assert!(!early.join("manifest.json").exists());
+
+    // a fresh run, interrupted after its first episodes
+    let started = Instant::now();
+    let child = loomlab_command()
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_until(600, "the fresh run did not start its episodes", || row_count(&out) > 0);
+    let fresh = started.elapsed();
+    interrupt(&child);
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(130), "{}", text(&o.stderr));
+    let done = row_count(&out);
+
+    // --resume gets to episode work at once (no second check of the million episodes)
+    let started = Instant::now();
+    let child = loomlab_command()
+        .args([&args[..], &["--resume"]].concat())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_until(60, "the resume did not get to its episodes within 60 s", || {
+        row_count(&out) > done
+    });
+    let resumed = started.elapsed();
+    interrupt(&child);
+    let o = child.wait_with_output().unwrap();
+    let e = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{e}");
+    assert!(e.contains("interrupted:") && e.contains("--resume"), "{e}");
+    assert!(
+        resumed * 3 < fresh,
+        "the resume took {resumed:?} to start, the fresh run (which checks every episode) {fresh:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -2,7 +2,8 @@
 //! every episode as built, the options), so that a resumed run or sweep can check it continues
 //! the same work.
 
-use crate::schema::EpisodeSpec;
+use crate::error::ScenarioError;
+use crate::schema::{EpisodeSpec, Scenario};
 
 /// Incremental 64-bit FNV-1a (stable across platforms and versions, unlike `DefaultHasher`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -43,6 +44,22 @@ impl Fingerprint {
             ep.scoring.lead_margin_s,
         );
         self.add(line.as_bytes());
+    }
+
+    /// Adds a scenario's definition, in O(1) of its episodes: the scenario as loaded (its tree with
+    /// the suite's defaults merged, its sweeps and random draws, seed, repeats, episode count and
+    /// the load options, as its `Debug` text), then its first and last episode as built. Two
+    /// scenarios with the same definition expand to the same episodes (the expansion is
+    /// deterministic); a changed file, default, option or way of building episodes changes it.
+    pub fn add_definition(&mut self, scenario: &Scenario) -> Result<(), ScenarioError> {
+        self.add(format!("\n{scenario:?}").as_bytes());
+        let last = scenario.len().saturating_sub(1);
+        for index in [0, last] {
+            let ep = scenario.episode(index)?;
+            self.add_episode(&ep);
+            self.add(format!("{:?}", ep.detectors).as_bytes());
+        }
+        Ok(())
     }
 
     /// The fingerprint as 16 hex digits.

@@ -7,6 +7,7 @@ pub mod figures;
 pub mod render;
 pub mod run;
 pub mod run_dir;
+pub mod run_lock;
 pub mod table;
 
 use indicatif::{ProgressBar, ProgressStyle};

@@ -34,10 +34,11 @@ use loomlab_scenarios::reference::REFERENCE_LABELS;
 use loomlab_scenarios::regression::{Tolerances, compare};
 use loomlab_scenarios::report::{LOOMLAB_VERSION, Report, ReportMeta};
 use loomlab_scenarios::schema::{DetectorDesc, Scenario, load_detector_entries};
-use loomlab_scenarios::{DEFAULT_SUITE, EpisodeRun, EpisodeSpec, LoadOptions, Runner, load_suite};
+use loomlab_scenarios::{DEFAULT_SUITE, EpisodeRun, EpisodeSpec, LoadOptions, Runner, Suite, load_suite};
 
 use super::run_dir::{
-    CannotWrite, EPISODES_CSV, Existing, Manifest, PARTIAL_REPORT, Prepared, REPORT, RunDir, RunState, write_atomic,
+    CannotWrite, EPISODES_CSV, Existing, Manifest, Outputs, PARTIAL_REPORT, Prepared, REPORT, RunDir, RunState, append,
+    open_append, write_atomic,
 };
 use loomlab_report::exemplar::{self, ExemplarRuns};
 use loomlab_report::page::RunPage;
@@ -139,6 +140,22 @@ const PLOT_SAMPLES: &str = "plot_samples.jsonl";
 /// The folder of `--traces`.
 const TRACES_DIR: &str = "traces";
 
+/// Every plot a run may draw (`NAME.png`, see `loomlab_report::run_plots::run_figures`).
+const FIGURES: [&str; 9] = [
+    "roc",
+    "rates",
+    "collisions",
+    "lv",
+    "theta_required",
+    "theta_hat",
+    "trace",
+    "tier_evasion",
+    "tier_false_alarms",
+];
+
+/// Suites of at least this many episodes show a progress bar while they are checked.
+const CHECK_PROGRESS_FROM: usize = 100_000;
+
 /// Episodes expanded and run at a time (bounds memory; large enough that the workers rarely wait
 /// at a chunk's end).
 const CHUNK: usize = 1024;
@@ -224,24 +241,14 @@ pub fn run_with(args: RunArgs, context: RunContext) -> anyhow::Result<i32> {
         _ => None,
     };
 
-    // Check every episode to run (expanded one at a time, not kept) and fingerprint them.
-    let limit = args.limit.unwrap_or(usize::MAX);
-    let mut fingerprint = Fingerprint::new();
-    fingerprint.add(format!("{LOOMLAB_VERSION}\nloomlab run\n").as_bytes());
-    let mut lead_margin_s = None;
-    let mut total = 0;
-    for ep in suite.episodes().take(limit) {
-        let ep = ep?;
-        fingerprint.add_episode(&ep);
-        fingerprint.add(format!("{:?}", ep.detectors).as_bytes());
-        lead_margin_s.get_or_insert(ep.scoring.lead_margin_s);
-        total += 1;
-    }
-    let Some(lead_margin_s) = lead_margin_s else {
-        bail!("{}: no episodes to run", suite_path.display());
+    // The run: the suite's first `limit` episodes.
+    let suite_total: usize = suite.scenarios.iter().map(|s| s.len()).fold(0, usize::saturating_add);
+    let total = suite_total.min(args.limit.unwrap_or(usize::MAX));
+    let lead_margin_s = match suite.episodes().take(total).next() {
+        Some(ep) => ep?.scoring.lead_margin_s,
+        None => bail!("{}: no episodes to run", suite_path.display()),
     };
     // A baseline is of the same suite and selection, or comparing (or replacing) it means nothing.
-    let suite_total: usize = suite.scenarios.iter().map(|s| s.len()).fold(0, usize::saturating_add);
     let mut counts: BTreeMap<&str, u64> = BTreeMap::new();
     let mut left = total;
     for s in &suite.scenarios {
@@ -312,21 +319,55 @@ pub fn run_with(args: RunArgs, context: RunContext) -> anyhow::Result<i32> {
         (false, true) => Existing::Overwrite,
         (false, false) => Existing::Refuse,
     };
-    let mut manifest = Manifest::new(fingerprint.hex(), &suite_path, total);
+    let mut manifest = Manifest::new(String::new(), &suite_path, total);
     manifest.traces = args.traces;
     if let Some(command) = context.command {
         manifest.command = command;
     }
-    // the handler first: an interrupt from the moment the manifest says `running` is handled
+    // the handler first: an interrupt while the episodes are checked, and from the moment the
+    // manifest says `running`, is handled
     let stop = match context.stop {
         Some(stop) => stop,
         None => interrupt_flag(),
+    };
+    // a folder in use by another run is refused before the (possibly long) check
+    let lock = if args.out.is_dir() {
+        Some(super::run_lock::RunLock::acquire(&args.out)?)
+    } else {
+        None
+    };
+    // Check every episode to run and fingerprint them, unless --resume continues a run of the
+    // same definition (checked when it started): a resume costs O(its finished episodes).
+    manifest.definition = definition_fingerprint(&suite, total)?;
+    manifest.fingerprint = match run_fingerprint(&args, &suite, &manifest, &stop)? {
+        Some(fingerprint) => fingerprint,
+        None => return Ok(130),
+    };
+    let is_episode_file = |name: &str, ext: &str| -> bool {
+        let Some((scenario, index)) = name.strip_suffix(ext).and_then(|stem| stem.rsplit_once('_')) else {
+            return false;
+        };
+        index
+            .parse::<usize>()
+            .is_ok_and(|i| format!("{i:04}") == index && position(scenario, i).is_some())
+    };
+    let is_trace = |name: &str| is_episode_file(name, ".csv");
+    let is_gif = |name: &str| is_episode_file(name, ".gif");
+    let outputs = Outputs {
+        files: output_files(&args),
+        folders: [
+            (args.traces).then_some((TRACES_DIR, &is_trace as &dyn Fn(&str) -> bool)),
+            (!args.no_html).then_some((EXEMPLARS_DIR, &is_gif as &dyn Fn(&str) -> bool)),
+        ]
+        .into_iter()
+        .flatten()
+        .collect(),
     };
     let Prepared {
         dir: mut run_dir,
         done,
         csv,
-    } = RunDir::prepare(&args.out, manifest, existing, labels)?;
+    } = RunDir::prepare(&args.out, manifest, existing, &outputs, lock, labels)?;
     let out = run_dir.dir.clone();
     let mut outcomes: Vec<(usize, EpisodeOutcome)> = done
         .into_iter()
@@ -362,7 +403,7 @@ pub fn run_with(args: RunArgs, context: RunContext) -> anyhow::Result<i32> {
     let started = Instant::now();
     let finished = Arc::new(std::sync::atomic::AtomicUsize::new(0));
     let heartbeat = (!args.quiet && !std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .then(|| Heartbeat::start(Arc::clone(&finished), total - resumed.len()));
+        .then(|| Heartbeat::start(Arc::clone(&finished), total - resumed.len(), "done"));
     let traces_dir = if args.traces {
         run_dir.create_dir(TRACES_DIR)?
     } else {
@@ -371,11 +412,7 @@ pub fn run_with(args: RunArgs, context: RunContext) -> anyhow::Result<i32> {
     // every finished episode's plot samples, kept so that a resumed run draws the same plots
     run_dir.record(PLOT_SAMPLES)?;
     let samples_path = out.join(PLOT_SAMPLES);
-    let samples_file = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .truncate(false)
-        .open(&samples_path)
+    let samples_file = open_append(&samples_path)
         .and_then(|f| {
             if !args.resume {
                 f.set_len(0)?;
@@ -406,13 +443,12 @@ pub fn run_with(args: RunArgs, context: RunContext) -> anyhow::Result<i32> {
             .run_until(&specs, &stop, |_, run| {
                 // the samples first: an episode in episodes.csv always has its samples
                 {
-                    use std::io::Write as _;
                     let line = EpisodeSamples::of(run).to_line() + "\n";
-                    samples_file
-                        .lock()
-                        .unwrap_or_else(|e| e.into_inner())
-                        .write_all(line.as_bytes())
-                        .map_err(|e| format!("cannot write {}: {e}", samples_path.display()))?;
+                    append(
+                        &mut samples_file.lock().unwrap_or_else(|e| e.into_inner()),
+                        line.as_bytes(),
+                    )
+                    .map_err(|e| format!("cannot write {}: {e}", samples_path.display()))?;
                 }
                 // the trace before the row: an episode in episodes.csv has its whole trace (one cut
                 // short by a failure is written again when the episode runs again on --resume)
@@ -684,6 +720,103 @@ pub fn run_with(args: RunArgs, context: RunContext) -> anyhow::Result<i32> {
     Ok(0)
 }
 
+/// The top-level files the run may write in its folder (checked before it starts; the sub-folders'
+/// files are checked by name).
+fn output_files(args: &RunArgs) -> Vec<String> {
+    let mut files: Vec<String> = [EPISODES_CSV, REPORT, PARTIAL_REPORT, PLOT_SAMPLES]
+        .map(String::from)
+        .to_vec();
+    if !args.no_html {
+        files.push(REPORT_HTML.into());
+    }
+    if !args.no_plots {
+        for f in FIGURES {
+            files.push(format!("{f}.png"));
+            files.push(format!(".{f}.tmp.png"));
+        }
+    }
+    files
+}
+
+/// The fingerprint of the run's definition: the version, its number of episodes and every
+/// scenario as loaded (see [`Fingerprint::add_definition`]). O(scenarios), not O(episodes).
+fn definition_fingerprint(suite: &Suite, total: usize) -> anyhow::Result<String> {
+    let mut f = Fingerprint::new();
+    f.add(format!("{LOOMLAB_VERSION}\nloomlab run definition\n{total}\n").as_bytes());
+    for s in &suite.scenarios {
+        f.add_definition(s)?;
+    }
+    Ok(f.hex())
+}
+
+/// The fingerprint of the run `manifest` describes: the one of the run in `--out` when `--resume`
+/// continues a run of the same definition (its episodes were checked when it started), else every
+/// episode checked and fingerprinted now. `None`: interrupted while checking (the message printed).
+fn run_fingerprint(
+    args: &RunArgs,
+    suite: &Suite,
+    manifest: &Manifest,
+    stop: &AtomicBool,
+) -> anyhow::Result<Option<String>> {
+    let earlier = if args.resume {
+        Manifest::read(&args.out).ok().flatten()
+    } else {
+        None
+    };
+    if let Some(m) = earlier.filter(|m| m.definition == manifest.definition && m.episodes == manifest.episodes) {
+        return Ok(Some(m.fingerprint));
+    }
+    let checked = check_episodes(suite, manifest.episodes, stop, args.quiet)?;
+    if checked.is_none() {
+        errln!(
+            "interrupted while checking the suite's episodes: nothing was run{}",
+            if args.resume {
+                format!(
+                    "; the run in {} is unchanged. Resume with:\n  {}",
+                    args.out.display(),
+                    manifest.resume_command()
+                )
+            } else {
+                " or written".to_string()
+            }
+        );
+    }
+    Ok(checked)
+}
+
+/// Expands and checks the run's `total` episodes one at a time (none is kept) and returns their
+/// fingerprint; `None` when interrupted (Ctrl-C) first. A suite of millions of episodes shows its
+/// progress (a bar, or a line every few seconds without a terminal).
+fn check_episodes(suite: &Suite, total: usize, stop: &AtomicBool, quiet: bool) -> anyhow::Result<Option<String>> {
+    let mut fingerprint = Fingerprint::new();
+    fingerprint.add(format!("{LOOMLAB_VERSION}\nloomlab run\n").as_bytes());
+    let large = !quiet && total >= CHECK_PROGRESS_FROM;
+    let checked = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let bar = if large {
+        super::progress(total as u64, "checking")
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let heartbeat = (large && !std::io::IsTerminal::is_terminal(&std::io::stderr()))
+        .then(|| Heartbeat::start(Arc::clone(&checked), total, "checked"));
+    for (i, ep) in suite.episodes().take(total).enumerate() {
+        if i % CHUNK == 0 {
+            if stop.load(Ordering::SeqCst) {
+                bar.finish_and_clear();
+                return Ok(None);
+            }
+            bar.set_position(i as u64);
+            checked.store(i, Ordering::Relaxed);
+        }
+        let ep = ep?;
+        fingerprint.add_episode(&ep);
+        fingerprint.add(format!("{:?}", ep.detectors).as_bytes());
+    }
+    bar.finish_and_clear();
+    drop(heartbeat);
+    Ok(Some(fingerprint.hex()))
+}
+
 /// Whether `base` is a report of the episodes `counts` (per scenario) with suite seed `seed`.
 fn same_suite(base: &Report, counts: &BTreeMap<&str, u64>, seed: u64) -> Result<(), String> {
     let theirs: BTreeMap<&str, u64> = base.scenarios.iter().map(|(k, v)| (k.as_str(), v.episodes)).collect();
@@ -728,10 +861,7 @@ impl Html<'_> {
         // the GIFs an earlier invocation of this run wrote go (never another file in the folder)
         for rel in self.run_dir.written() {
             if rel.starts_with(&format!("{EXEMPLARS_DIR}/")) && !rel.ends_with('/') {
-                let p = self.out.join(&rel);
-                if std::fs::symlink_metadata(&p).is_ok_and(|m| m.is_file()) {
-                    std::fs::remove_file(&p).with_context(|| format!("cannot remove {}", p.display()))?;
-                }
+                self.run_dir.remove_written(&rel)?;
             }
         }
         let gif_dir = if choices.is_empty() {
@@ -791,7 +921,7 @@ struct Heartbeat {
 }
 
 impl Heartbeat {
-    fn start(finished: Arc<std::sync::atomic::AtomicUsize>, todo: usize) -> Self {
+    fn start(finished: Arc<std::sync::atomic::AtomicUsize>, todo: usize, what: &'static str) -> Self {
         let done = Arc::new(AtomicBool::new(false));
         let flag = Arc::clone(&done);
         let every = std::env::var("LOOMLAB_PROGRESS_S")
@@ -808,7 +938,7 @@ impl Heartbeat {
                 if secs >= next && !flag.load(Ordering::SeqCst) {
                     next = secs + every;
                     errln!(
-                        "progress: {} of {todo} episodes done in {} min {} s",
+                        "progress: {} of {todo} episodes {what} in {} min {} s",
                         finished.load(Ordering::Relaxed),
                         secs / 60,
                         secs % 60
