@@ -60,10 +60,10 @@ pub use episode::{
 };
 pub use error::{EnvError, ErrorKind};
 pub use features::{FeatureSpec, ObsMode, feature_specs, mode_feature_specs};
-pub use options::{ActionKind, EnvOptions, MAX_ACTION_REPEAT, MAX_FRAME_SIZE};
+pub use options::{ActionKind, EnvOptions, MAX_ACTION_REPEAT, MAX_ACTION_SCALE, MAX_FRAME_SIZE};
 pub use reward::{DODGE_TOLERANCE, RewardConfig, RewardTerms};
 pub use scenario::{EnvScenario, ScenarioEpisodes};
-pub use vector::{EscapeVectorEnv, VectorSnapshot};
+pub use vector::{EscapeVectorEnv, MAX_NUM_ENVS, VectorSnapshot};
 
 /// The process-wide GPU context shared by every environment (created on first use; the error,
 /// e.g. no adapter, is remembered and reported again).

@@ -12,6 +12,12 @@ use super::{EnvError, ObsMode, RewardConfig};
 /// Largest frame size the environment accepts.
 pub const MAX_FRAME_SIZE: u32 = 1024;
 
+/// Largest action scale ([`ActionConfig`]'s speeds in m/s and yaw rate in rad/s) the options
+/// accept: larger values are typos (a robot's drive manages a few m/s). Scales above the
+/// scenario robot's limits (`world.robot.max_speed_mps`, `max_yaw_rate_rps`) are accepted and
+/// clamped to them when the environment is built.
+pub const MAX_ACTION_SCALE: f64 = 100.0;
+
 /// Largest [`EnvOptions::action_repeat`].
 pub const MAX_ACTION_REPEAT: u32 = 120;
 
@@ -56,7 +62,9 @@ pub struct EnvOptions {
     pub obs_mode: ObsMode,
     /// Continuous or discrete actions.
     pub action_kind: ActionKind,
-    /// Scales of the action mappings.
+    /// Scales of the action mappings (each at most [`MAX_ACTION_SCALE`]; clamped to the scenario
+    /// robot's drive limits when the environment is built: [`EscapeEnv::options`](crate::EscapeEnv::options)
+    /// reports the scales in use).
     pub action: ActionConfig,
     /// Clamp continuous actions into [-1, 1] instead of rejecting them (NaN/∞ are always errors).
     pub clip_actions: bool,
@@ -169,6 +177,24 @@ impl EnvOptions {
             return Err(EnvError::option("max_episode_steps", 0, "must be >= 1"));
         }
         self.action.validate()?;
+        for (key, v) in [
+            ("action.dodge_speed_mps", self.action.dodge_speed_mps),
+            ("action.max_forward_mps", self.action.max_forward_mps),
+            ("action.max_yaw_rate_rps", self.action.max_yaw_rate_rps),
+            ("action.max_lateral_mps", self.action.max_lateral_mps),
+        ] {
+            if v > MAX_ACTION_SCALE {
+                return Err(EnvError::option(
+                    key,
+                    v,
+                    format!(
+                        "must be at most {MAX_ACTION_SCALE} (m/s or rad/s); scales above the robot's drive limits \
+                         (world.robot.max_speed_mps, max_yaw_rate_rps) are clamped to them, so give the speed \
+                         you mean, e.g. 2"
+                    ),
+                ));
+            }
+        }
         self.reward.validate()
     }
 }

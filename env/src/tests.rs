@@ -988,3 +988,91 @@ threshold = 1e9
     assert!(from_runner[5].rotation_rad[2] > 1e-3 && from_runner[5].translation_m[0] > 1e-3);
     assert_eq!(from_env, from_runner);
 }
+
+/// `close()` and dropping an environment join its prefetch thread (one still rendering on lavapipe
+/// while the process exits crashed it: exit 139), the vector environment's too.
+#[test]
+fn close_joins_the_prefetch_thread() {
+    let mut env = EscapeEnv::new(scenario(), options(ActionKind::Continuous)).unwrap();
+    env.reset(Some(1)).unwrap(); // starts preparing the next episode
+    env.step(Action::Continuous([0.0; 3])).unwrap();
+    env.close();
+    assert_eq!(env.background_threads(), 0);
+    assert!(!env.is_running());
+    // still usable after close: the next reset computes inline
+    env.reset(Some(2)).unwrap();
+    let alive = env.background_thread_count();
+    drop(env);
+    assert_eq!(alive.load(std::sync::atomic::Ordering::SeqCst), 0, "dropping joins");
+
+    let mut vec = EscapeVectorEnv::new(scenario(), options(ActionKind::Continuous), 2).unwrap();
+    vec.reset(Some(1)).unwrap();
+    let counts: Vec<_> = vec.envs().iter().map(EscapeEnv::background_thread_count).collect();
+    vec.close();
+    assert!(vec.envs().iter().all(|e| e.background_threads() == 0));
+    vec.reset(Some(3)).unwrap();
+    drop(vec);
+    assert!(counts.iter().all(|c| c.load(std::sync::atomic::Ordering::SeqCst) == 0));
+}
+
+/// A vector environment holds at most `MAX_NUM_ENVS` environments; the error says how many were
+/// asked for, the bound and what to do instead (100 000 ran past 300 s building).
+#[test]
+fn vector_env_count_is_bounded() {
+    let e = EscapeVectorEnv::new(scenario(), options(ActionKind::Continuous), 100_000).unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::Scenario);
+    let msg = e.to_string();
+    assert!(
+        msg.contains("`num_envs` = 100000")
+            && msg.contains(&format!("1..={MAX_NUM_ENVS}"))
+            && msg.contains("processes"),
+        "{msg}"
+    );
+    let e = EscapeVectorEnv::new(scenario(), options(ActionKind::Continuous), 0).unwrap_err();
+    assert!(e.to_string().contains("`num_envs` = 0"), "{e}");
+}
+
+/// The continuous action's scales are clamped to the robot's drive limits, so that the command
+/// the observation reports is the one the robot drives (the default 3 m/s drove at 2); absurd
+/// scales are refused with the key.
+#[test]
+fn action_scales_are_clamped_to_the_robots_limits() {
+    // the head-on scenario without its ball: nothing ends the episode early
+    let calm = HEAD_ON.split("[[world.projectiles]]").next().unwrap().to_string();
+    let mut env = EscapeEnv::new(
+        EnvScenario::from_toml(calm, "calm.toml"),
+        options(ActionKind::Continuous),
+    )
+    .unwrap();
+    let robot = env.episodes()[0].world.robot.clone();
+    let cfg = &env.options().action;
+    assert_eq!(cfg.max_forward_mps, f64::from(robot.max_speed_mps));
+    assert_eq!(cfg.max_lateral_mps, 1.5);
+    assert_eq!(cfg.max_yaw_rate_rps, 1.5);
+    env.reset(Some(1)).unwrap();
+    let mut last = None;
+    for _ in 0..60 {
+        last = Some(env.step(Action::Continuous([1.0, 0.0, 0.0])).unwrap());
+    }
+    let obs = last.unwrap().obs;
+    let forward = ROBOT_FIELDS.iter().position(|f| *f == "forward_mps").unwrap();
+    assert_eq!(
+        obs.robot[forward], robot.max_speed_mps,
+        "the observation reports the command driven"
+    );
+    // after 0.5 s at full throttle (2.5 m/s², from 1 m/s) the robot drives at the reported speed
+    let x0 = obs.robot[0];
+    let r = env.step(Action::Continuous([1.0, 0.0, 0.0])).unwrap();
+    let speed = (r.obs.robot[0] - x0) / env.dt() as f32;
+    assert!((speed - robot.max_speed_mps).abs() < 0.05, "{speed}");
+
+    for (key, json) in [
+        ("action.max_forward_mps", r#"{"action": {"max_forward_mps": 1e9}}"#),
+        ("action.max_yaw_rate_rps", r#"{"action": {"max_yaw_rate_rps": 1000}}"#),
+    ] {
+        let opts = EnvOptions::from_json(json).unwrap();
+        let e = EscapeEnv::new(scenario(), opts).unwrap_err();
+        assert_eq!(e.kind(), ErrorKind::Scenario);
+        assert!(e.to_string().contains(&format!("`{key}`")), "{e}");
+    }
+}

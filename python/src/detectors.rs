@@ -83,10 +83,21 @@ pub(crate) fn registry_with(entries: Vec<PythonEntry>) -> PyResult<(Registry, Ve
     let mut registry = Registry::builtin().clone();
     let mut descs = Vec::with_capacity(entries.len());
     for e in entries {
+        if loomlab_scenarios::reference::is_reference(&e.label) {
+            return Err(errors::DetectorError::new_err(format!(
+                "PythonDetector `{label}` ({what}): label = \"{label}\" is the name of a reference row ({all}), \
+                 which every report has; give it another label (PythonDetector(..., label=\"my_{label}\") or \
+                 --label my_{label})",
+                label = e.label,
+                what = e.description,
+                all = loomlab_scenarios::reference::REFERENCE_LABELS.join(", "),
+            )));
+        }
         let configured = PythonConfigured {
             id: intern(&e.label),
             object: Arc::clone(&e.object),
             description: format!("{} as `{}`", e.description, e.label),
+            trigger: e.trigger,
         };
         let label = e.label.clone();
         let configure: Arc<Configure> = Arc::new(move |params, _camera: &CameraFacts| {
@@ -101,9 +112,12 @@ pub(crate) fn registry_with(entries: Vec<PythonEntry>) -> PyResult<(Registry, Ve
         let signals = [Signal::Output, e.trigger];
         let registration =
             Registration::with_configure(&e.label, &e.description, &signals, e.trigger, e.threshold, configure);
-        registry = registry
-            .with(registration)
-            .map_err(|err| errors::DetectorError::new_err(format!("PythonDetector `{}`: {err}", e.label)))?;
+        registry = registry.with(registration).map_err(|err| {
+            errors::DetectorError::new_err(format!(
+                "PythonDetector `{}` ({}): {err}; give it another label (PythonDetector(..., label=...) or --label)",
+                e.label, e.description
+            ))
+        })?;
         descs.push(DetectorDesc {
             id: e.label.clone(),
             label: None,
@@ -139,6 +153,9 @@ struct PythonConfigured {
     id: &'static str,
     object: Arc<Py<PyAny>>,
     description: String,
+    /// The signal its alarms trigger on: with [`Signal::AngularSize`] every step must return
+    /// `angular_size_deg` (`None` allowed).
+    trigger: Signal,
 }
 
 impl PythonConfigured {
@@ -184,6 +201,8 @@ impl ConfiguredDetector for PythonConfigured {
                 n,
                 wants_ego,
                 reset_error: None,
+                trigger: self.trigger,
+                frame: 0,
             }) as Box<dyn Detector>)
         })
     }
@@ -206,6 +225,10 @@ struct PythonInstance {
     wants_ego: bool,
     /// An exception of `reset()` (the trait's `reset` cannot fail): reported by the next step.
     reset_error: Option<String>,
+    /// The trigger signal (see [`PythonConfigured::trigger`]).
+    trigger: Signal,
+    /// Frames stepped since the last reset (the next one's index, 0-based, named in errors).
+    frame: u64,
 }
 
 impl PythonInstance {
@@ -223,6 +246,7 @@ impl Detector for PythonInstance {
     }
 
     fn reset(&mut self) {
+        self.frame = 0;
         Python::attach(|py| {
             if let Err(e) = self.instance.bind(py).call_method0("reset") {
                 self.reset_error = Some(format!("reset(): {}", describe_exception(py, &e)));
@@ -256,6 +280,8 @@ impl PythonInstance {
         }
         let view =
             ArrayView2::from_shape((n, n), frame.data()).map_err(|e| DetectorError::InvalidImage(e.to_string()))?;
+        let index = self.frame;
+        self.frame += 1;
         Python::attach(|py| {
             let array = view.to_pyarray(py);
             let step = self.instance.bind(py);
@@ -281,14 +307,48 @@ impl PythonInstance {
             } else {
                 step.call_method1("step", (array,))
             };
-            let answer = answer.map_err(|e| self.failed(format!("step(frame): {}", describe_exception(py, &e))))?;
-            signals_of(&answer).map_err(|why| self.failed(format!("step(frame) returned {why}")))
+            let answer = answer
+                .map_err(|e| self.failed(format!("step(frame) at frame {index}: {}", describe_exception(py, &e))))?;
+            signals_of(&answer)
+                .and_then(|(signals, gave_theta)| checked(signals, gave_theta, self.trigger))
+                .map_err(|why| self.failed(format!("step(frame) at frame {index} of the episode returned {why}")))
         })
     }
 }
 
-/// The signals of what `step` returned: a number, or a dict of [`STEP_KEYS`].
-fn signals_of(answer: &Bound<'_, PyAny>) -> Result<Signals, String> {
+/// Refuses signals the scoring cannot use: a non-finite output or image position (an infinite
+/// output would alarm and be scored a hit), a θ̂ that is not an angle in [0°, 180°], and, for a
+/// detector triggered on θ̂, an answer without `angular_size_deg` (it could never alarm).
+fn checked(signals: Signals, gave_theta: bool, trigger: Signal) -> Result<Signals, String> {
+    if !signals.output.is_finite() {
+        return Err(format!(
+            "output = {}; outputs must be finite numbers (return 0.0 or the last value when there is none)",
+            signals.output
+        ));
+    }
+    if let Some(theta) = signals.angular_size_deg
+        && !(theta.is_finite() && (0.0..=180.0).contains(&theta))
+    {
+        return Err(format!(
+            "angular_size_deg = {theta}; θ̂ is an angular size in degrees, 0 to 180 (None: no estimate this frame)"
+        ));
+    }
+    if let Some((key, v)) = signals.aux.iter().find(|(_, v)| !v.is_finite()) {
+        return Err(format!("{key} = {v}; image positions must be finite numbers"));
+    }
+    if trigger == Signal::AngularSize && !gave_theta {
+        return Err(
+            "no angular_size_deg, but its trigger is \"angular_size\" (it alarms on θ̂, so it would never alarm); \
+             return a dict with angular_size_deg (None when there is no estimate) or use trigger=\"output\""
+                .into(),
+        );
+    }
+    Ok(signals)
+}
+
+/// The signals of what `step` returned: a number, or a dict of [`STEP_KEYS`]; and whether it gave
+/// `angular_size_deg` (a value or `None`).
+fn signals_of(answer: &Bound<'_, PyAny>) -> Result<(Signals, bool), String> {
     let number = |key: &str, v: &Bound<'_, PyAny>| -> Result<f64, String> {
         v.extract::<f64>().map_err(|_| {
             let shown = v.repr().map_or_else(|_| "?".to_string(), |r| r.to_string());
@@ -296,7 +356,7 @@ fn signals_of(answer: &Bound<'_, PyAny>) -> Result<Signals, String> {
         })
     };
     let Ok(dict) = answer.cast::<PyDict>() else {
-        return Ok(Signals {
+        let signals = Signals {
             output: number("a value", answer).map_err(|e| {
                 format!(
                     "{e}; return a float (the output) or a dict with keys {}",
@@ -306,10 +366,12 @@ fn signals_of(answer: &Bound<'_, PyAny>) -> Result<Signals, String> {
             angular_size_deg: None,
             aux: Vec::new(),
             region: None,
-        });
+        };
+        return Ok((signals, false));
     };
     let mut signals = Signals::default();
     let mut has_output = false;
+    let mut gave_theta = false;
     for (k, v) in dict.iter() {
         let key: String = k.str().map_or_else(|_| "?".into(), |s| s.to_string());
         match key.as_str() {
@@ -317,8 +379,11 @@ fn signals_of(answer: &Bound<'_, PyAny>) -> Result<Signals, String> {
                 signals.output = number("output", &v)?;
                 has_output = true;
             }
-            "angular_size_deg" if v.is_none() => {}
-            "angular_size_deg" => signals.angular_size_deg = Some(number("angular_size_deg", &v)?),
+            "angular_size_deg" if v.is_none() => gave_theta = true,
+            "angular_size_deg" => {
+                signals.angular_size_deg = Some(number("angular_size_deg", &v)?);
+                gave_theta = true;
+            }
             "image_x" => signals.aux.push(("image_x", number("image_x", &v)?)),
             "image_y" => signals.aux.push(("image_y", number("image_y", &v)?)),
             other => {
@@ -333,7 +398,7 @@ fn signals_of(answer: &Bound<'_, PyAny>) -> Result<Signals, String> {
         return Err("a dict without \"output\" (the detector's primary output, a float)".into());
     }
     signals.aux.sort_by(|a, b| a.0.cmp(b.0));
-    Ok(signals)
+    Ok((signals, gave_theta))
 }
 
 /// `Type: message` of a Python exception and the last line of its traceback (where it was raised).

@@ -6,7 +6,9 @@
 //! Ctrl-C: the run works on another thread while this one, holding the GIL only for a moment every
 //! 50 ms, lets Python handle its signals; the first KeyboardInterrupt stops the run as the CLI's
 //! first Ctrl-C does (no new episode starts, those in flight give up, every finished one is saved,
-//! the folder says `interrupted` and `--resume` continues it).
+//! the folder says `interrupted` and `--resume` continues it). A second KeyboardInterrupt stops at
+//! once as the CLI's second Ctrl-C does: the run in progress is marked `interrupted` (its finished
+//! episodes are saved), the resume command is printed and the process exits with 130.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -32,7 +34,7 @@ struct RunCommand {
 
 /// Runs `f` on another thread while this one handles Python's signals; the first
 /// KeyboardInterrupt (or other exception a signal handler raises) sets `stop` and is returned
-/// with `f`'s result once `f` is done.
+/// with `f`'s result once `f` is done; a second one ends the process at once ([`second_interrupt`]).
 pub(crate) fn interruptible<R: Send>(
     py: Python<'_>,
     stop: &Arc<AtomicBool>,
@@ -44,9 +46,10 @@ pub(crate) fn interruptible<R: Send>(
             let worker = s.spawn(f);
             while !worker.is_finished() {
                 std::thread::sleep(Duration::from_millis(50));
-                if interrupt.is_none()
-                    && let Err(e) = Python::attach(|py| py.check_signals())
-                {
+                if let Err(e) = Python::attach(|py| py.check_signals()) {
+                    if interrupt.is_some() {
+                        second_interrupt();
+                    }
                     stop.store(true, Ordering::SeqCst);
                     interrupt = Some(e);
                 }
@@ -58,6 +61,23 @@ pub(crate) fn interruptible<R: Send>(
         Ok(r) => (r, interrupt),
         Err(panic) => std::panic::resume_unwind(panic),
     }
+}
+
+/// A second interrupt while the work finishes: stop at once, as the CLI's second Ctrl-C does (a
+/// run folder in progress is marked `interrupted` and its resume command printed), exit code 130.
+fn second_interrupt() -> ! {
+    match loomlab::cli::run_dir::abandon_active_run() {
+        Some(cmd) => {
+            eprintln!(
+                "\nsecond interrupt: stopped; the finished episodes are saved in episodes.csv. Resume with:\n  {cmd}"
+            )
+        }
+        None => eprintln!("\nsecond interrupt: stopped"),
+    }
+    // `_exit`, as the CLI: the workers are still running, and exit handlers (the software
+    // renderer's LLVM) racing with them would abort the process instead of exiting with 130.
+    // SAFETY: `_exit` only terminates the process.
+    unsafe { libc::_exit(130) }
 }
 
 /// Runs `loomlab run ARGS…` in this process with the Python detectors `detectors`

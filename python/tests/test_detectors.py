@@ -74,7 +74,8 @@ class Dict:
 
     def step(self, frame: np.ndarray) -> dict:
         self.t += 1
-        return {"output": float(frame.mean()), "angular_size_deg": float(self.t), "image_x": 0.0}
+        # θ̂ must be an angle (0 to 180 degrees)
+        return {"output": float(frame.mean()), "angular_size_deg": float(min(self.t, 90)), "image_x": 0.0}
 
 
 def test_a_dict_with_theta_can_trigger():
@@ -144,7 +145,7 @@ class NotANumber:
 @pytest.mark.parametrize(
     "detector, message",
     [
-        (Raises(), r"`raises`: step\(frame\): RuntimeError: boom in step"),
+        (Raises(), r"`raises`: step\(frame\) at frame 0: RuntimeError: boom in step"),
         (BadKey(), r"`bad_key`: .*\"colour\"; the keys are output, angular_size_deg"),
         (NotANumber(), r"`not_a_number`: .*'high', which is not a number"),
     ],
@@ -278,3 +279,137 @@ def test_ctrl_c_keeps_the_finished_episodes_and_resume_completes(tmp_path):
     _, stderr = p.communicate(timeout=600)
     assert p.returncode == 0, stderr
     assert json.loads((out / "report.json").read_text())["episodes"] == 6
+
+
+class Returns:
+    """A detector returning the same answer every frame."""
+
+    def __init__(self, answer) -> None:
+        self.answer = answer
+
+    def reset(self) -> None:
+        pass
+
+    def step(self, frame: np.ndarray):
+        return self.answer
+
+
+@pytest.mark.parametrize(
+    "answer, label, message",
+    [
+        (float("nan"), "nan_out", r"`nan_out`: step\(frame\) at frame 0 of the episode returned output = NaN"),
+        (float("inf"), "inf_out", r"`inf_out`: .* at frame 0 .*output = inf; outputs must be finite"),
+        ({"output": -float("inf")}, "minus_inf", r"`minus_inf`: .*output = -inf"),
+        ({"output": 1.0, "angular_size_deg": float("nan")}, "theta_nan", r"`theta_nan`: .*angular_size_deg = NaN"),
+        ({"output": 1.0, "angular_size_deg": -5.0}, "theta_neg", r"`theta_neg`: .*angular_size_deg = -5; .*0 to 180"),
+        ({"output": 1.0, "angular_size_deg": 1e9}, "theta_big", r"`theta_big`: .*angular_size_deg = 1000000000"),
+        ({"output": 1.0, "image_x": float("inf")}, "x_inf", r"`x_inf`: .*image_x = inf"),
+    ],
+)
+def test_non_finite_outputs_and_impossible_theta_are_refused(answer, label, message):
+    """An inf output was scored a hit and a θ̂ of 1e9 gave a θ̂ error of 1e8: refused with the
+    detector's label and the frame."""
+    detector = loomlab.PythonDetector(Returns(answer), label=label, threshold=1.0)
+    with pytest.raises(loomlab.DetectorError, match=message):
+        loomlab.run_suite(SUITE, detectors=["soc", detector], limit=1, size=32)
+
+
+def test_angular_size_trigger_without_theta_is_refused():
+    """A detector alarmed on θ̂ that never returns one would never alarm."""
+    detector = loomlab.PythonDetector(NumpySoc(), label="no_theta", threshold=10.0, trigger="angular_size")
+    with pytest.raises(loomlab.DetectorError, match=r"`no_theta`: .*no angular_size_deg, but its trigger is"):
+        loomlab.run_suite(SUITE, detectors=["soc", detector], limit=1, size=32)
+    # None is an answer: no estimate on this frame
+    quiet = loomlab.PythonDetector(
+        Returns({"output": 0.0, "angular_size_deg": None}), label="quiet", threshold=10.0, trigger="angular_size"
+    )
+    report = loomlab.run_suite(SUITE, detectors=["soc", quiet], limit=1, size=32)
+    assert "quiet" in report["detectors"]
+
+
+def test_a_reference_row_label_is_refused_naming_the_python_detector():
+    message = r"PythonDetector `oracle` \(Python detector .*NumpySoc.*reference row"
+    with pytest.raises(loomlab.DetectorError, match=message):
+        loomlab.run_suite(SUITE, detectors=[loomlab.PythonDetector(NumpySoc(), label="oracle", threshold=1)], limit=1)
+
+
+def test_run_suite_refuses_what_the_cli_refuses(tmp_path):
+    with pytest.raises(ValueError, match="limit=0 must be at least 1"):
+        loomlab.run_suite(SUITE, limit=0)
+    with pytest.raises(ValueError, match="jobs=0 must be at least 1"):
+        loomlab.run_suite(SUITE, jobs=0)
+    with pytest.raises(ValueError, match="jobs=-2 must be at least 1"):
+        loomlab.run_suite(SUITE, jobs=-2, out=tmp_path / "run")
+    with pytest.raises(TypeError, match="limit=1.5 must be an int"):
+        loomlab.run_suite(SUITE, limit=1.5)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="resume=True .* give out="):
+        loomlab.run_suite(SUITE, resume=True)
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize("out", [False, True])
+def test_a_nan_in_a_detector_entry_names_the_detector_and_key(tmp_path, out):
+    """It went through JSON or TOML text and came back as "expected value at line 1 column 29"."""
+    kwargs = {"out": tmp_path / "run"} if out else {}
+    message = r"detectors entry 0 \(`soc`\): threshold = nan; numbers must be finite"
+    with pytest.raises(loomlab.ScenarioError, match=message):
+        loomlab.run_suite(SUITE, detectors=[{"id": "soc", "threshold": float("nan")}], limit=1, **kwargs)
+    with pytest.raises(loomlab.ScenarioError, match=r"entry 1 \(`lo`\): params.k\[1\] = inf"):
+        loomlab.run_suite(
+            SUITE, detectors=[{"id": "soc"}, {"id": "soc", "label": "lo", "params": {"k": [1, float("inf")]}}], limit=1
+        )
+
+
+def test_detectors_may_be_one_str():
+    """A str was iterated as a list of one-letter ids ("unknown detector `s`")."""
+    with pytest.raises(loomlab.ScenarioError, match="unknown detector `nosuch`"):
+        loomlab.run_suite(SUITE, detectors="nosuch", limit=1)
+    with pytest.raises(loomlab.ScenarioError, match="unknown detector `nosuch`"):
+        loomlab.run_suite(SUITE, detectors="soc, nosuch", limit=1)
+    report = loomlab.run_suite(SUITE, detectors="soc", limit=1, size=32)
+    assert "soc" in report["detectors"] and "hopfield" not in report["detectors"]
+
+
+def test_python_m_loomlab_run_refuses_a_clashing_label_with_exit_2(tmp_path):
+    """A label clashing with a built-in detector printed a traceback and exited 1 (regressions)."""
+    for label, reason in (("soc", "`soc` is registered already"), ("oracle", "reference row")):
+        p = _cli(
+            tmp_path,
+            "--detector",
+            "my_detectors:NumpySoc",
+            "--label",
+            label,
+            "--limit",
+            "1",
+            "--out",
+            str(tmp_path / "x"),
+        )
+        _, stderr = p.communicate(timeout=120)
+        assert p.returncode == 2, stderr
+        assert "Traceback" not in stderr and stderr.startswith("error: PythonDetector") and reason in stderr, stderr
+
+
+def test_a_second_ctrl_c_stops_run_suite_at_once(tmp_path):
+    """Without out, run_suite waited for the episodes in flight after a second Ctrl-C; now it
+    stops at once with 130, as the CLI's second Ctrl-C does."""
+    (tmp_path / "my_detectors.py").write_text(MODULE)
+    script = (
+        "import sys, loomlab, my_detectors\n"
+        "print('started', flush=True)\n"
+        f"loomlab.run_suite({str(SUITE)!r}, detectors=['soc', loomlab.PythonDetector(my_detectors.Slow)], "
+        "limit=4, size=32, jobs=1)\n"
+    )
+    env = dict(os.environ, PYTHONPATH=str(tmp_path), SLOW_STEP_S="0.2")
+    p = subprocess.Popen(
+        [sys.executable, "-c", script], cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    assert p.stdout is not None and p.stdout.readline().strip() == "started"
+    time.sleep(2.0)  # inside run_suite, in the first episode (a frame takes 0.2 s)
+    p.send_signal(signal.SIGINT)
+    time.sleep(0.5)
+    started = time.monotonic()
+    p.send_signal(signal.SIGINT)
+    _, stderr = p.communicate(timeout=120)
+    assert p.returncode == 130, stderr[-2000:]
+    assert "second interrupt: stopped" in stderr
+    assert time.monotonic() - started < 5.0

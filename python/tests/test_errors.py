@@ -63,7 +63,8 @@ def test_clip_actions_clamps_instead(short_kwargs):
     env = EscapeEnv(clip_actions=True, **short_kwargs)
     env.reset(seed=0)
     obs, *_ = env.step(np.array([5.0, 0.0, -5.0], dtype=np.float32))
-    assert obs["robot"][3] == pytest.approx(3.0) and obs["robot"][5] == pytest.approx(-1.5)
+    # forward: 5 clipped to 1, scaled to 3 m/s, clamped to the robot's max_speed_mps (2)
+    assert obs["robot"][3] == pytest.approx(2.0) and obs["robot"][5] == pytest.approx(-1.5)
     with pytest.raises(loomlab.ActionError):
         env.step(np.array([np.inf, 0.0, 0.0], dtype=np.float32))
 

@@ -2,7 +2,7 @@
 
 use std::sync::Arc;
 
-use loomlab_agents::EscapeAgent;
+use loomlab_agents::{ActionConfig, EscapeAgent};
 use loomlab_detector::Frame;
 use loomlab_sim::GpuContext;
 
@@ -44,9 +44,10 @@ impl EscapeEnv {
     fn build(
         scenario: EnvScenario,
         base: ScenarioEpisodes,
-        options: EnvOptions,
+        mut options: EnvOptions,
         ctx: Arc<GpuContext>,
     ) -> Result<Self, EnvError> {
+        clamp_to_robot(&mut options.action, &base);
         let first = &base.episodes[0];
         let n = first.world.camera.n;
         for key in options.thresholds.keys() {
@@ -104,4 +105,25 @@ impl EscapeEnv {
             base,
         })
     }
+}
+
+/// Clamps the action scales to the drive limits of the episodes' robot (the smallest over the
+/// episodes): a continuous ±1 commands at most `world.robot.max_speed_mps` forward and sideways
+/// and `max_yaw_rate_rps` of yaw, and a discrete dodge at most `max_speed_mps` sideways. The
+/// physics would clamp a faster command anyway (the default `max_forward_mps` 3 m/s drove at
+/// 2 m/s while the observation said 3); clamped here, the command the observation reports is the
+/// one the robot follows.
+fn clamp_to_robot(action: &mut ActionConfig, base: &ScenarioEpisodes) {
+    let robots = base.episodes.iter().map(|e| &e.world.robot);
+    let speed = robots
+        .clone()
+        .map(|r| f64::from(r.max_speed_mps))
+        .fold(f64::INFINITY, f64::min);
+    let yaw = robots
+        .map(|r| f64::from(r.max_yaw_rate_rps))
+        .fold(f64::INFINITY, f64::min);
+    action.max_forward_mps = action.max_forward_mps.min(speed);
+    action.max_lateral_mps = action.max_lateral_mps.min(speed);
+    action.dodge_speed_mps = action.dodge_speed_mps.min(speed);
+    action.max_yaw_rate_rps = action.max_yaw_rate_rps.min(yaw);
 }

@@ -145,6 +145,29 @@ impl EscapeEnv {
         self.prefetcher.hits
     }
 
+    /// Ends the environment's background work: waits for the preparation of the next episode
+    /// (`episode::prefetch`: a thread rendering on the GPU) and drops the running episode. Dropping the
+    /// environment does the same; call it before the process exits when the environment itself
+    /// lives on (a thread rendering on lavapipe while the process exits can crash it). The
+    /// environment stays usable: the next reset computes its episode inline.
+    pub fn close(&mut self) {
+        self.prefetcher.join();
+        self.running = None;
+    }
+
+    /// Background threads of this environment that are still running (0 after
+    /// [`close`](Self::close)).
+    pub fn background_threads(&self) -> usize {
+        self.prefetcher.alive().load(std::sync::atomic::Ordering::SeqCst)
+    }
+
+    /// The live count of this environment's background threads, which outlives the environment
+    /// (tests: dropping the environment joins them).
+    #[cfg(test)]
+    pub(crate) fn background_thread_count(&self) -> Arc<std::sync::atomic::AtomicUsize> {
+        self.prefetcher.alive()
+    }
+
     /// The adapter that renders the frames.
     pub fn adapter(&self) -> String {
         self.ctx.describe()

@@ -13,8 +13,13 @@
 //! computes inline. The results are the same either way (the same functions on the same inputs:
 //! test `prefetched_resets_equal_inline_ones`); in a vector environment a reset no longer holds up
 //! the other environments' step for its open-loop pass.
+//!
+//! The thread never outlives its environment: [`EscapeEnv::close`](crate::EscapeEnv::close) and
+//! dropping the environment join it (a thread still rendering on lavapipe while the process exits
+//! crashes it in LLVM's exit handlers: test `close_joins_the_prefetch_thread`).
 
 use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::thread::JoinHandle;
 
 use loomlab_agents::EscapeController;
@@ -107,6 +112,24 @@ pub(super) struct Prefetcher {
     renderer: Option<Renderer>,
     /// Resets that used a prepared episode.
     pub(super) hits: u64,
+    /// Preparation threads of this prefetcher that have not finished yet (each decrements it as
+    /// its last act).
+    alive: Arc<AtomicUsize>,
+}
+
+/// Decrements a live-thread count when dropped (at the end of the thread, panics included).
+struct AliveGuard(Arc<AtomicUsize>);
+
+impl Drop for AliveGuard {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::SeqCst);
+    }
+}
+
+impl Drop for Prefetcher {
+    fn drop(&mut self) {
+        self.join();
+    }
 }
 
 impl Prefetcher {
@@ -121,6 +144,21 @@ impl Prefetcher {
         let prepared = result.ok().filter(|_| state == rng_state);
         self.hits += u64::from(prepared.is_some());
         prepared
+    }
+
+    /// Waits for the preparation in flight, if any, and drops its work (closing or dropping the
+    /// environment: no thread outlives it).
+    pub(super) fn join(&mut self) {
+        if let Some((_, job)) = self.in_flight.take()
+            && let Ok((_, renderer)) = job.join()
+        {
+            self.renderer = Some(renderer);
+        }
+    }
+
+    /// The count of this prefetcher's preparation threads still running (shared with them).
+    pub(super) fn alive(&self) -> Arc<AtomicUsize> {
+        Arc::clone(&self.alive)
     }
 
     /// The preparations' renderer (created on first use, on [`background_gpu_context`] when there
@@ -168,9 +206,12 @@ impl Prefetcher {
                 Box::new(move || drawn)
             }
         };
+        self.alive.fetch_add(1, Ordering::SeqCst);
+        let guard = AliveGuard(Arc::clone(&self.alive));
         let job = std::thread::Builder::new()
             .name("loomlab-env-prefetch".into())
             .spawn(move || {
+                let _alive = guard;
                 let result = draw().and_then(|drawn| {
                     let open_loop = open_loop(&drawn.spec, drawn.sim_seed, &mut renderer)?;
                     Ok(Prepared { drawn, open_loop })

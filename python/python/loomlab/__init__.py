@@ -19,6 +19,7 @@ optional extra (``pip install 'loomlab[ray]'``) that importing this package neve
 
 from __future__ import annotations
 
+import operator as _operator
 import os as _os
 import tempfile as _tempfile
 from typing import Any, Dict, List, Optional, Sequence, Union
@@ -83,7 +84,7 @@ def run_suite(
     seed: int = 0,
     size: Optional[int] = None,
     limit: Optional[int] = None,
-    detectors: Optional[Sequence[Union[str, Dict[str, Any], PythonDetector]]] = None,
+    detectors: Union[str, Sequence[Union[str, Dict[str, Any], PythonDetector]], None] = None,
     detectors_file: Union[str, "_os.PathLike[str]", None] = None,
     jobs: Optional[int] = None,
     out: Union[str, "_os.PathLike[str]", None] = None,
@@ -99,29 +100,48 @@ def run_suite(
       run instead of each scenario's own list, next to those of ``detectors_file``,
     - :class:`PythonDetector` objects: run in every scenario next to the other rows.
 
+    ``detectors`` may also be one str: an id or a comma list (``"soc,hopfield"``), as ``--detectors``.
+    ``limit`` and ``jobs`` are at least 1, and ``resume=True`` needs ``out``, as the CLI requires
+    (ValueError otherwise); a NaN or infinite value in a dict entry is a ScenarioError naming it.
+
     Without ``out`` nothing is written (Ctrl-C: the episodes in flight finish, then
-    KeyboardInterrupt). With ``out`` it writes the run folder ``loomlab run --out OUT`` writes
-    (episodes.csv as episodes finish, report.json, plots, report.html); Ctrl-C stops it as the CLI's
-    does (every finished episode is saved, KeyboardInterrupt is raised) and ``resume=True``
-    continues it. For many parameter settings use :mod:`loomlab.sweep`.
+    KeyboardInterrupt; a second Ctrl-C stops the process at once with exit code 130, as the CLI's).
+    With ``out`` it writes the run folder ``loomlab run --out OUT`` writes (episodes.csv as
+    episodes finish, report.json, plots, report.html); Ctrl-C stops it as the CLI's does (every
+    finished episode is saved, KeyboardInterrupt is raised) and ``resume=True`` continues it.
+    For many parameter settings use :mod:`loomlab.sweep`.
     """
     import json
 
     ids: Optional[List[str]] = None
     entries: List[Dict[str, Any]] = []
     python: List[PythonDetector] = []
+    if isinstance(detectors, (str, PythonDetector, dict)):
+        # one id, a comma list as the CLI's --detectors, or one entry: not a sequence to iterate
+        if isinstance(detectors, str):
+            detectors = [d.strip() for d in detectors.split(",") if d.strip()]
+        else:
+            detectors = [detectors]
     for d in detectors if detectors is not None else []:
         if isinstance(d, PythonDetector):
             python.append(d)
         elif isinstance(d, str):
             ids = (ids or []) + [d]
         elif isinstance(d, dict):
+            _check_entry(len(entries), d)
             entries.append(d)
         else:
             raise TypeError(
                 f"run_suite: detectors holds {d!r}; give ids (str), [[detectors]] entries (dict) or "
                 "loomlab.PythonDetector objects"
             )
+    limit = _at_least_one("limit", limit, "the number of episodes to run; None: all of them", "--limit")
+    jobs = _at_least_one("jobs", jobs, "episodes run in parallel; None: one per CPU", "--jobs")
+    if resume and out is None:
+        raise ValueError(
+            "run_suite: resume=True continues the run folder given as out=...; give out= (the folder of the "
+            "interrupted run)"
+        )
     if out is not None:
         return _run_to_folder(suite, seed, size, limit, ids, entries, python, detectors_file, jobs, out, resume)
     text = _native.run_suite(
@@ -137,6 +157,45 @@ def run_suite(
     )
     result: Dict[str, Any] = json.loads(text)
     return result
+
+
+def _at_least_one(name: str, value: Any, meaning: str, flag: str) -> Optional[int]:
+    """``value`` as an int >= 1 (``None`` stays ``None``), else ValueError (the CLI's ``flag`` refuses it too)."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int):
+        try:
+            value = _operator.index(value)
+        except TypeError:
+            raise TypeError(f"run_suite: {name}={value!r} must be an int >= 1 ({meaning})") from None
+    if value < 1:
+        raise ValueError(
+            f"run_suite: {name}={value} must be at least 1 ({meaning}; `loomlab run {flag}` refuses it too)"
+        )
+    return int(value)
+
+
+def _check_entry(index: int, entry: Dict[str, Any]) -> None:
+    """Refuses a ``[[detectors]]`` dict holding a value that neither TOML nor JSON can carry (NaN,
+    ±inf): the error names the entry, the key and the value."""
+    import math
+
+    def walk(key: str, v: Any) -> None:
+        if isinstance(v, float) and not math.isfinite(v):
+            name = entry.get("label", entry.get("id", "?"))
+            raise ScenarioError(
+                f"run_suite: detectors entry {index} (`{name}`): {key} = {v}; numbers must be finite "
+                "(give a finite threshold, or leave the key out for the detector's default)"
+            )
+        if isinstance(v, dict):
+            for k, x in v.items():
+                walk(f"{key}.{k}", x)
+        elif isinstance(v, (list, tuple)):
+            for i, x in enumerate(v):
+                walk(f"{key}[{i}]", x)
+
+    for k, v in entry.items():
+        walk(str(k), v)
 
 
 def _run_to_folder(suite, seed, size, limit, ids, entries, python, detectors_file, jobs, out, resume) -> Dict[str, Any]:

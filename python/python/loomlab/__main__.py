@@ -77,7 +77,13 @@ def main(argv: Optional[List[str]] = None) -> int:
     except (ValueError, TypeError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    return _native.run_cli(rest, detectors, [sys.executable, "-m", "loomlab", *argv])
+    try:
+        return _native.run_cli(rest, detectors, [sys.executable, "-m", "loomlab", *argv])
+    except _native.LoomlabError as e:
+        # refused before the run (a label clashing with a built-in detector or a reference row):
+        # bad input, exit 2 as `loomlab run` (1 means regressions)
+        print(f"error: {e}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

@@ -9,9 +9,11 @@ See the package README for the observation, action and reward definitions.
 
 from __future__ import annotations
 
+import atexit
 import json
 import math
 import os
+import weakref
 from dataclasses import asdict, dataclass
 from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
 
@@ -24,6 +26,21 @@ from . import _native
 from ._native import ActionError, ScenarioError
 
 __all__ = ["EscapeEnv", "RewardConfig", "ActionConfig", "build_options", "make_spaces"]
+
+_OPEN: "weakref.WeakSet[Any]" = weakref.WeakSet()
+"""The environments (single and vector) not closed yet: closed at interpreter exit."""
+
+
+@atexit.register
+def _close_open_envs() -> None:
+    """Closes every environment still open, which joins its background threads (a thread still
+    rendering on lavapipe while the interpreter exits can crash it with a segfault)."""
+    for env in list(_OPEN):
+        try:
+            env.close()
+        except Exception:  # pragma: no cover - best effort at exit
+            pass
+
 
 DISCRETE_ACTIONS: Tuple[str, ...] = tuple(_native.DISCRETE_ACTIONS)
 """Names of the discrete actions, by index (Rust ``DiscreteAction::ALL``)."""
@@ -435,6 +452,7 @@ class EscapeEnv(gym.Env):
             render_mode=render_mode,
         )
         self._native = _native.EscapeEnv(self._kwargs["scenario"], scenario_toml, _native_options(self._kwargs))
+        _OPEN.add(self)
         self.observation_space, self.action_space = make_spaces(self._native)
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=int(round(1.0 / self._native.dt)))
@@ -518,9 +536,12 @@ class EscapeEnv(gym.Env):
         return np.repeat(frame[:, :, None], 3, axis=2)
 
     def close(self) -> None:
-        """Releases the renderer and the episode; ``reset``, ``step`` and ``render`` then raise
-        ``gymnasium.error.ClosedEnvironmentError``. Closing twice is allowed."""
+        """Releases the renderer and the episode and joins the background thread that prepares the
+        next episode; ``reset``, ``step`` and ``render`` then raise
+        ``gymnasium.error.ClosedEnvironmentError``. Closing twice is allowed. Environments still
+        open when the interpreter exits are closed then."""
         self._native.close()
+        _OPEN.discard(self)
 
     @property
     def closed(self) -> bool:

@@ -22,6 +22,7 @@ from gymnasium.vector.utils import batch_space
 from . import _native
 from ._native import ActionError, ScenarioError
 from .env import (
+    _OPEN,
     ActionConfig,
     RewardConfig,
     _constructor_kwargs,
@@ -96,6 +97,7 @@ class EscapeVectorEnv(VectorEnv):
         self._native = _native.EscapeVectorEnv(
             int(num_envs), self._kwargs["scenario"], scenario_toml, _native_options(self._kwargs)
         )
+        _OPEN.add(self)
         self.num_envs = int(num_envs)
         self.single_observation_space, self.single_action_space = make_spaces(self._native)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
@@ -190,8 +192,10 @@ class EscapeVectorEnv(VectorEnv):
         return np.repeat(frames[..., None], 3, axis=3)
 
     def close_extras(self, **kwargs: Any) -> None:
-        """Releases every environment's renderer and episode (``close()`` calls it once)."""
+        """Releases every environment's renderer and episode and joins their background threads
+        (``close()`` calls it once; environments still open at interpreter exit are closed then)."""
         self._native.close()
+        _OPEN.discard(self)
 
     def _check_open(self, what: str) -> None:
         if self.closed or self._native.closed:
