@@ -768,16 +768,16 @@ fn a_resume_after_the_suite_changed_suggests_what_works() {
 
 #[test]
 fn a_resume_of_a_huge_suite_starts_at_once_and_its_check_can_be_interrupted() {
-    // a million episodes (one random draw each): a fresh run checks every one before it starts
-    // (tens of seconds); a resume of the same suite continues at once
+    // 300 000 episodes (one random draw each): a fresh run checks every one before it starts
+    // (seconds; 10 s for a million); a resume of the same suite continues without that check
     let dir = tmp("huge");
     let suite = dir.join("huge");
     std::fs::create_dir_all(&suite).unwrap();
     let huge = BALL.replace(
         "[sweep]\n\"world.projectiles.0.miss_distance_m\" = [0.0, 0.1, 0.6, 1.0, 1.5, 2.0]",
-        "[random]\nsamples = 1000000\n\"world.projectiles.0.miss_distance_m\" = { min = 0.0, max = 2.0 }",
+        "[random]\nsamples = 300000\n\"world.projectiles.0.miss_distance_m\" = { min = 0.0, max = 2.0 }",
     );
-    assert!(huge.contains("samples = 1000000"));
+    assert!(huge.contains("samples = 300000"));
     std::fs::write(suite.join("huge.toml"), huge).unwrap();
     let out = dir.join("out");
     let args = [
@@ -808,7 +808,6 @@ fn a_resume_of_a_huge_suite_starts_at_once_and_its_check_can_be_interrupted() {
     assert!(!early.join("manifest.json").exists());
 
     // a fresh run, interrupted after its first episodes
-    let started = Instant::now();
     let child = loomlab_command()
         .args(args)
         .stdout(Stdio::piped())
@@ -816,14 +815,13 @@ fn a_resume_of_a_huge_suite_starts_at_once_and_its_check_can_be_interrupted() {
         .spawn()
         .unwrap();
     wait_until(600, "the fresh run did not start its episodes", || row_count(&out) > 0);
-    let fresh = started.elapsed();
     interrupt(&child);
     let o = child.wait_with_output().unwrap();
     assert_eq!(o.status.code(), Some(130), "{}", text(&o.stderr));
     let done = row_count(&out);
 
-    // --resume gets to episode work at once (no second check of the million episodes)
-    let started = Instant::now();
+    // --resume gets to episode work without a second check of the episodes (the bound only
+    // guards against a hang)
     let child = loomlab_command()
         .args([&args[..], &["--resume"]].concat())
         .stdout(Stdio::piped())
@@ -833,15 +831,14 @@ fn a_resume_of_a_huge_suite_starts_at_once_and_its_check_can_be_interrupted() {
     wait_until(60, "the resume did not get to its episodes within 60 s", || {
         row_count(&out) > done
     });
-    let resumed = started.elapsed();
     interrupt(&child);
     let o = child.wait_with_output().unwrap();
     let e = text(&o.stderr);
     assert_eq!(o.status.code(), Some(130), "{e}");
     assert!(e.contains("interrupted:") && e.contains("--resume"), "{e}");
     assert!(
-        resumed * 3 < fresh,
-        "the resume took {resumed:?} to start, the fresh run (which checks every episode) {fresh:?}"
+        e.contains("its 300000 episodes were checked then, not again") && !e.contains("checking"),
+        "{e}"
     );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -509,7 +509,7 @@ fn parse_range(here: &str, spec: Value) -> Result<RandomRange, KeyError> {
                 return Err((
                     here.into(),
                     format!(
-                        "the range from min = {a} to max = {b} is wider than the largest number ({:e}); narrow it",
+                        "the range from min = {a:e} to max = {b:e} is wider than the largest number ({:e}); narrow it",
                         f64::MAX
                     ),
                 ));

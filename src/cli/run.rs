@@ -764,6 +764,12 @@ fn run_fingerprint(
         None
     };
     if let Some(m) = earlier.filter(|m| m.definition == manifest.definition && m.episodes == manifest.episodes) {
+        if !args.quiet {
+            errln!(
+                "the suite is defined as when the run started: its {} episodes were checked then, not again",
+                manifest.episodes
+            );
+        }
         return Ok(Some(m.fingerprint));
     }
     let checked = check_episodes(suite, manifest.episodes, stop, args.quiet)?;
