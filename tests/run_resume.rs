@@ -685,8 +685,7 @@ fn a_second_run_into_a_folder_in_use_is_refused_and_the_first_stays_true() {
 fn a_full_disk_leaves_a_resumable_run_and_no_temporary_file() {
     // LOOMLAB_TEST_DISK_BYTES: the run's writers see a disk with that many bytes free (the
     // manifest, written.txt and episodes.csv fit, under 1 kB, then the first episode's plot
-    // samples, about 5.6 kB); once full, every later write fails too, the manifest's last update
-    // included
+    // samples, about 5.6 kB); once full, every later write that needs new space fails too
     let dir = tmp("full");
     let suite = suite(&dir);
     let out = dir.join("out");
@@ -710,8 +709,8 @@ fn a_full_disk_leaves_a_resumable_run_and_no_temporary_file() {
     assert!(e.contains("No space left on device"), "{e}");
     assert!(e.contains("resume with:") && e.contains("--resume"), "{e}");
     assert_eq!(tmp_files(&out), Vec::<String>::new(), "temporary files left");
-    // the manifest could not be updated: it is the last one written, whole
-    assert_eq!(manifest_state(&out), "running");
+    // the manifest's last update fits in the blocks it has: rewritten in place, it says so
+    assert_eq!(manifest_state(&out), "interrupted");
     let before = rows(&out);
     assert!(
         !before.is_empty(),
