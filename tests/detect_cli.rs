@@ -15,10 +15,15 @@ fn scratch(name: &str) -> PathBuf {
 const STIMULUS: &str = "[stimulus]\nsize = 64\nfov_deg = 20.0\n\n[object]\nstart_distance_m = 6.0\nend_distance_m = 2.0\n\n[background]\nluminance = 0.0\n";
 
 fn detect(stimulus: &Path, out: &Path, extra: &[&str]) -> (Option<i32>, String) {
+    detect_input("--stimulus", stimulus, out, extra)
+}
+
+/// Runs `loomlab detect INPUT_FLAG INPUT --out OUT` with extra flags; (exit code, stderr).
+fn detect_input(input_flag: &str, input: &Path, out: &Path, extra: &[&str]) -> (Option<i32>, String) {
     let mut args = vec![
         "detect",
-        "--stimulus",
-        stimulus.to_str().unwrap(),
+        input_flag,
+        input.to_str().unwrap(),
         "--out",
         out.to_str().unwrap(),
     ];
@@ -266,23 +271,9 @@ fn efference_csv_with_ambiguous_duplicate_or_marked_columns() {
     assert!((poses[1].yaw_rad - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
 }
 
-/// Runs `loomlab detect --video VIDEO` with extra flags; (exit code, stderr).
+/// `loomlab detect --video VIDEO -d soc` with extra flags; (exit code, stderr).
 fn detect_video(video: &Path, out: &Path, extra: &[&str]) -> (Option<i32>, String) {
-    let mut args = vec![
-        "detect",
-        "--video",
-        video.to_str().unwrap(),
-        "-d",
-        "soc",
-        "--out",
-        out.to_str().unwrap(),
-    ];
-    args.extend_from_slice(extra);
-    let o = Command::new(env!("CARGO_BIN_EXE_loomlab"))
-        .args(&args)
-        .output()
-        .unwrap();
-    (o.status.code(), String::from_utf8_lossy(&o.stderr).into_owned())
+    detect_input("--video", video, out, &[&["-d", "soc"], extra].concat())
 }
 
 #[test]

@@ -367,6 +367,20 @@ fn start_running(args: &[&str], out: &Path) -> std::process::Child {
     child
 }
 
+/// `loomlab run SUITE --out OUT` on one worker, without plots or page: the quickest full run.
+fn quick_args<'a>(suite: &'a Path, out: &'a Path) -> [&'a str; 8] {
+    [
+        "run",
+        s(suite),
+        "--out",
+        s(out),
+        "--jobs",
+        "1",
+        "--no-html",
+        "--no-plots",
+    ]
+}
+
 fn interrupt(child: &std::process::Child) {
     let killed = Command::new("kill")
         .args(["-INT", &child.id().to_string()])
@@ -381,16 +395,7 @@ fn an_interrupt_stops_an_episode_in_flight_and_a_second_one_keeps_the_state_true
     let suite = long_suite(&dir);
     // one interrupt: the episode in flight gives up, the run is interrupted (not finished)
     let out = dir.join("one");
-    let args = [
-        "run",
-        s(&suite),
-        "--out",
-        s(&out),
-        "--jobs",
-        "1",
-        "--no-html",
-        "--no-plots",
-    ];
+    let args = quick_args(&suite, &out);
     let child = start_running(&args, &out);
     interrupt(&child);
     let o = child.wait_with_output().unwrap();
@@ -405,16 +410,7 @@ fn an_interrupt_stops_an_episode_in_flight_and_a_second_one_keeps_the_state_true
     assert!(rows(&out).is_empty());
     // two interrupts: the state is `interrupted`, not `running`, and no stale partial report
     let out = dir.join("two");
-    let args = [
-        "run",
-        s(&suite),
-        "--out",
-        s(&out),
-        "--jobs",
-        "1",
-        "--no-html",
-        "--no-plots",
-    ];
+    let args = quick_args(&suite, &out);
     let child = start_running(&args, &out);
     interrupt(&child);
     interrupt(&child);
@@ -689,16 +685,7 @@ fn a_full_disk_leaves_a_resumable_run_and_no_temporary_file() {
     let dir = tmp("full");
     let suite = suite(&dir);
     let out = dir.join("out");
-    let args = [
-        "run",
-        s(&suite),
-        "--out",
-        s(&out),
-        "--jobs",
-        "1",
-        "--no-html",
-        "--no-plots",
-    ];
+    let args = quick_args(&suite, &out);
     let o = loomlab_command()
         .args(args)
         .env("LOOMLAB_TEST_DISK_BYTES", "9000")
@@ -779,16 +766,7 @@ fn a_resume_of_a_huge_suite_starts_at_once_and_its_check_can_be_interrupted() {
     assert!(huge.contains("samples = 300000"));
     std::fs::write(suite.join("huge.toml"), huge).unwrap();
     let out = dir.join("out");
-    let args = [
-        "run",
-        s(&suite),
-        "--out",
-        s(&out),
-        "--jobs",
-        "1",
-        "--no-html",
-        "--no-plots",
-    ];
+    let args = quick_args(&suite, &out);
 
     // Ctrl-C while the episodes are checked: the normal interrupt, nothing written
     let early = dir.join("early");
