@@ -367,7 +367,7 @@ fn a_dodge_on_a_differential_drive_turns_away_and_drives_instead_of_sidestepping
 /// relative to a camera that may itself drive forward.
 mod strategies {
     use loomlab_agents::{
-        Course, Decision, DodgeSide, Ego, EscapeConfig, EscapeController, ImageExtent, Percept, Strategy,
+        Course, Decision, DodgeSide, SelfMotion, EscapeConfig, EscapeController, ImageExtent, Percept, Decider,
         TriggerSignal, VelocityCommand,
     };
 
@@ -405,11 +405,11 @@ mod strategies {
             let closing = -(self.u[0] - self.camera_vx);
             (x.hypot(y) - self.r) / closing
         }
-        fn ego(&self) -> Ego {
-            Ego {
+        fn ego(&self) -> SelfMotion {
+            SelfMotion {
                 yaw_rate_rps: 0.0,
                 forward_mps: self.camera_vx,
-                ..Ego::default()
+                ..SelfMotion::default()
             }
         }
     }
@@ -427,7 +427,7 @@ mod strategies {
     /// Runs the strategy over the approach until the sphere is within `stop_m` of the camera;
     /// returns (t, θ, decision) per frame.
     fn run(cfg: &EscapeConfig, a: &Approach, stop_m: f64) -> Vec<(f64, f64, loomlab_agents::Decision)> {
-        let mut s: Strategy = cfg.strategy();
+        let mut s: Decider = cfg.decider();
         let mut out = Vec::new();
         for k in 0..2000 {
             let t = k as f64 * DT;
@@ -436,7 +436,7 @@ mod strategies {
                 break;
             }
             let p = a.percept(t);
-            out.push((t, p.value, s.update(t, p, a.ego())));
+            out.push((t, p.value, s.decide(t, p, a.ego())));
         }
         out
     }
@@ -477,28 +477,28 @@ mod strategies {
         // compensated Hopfield read-out in car_oncoming): no estimate followed by one, not an
         // expansion; ln θ̂ across the jump would give τ̂ ≈ 1 ms and an alarm
         let cfg = config(Course::Off);
-        let mut s = cfg.strategy();
+        let mut s = cfg.decider();
         let mut theta: f64 = 1e-3;
         for k in 0..60 {
             theta /= 2.0;
-            let d = s.update(
+            let d = s.decide(
                 k as f64 * DT,
                 Percept {
                     value: theta.max(1e-30),
                     ..Percept::default()
                 },
-                Ego::default(),
+                SelfMotion::default(),
             );
             assert_eq!(d.value, 0.0);
         }
         for (k, theta) in [(60, 5.0), (61, 2.5), (62, 1.25), (63, 0.6)] {
-            let d = s.update(
+            let d = s.decide(
                 k as f64 * DT,
                 Percept {
                     value: theta,
                     ..Percept::default()
                 },
-                Ego::default(),
+                SelfMotion::default(),
             );
             assert_eq!(d.value, 0.0, "frame {k}: θ̂ {theta}°, τ̂ {:?}", d.tau_s);
         }
@@ -510,47 +510,47 @@ mod strategies {
         // in one frame. Across the jump ln θ̂ would give τ̂ of a few frames and an alarm; after it
         // the window holds only the new hypothesis's frames
         let cfg = config(Course::Off);
-        let mut s = cfg.strategy();
+        let mut s = cfg.decider();
         let theta = |k: usize| 5.0 * (k as f64 * DT / 3.0).exp();
         for k in 0..40 {
-            let d = s.update(
+            let d = s.decide(
                 k as f64 * DT,
                 Percept {
                     value: theta(k),
                     ..Percept::default()
                 },
-                Ego::default(),
+                SelfMotion::default(),
             );
             assert!(d.value < cfg.alarm_threshold(), "frame {k}: τ̂ {:?}", d.tau_s);
         }
         for k in 40..80 {
-            let d = s.update(
+            let d = s.decide(
                 k as f64 * DT,
                 Percept {
                     value: 2.0 * theta(k),
                     ..Percept::default()
                 },
-                Ego::default(),
+                SelfMotion::default(),
             );
             assert!(d.value < cfg.alarm_threshold(), "frame {k}: τ̂ {:?}", d.tau_s);
-            if k >= 40 + loomlab_agents::strategy::MIN_SAMPLES + 2 {
+            if k >= 40 + loomlab_agents::decision::MIN_SAMPLES + 2 {
                 let tau = d.tau_s.expect("an estimate from the new frames");
                 assert!((tau - 3.0).abs() < 0.5, "frame {k}: τ̂ {tau}");
             }
         }
         // a jump just below the ratio is growth: it is fitted (τ̂ of a few frames)
-        let mut s = cfg.strategy();
+        let mut s = cfg.decider();
         let mut last = f64::NAN;
         for k in 0..45 {
             let value = if k < 40 { theta(k) } else { theta(k) * 1.25 };
             last = s
-                .update(
+                .decide(
                     k as f64 * DT,
                     Percept {
                         value,
                         ..Percept::default()
                     },
-                    Ego::default(),
+                    SelfMotion::default(),
                 )
                 .value;
         }
@@ -617,7 +617,7 @@ mod strategies {
     /// The approach's second axis taken as height: the object is seen straight ahead in azimuth,
     /// at the elevation of its centre.
     fn run_vertical(cfg: &EscapeConfig, a: &Approach) -> Vec<(f64, f64, loomlab_agents::Decision)> {
-        let mut s: Strategy = cfg.strategy();
+        let mut s: Decider = cfg.decider();
         let mut out = Vec::new();
         for k in 0..2000 {
             let t = k as f64 * DT;
@@ -631,7 +631,7 @@ mod strategies {
                 elevation_deg: Some(z.atan2(x).to_degrees()),
                 extent: None,
             };
-            out.push((t, p.value, s.update(t, p, a.ego())));
+            out.push((t, p.value, s.decide(t, p, a.ego())));
         }
         out
     }
@@ -733,7 +733,7 @@ mod strategies {
     /// Runs the gate on a box driving at `speed` along −x, its centre `lateral_m` to the side of
     /// the camera (positive left) and `height_m` above it; the camera stands.
     fn run_box(cfg: &EscapeConfig, lateral_m: f64, height_m: f64, h: [f64; 3], speed: f64) -> Vec<(f64, Decision)> {
-        let mut s: Strategy = cfg.strategy();
+        let mut s: Decider = cfg.decider();
         let mut out = Vec::new();
         for k in 0..2000 {
             let t = k as f64 * DT;
@@ -741,7 +741,7 @@ mod strategies {
             if x - h[0] < 0.3 {
                 break;
             }
-            out.push((t, s.update(t, box_percept([x, lateral_m, height_m], h), Ego::default())));
+            out.push((t, s.decide(t, box_percept([x, lateral_m, height_m], h), SelfMotion::default())));
         }
         out
     }
@@ -756,7 +756,7 @@ mod strategies {
         let passing_car = run_box(&cfg, w + 1.0 + car[1], 0.4, car, 6.0);
         assert!(passing_car.iter().all(|(_, d)| d.value < cfg.alarm_threshold()));
         // judged as a sphere of its angular size (no image extent, as for a detector row) it passes
-        let mut sphere = cfg.strategy();
+        let mut sphere = cfg.decider();
         let sphere_alarms = (0..2000).any(|k| {
             let t = k as f64 * DT;
             let x = 20.0 - 6.0 * t;
@@ -764,7 +764,7 @@ mod strategies {
                 extent: None,
                 ..box_percept([x, w + 1.0 + car[1], 0.4], car)
             };
-            x - car[0] >= 0.3 && sphere.update(t, p, Ego::default()).value >= cfg.alarm_threshold()
+            x - car[0] >= 0.3 && sphere.decide(t, p, SelfMotion::default()).value >= cfg.alarm_threshold()
         });
         assert!(
             sphere_alarms,
@@ -803,7 +803,7 @@ mod strategies {
             25.0 - 6.0 * tb - 6.0 * after + if brake { 1.5 * after * after } else { 0.0 }
         };
         for brake in [true, false] {
-            let mut s = cfg.strategy();
+            let mut s = cfg.decider();
             let mut alarm = false;
             let mut rate = None;
             for k in 0..480 {
@@ -818,7 +818,7 @@ mod strategies {
                     elevation_deg: None,
                     extent: None,
                 };
-                let decision = s.update(t, p, Ego::default());
+                let decision = s.decide(t, p, SelfMotion::default());
                 alarm |= decision.value >= cfg.alarm_threshold();
                 if (1.4..1.5).contains(&t) {
                     rate = decision.tau_rate;
@@ -844,7 +844,7 @@ mod strategies {
         // z = vz·t − g·t²/2 with vz = g (so z = 0 at t = 2 s); the camera pitches ±1.5° at 4 Hz
         let r = 0.2;
         let run = |aim_z: f64, shake: bool| {
-            let mut s = cfg.strategy();
+            let mut s = cfg.decider();
             let mut first = None;
             for k in 0..240 {
                 let t = k as f64 * DT;
@@ -869,11 +869,11 @@ mod strategies {
                         elevation_deg: [el - half, el + half],
                     }),
                 };
-                let ego = Ego {
+                let ego = SelfMotion {
                     camera_pitch_rad: pitch,
-                    ..Ego::default()
+                    ..SelfMotion::default()
                 };
-                let d = s.update(t, p, ego);
+                let d = s.decide(t, p, ego);
                 if d.value >= cfg.alarm_threshold() && first.is_none() {
                     first = Some(t);
                 }
@@ -941,7 +941,7 @@ mod strategies {
         let mut trigger = None;
         for k in 0..200 {
             let t = k as f64 * DT;
-            let v = c.perceive(t, a.percept(t), cruise).value;
+            let v = c.perceive(t, a.percept(t), cruise, [0.0; 3]).value;
             if c.step(t, v, Some(0.5), cruise).1.is_trigger() {
                 trigger = Some(t);
                 break;
@@ -951,7 +951,7 @@ mod strategies {
         assert!((a.surface_ttc(t) - 1.0).abs() < 0.05);
         // reset forgets the window
         c.reset();
-        assert_eq!(c.perceive(0.0, a.percept(0.0), cruise).value, 0.0);
+        assert_eq!(c.perceive(0.0, a.percept(0.0), cruise, [0.0; 3]).value, 0.0);
     }
 
     #[test]
@@ -1377,7 +1377,7 @@ mod replay_on_signals {
 
 /// The decision values of a persistence rule (K, window M) over raw values, one frame at 120 Hz.
 fn persisted(trigger: TriggerSignal, k: usize, m: Option<usize>, raw: &[f64]) -> Vec<f64> {
-    use loomlab_agents::{Ego, Percept};
+    use loomlab_agents::{SelfMotion, Percept};
     let cfg = EscapeConfig {
         trigger,
         persistence_frames: k,
@@ -1385,7 +1385,7 @@ fn persisted(trigger: TriggerSignal, k: usize, m: Option<usize>, raw: &[f64]) ->
         ..Default::default()
     };
     cfg.validate().unwrap();
-    let mut s = cfg.strategy();
+    let mut s = cfg.decider();
     raw.iter()
         .enumerate()
         .map(|(i, &v)| {
@@ -1393,7 +1393,7 @@ fn persisted(trigger: TriggerSignal, k: usize, m: Option<usize>, raw: &[f64]) ->
                 value: v,
                 ..Default::default()
             };
-            s.update(i as f64 / 120.0, p, Ego::default()).value
+            s.decide(i as f64 / 120.0, p, SelfMotion::default()).value
         })
         .collect()
 }
@@ -1420,7 +1420,7 @@ fn persistence_is_the_minimum_of_the_last_frames_for_any_threshold() {
         }
     }
     // bounded, and named in the error
-    for k in [0, loomlab_agents::escape::MAX_PERSISTENCE_FRAMES + 1] {
+    for k in [0, loomlab_agents::decision::MAX_PERSISTENCE_FRAMES + 1] {
         let e = EscapeConfig {
             persistence_frames: k,
             ..Default::default()
@@ -1466,7 +1466,7 @@ fn a_persistence_window_alarms_on_any_k_of_the_last_m_frames_for_any_threshold()
         assert!(values[7] >= 5.0 && run(k, None)[7] < 5.0, "{values:?}");
     }
     // at least K and bounded, named in the error
-    for (k, m) in [(3, 2), (3, loomlab_agents::escape::MAX_PERSISTENCE_FRAMES + 1)] {
+    for (k, m) in [(3, 2), (3, loomlab_agents::decision::MAX_PERSISTENCE_FRAMES + 1)] {
         let e = EscapeConfig {
             persistence_frames: k,
             persistence_window_frames: Some(m),

@@ -1,6 +1,6 @@
 //! The ideal reference rows on analytic ground truth.
 
-use loomlab_agents::{Ego, EscapeConfig};
+use loomlab_agents::{EscapeConfig, SelfMotion};
 use loomlab_scenarios::reference::{IdealKind, IdealObserver};
 use loomlab_sim::{ObjectKind, ObjectTruth};
 
@@ -48,7 +48,7 @@ fn ideal_tau_alarms_within_three_frames_of_a_late_launch_and_dodges_from_where_t
     let mut alarm = None;
     for k in 0..120 {
         let t = f64::from(k) / HZ;
-        let (value, side, _) = observer.update(t, &[ball(t, launch_s)], Ego::default());
+        let (value, side, _) = observer.update(t, &[ball(t, launch_s)], SelfMotion::default());
         if t < launch_s {
             assert!(value < threshold, "no alarm before the launch (t = {t}, value {value})");
         } else if value >= threshold {

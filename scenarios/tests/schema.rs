@@ -656,7 +656,7 @@ fn tau_and_course_strategies_need_theta_and_their_own_keys() {
     assert!((c.tau_threshold_s - 0.8).abs() < 1e-12);
     assert_eq!(c.min_angular_size_deg, 2.0);
     assert_eq!(c.course, loomlab_agents::Course::Image);
-    assert!(d.is_strategy());
+    assert!(d.is_stateful());
     assert_eq!(c.persistence_frames, 1);
     // persistence makes any row a strategy row, and reaches its controller
     let s = parse(&format!(
@@ -664,7 +664,7 @@ fn tau_and_course_strategies_need_theta_and_their_own_keys() {
     ))
     .unwrap();
     let ep = s.episode(0).unwrap();
-    assert!(ep.detectors[0].is_strategy());
+    assert!(ep.detectors[0].is_stateful());
     assert_eq!(ep.detectors[0].controller(&ep.controller).persistence_frames, 5);
     // a persistence window reaches it too (absent: the consecutive rule, M = K)
     assert_eq!(
@@ -683,7 +683,7 @@ fn tau_and_course_strategies_need_theta_and_their_own_keys() {
     ))
     .unwrap();
     assert!(
-        s.episode(0).unwrap().detectors[0].is_strategy(),
+        s.episode(0).unwrap().detectors[0].is_stateful(),
         "1 of 4 frames is a strategy"
     );
     // `angular_size` is today's trigger
@@ -695,7 +695,7 @@ fn tau_and_course_strategies_need_theta_and_their_own_keys() {
         s.episode(0).unwrap().detectors[0].trigger,
         TriggerSignal::AngularSizeDeg
     );
-    assert!(!s.episode(0).unwrap().detectors[0].is_strategy());
+    assert!(!s.episode(0).unwrap().detectors[0].is_stateful());
     for (entry, key, needle) in [
         ("id = \"soc\"\ntrigger = \"tau\"", "trigger", "θ̂"),
         ("id = \"fu2020\"\ncourse = \"image\"", "course", "θ̂"),

@@ -1,10 +1,10 @@
 //! The reference rows of an episode and the closed loops of its ideal observers.
 
-use loomlab_agents::{Ego, EscapeAgent, EscapeConfig, TriggerSignal, VelocityCommand};
+use loomlab_agents::{EscapeAgent, EscapeConfig, SelfMotion, TriggerSignal, VelocityCommand};
 use loomlab_sim::{ObjectTruth, Sim};
 
 use super::Ctx;
-use super::ego::open_loop_ego;
+use super::motion::open_loop_motion;
 use super::rows::{Row, Tail};
 use super::trace::ClosedLoop;
 use crate::deadline::EscapeDeadline;
@@ -36,8 +36,8 @@ pub(super) fn ideal_tail(
     })?;
     let camera = sim.camera().clone();
     let mut decide = |agent: &mut EscapeAgent, t: f64, truth: &[ObjectTruth], applied: VelocityCommand| {
-        let ego = Ego::of(applied, camera.shake_rotation(t));
-        let (value, side, object) = observer.update(t, truth, ego);
+        let motion = SelfMotion::of(applied, camera.shake_rotation(t));
+        let (value, side, object) = observer.update(t, truth, motion);
         agent
             .decide_about(t, side, value, object, ep.cruise.command_at(t))
             .command
@@ -128,7 +128,7 @@ pub(super) fn reference_rows<'a>(
             let mut observer = observer();
             (0..frames)
                 .map(|k| {
-                    let ego = open_loop_ego(ep, t_s, k, camera.as_ref());
+                    let motion = open_loop_motion(ep, t_s, k, camera.as_ref());
                     let objects = match only {
                         Some(id) => truth[k]
                             .iter()
@@ -136,7 +136,7 @@ pub(super) fn reference_rows<'a>(
                             .map_or(&[][..], std::slice::from_ref),
                         None => &truth[k][..],
                     };
-                    observer.update(t_s[k], objects, ego).0
+                    observer.update(t_s[k], objects, motion).0
                 })
                 .collect()
         };

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use loomlab_agents::escape::MAX_PERSISTENCE_FRAMES;
+use loomlab_agents::decision::MAX_PERSISTENCE_FRAMES;
 use loomlab_agents::{Course, EscapeConfig, TriggerSignal};
 use loomlab_detector::{Detector, DetectorError, DetectorParams, Registration, Registry, Signal};
 use loomlab_sim::WorldDesc;
@@ -33,7 +33,7 @@ pub struct DetectorSpec {
     /// Which signal is compared with the threshold.
     pub trigger: TriggerSignal,
     /// Alarm threshold: an alarm is `signal >= threshold`, the signal being the decision value of
-    /// the row's strategy (for `trigger = "tau"` the urgency 1/τ̂, so this is `1 / tau_threshold_s`
+    /// the row's decider (for `trigger = "tau"` the urgency 1/τ̂, so this is `1 / tau_threshold_s`
     /// in s⁻¹).
     pub threshold: f64,
     /// `trigger = "tau"`: the smallest θ̂ for an alarm (degrees; `None`: the controller's).
@@ -56,7 +56,8 @@ impl DetectorSpec {
         self.params.build(n)
     }
 
-    /// The escape controller's configuration for this detector.
+    /// The escape controller's configuration for this detector: `base` with this row's decision
+    /// rule.
     pub fn controller(&self, base: &EscapeConfig) -> EscapeConfig {
         EscapeConfig {
             trigger: self.trigger,
@@ -74,10 +75,10 @@ impl DetectorSpec {
         }
     }
 
-    /// Whether this row runs a stateful decision strategy (τ, the course gate or persistence): its
-    /// decision value is not the raw trigger signal.
-    pub fn is_strategy(&self) -> bool {
-        self.trigger == TriggerSignal::Tau || self.course != Course::Off || self.persistence_window_frames > 1
+    /// Whether this row's decision rule keeps state ([`loomlab_agents::DecisionRule::is_stateful`]: τ, the course
+    /// gate or persistence): its decision value is not the raw trigger signal.
+    pub fn is_stateful(&self) -> bool {
+        self.controller(&EscapeConfig::default()).decision_rule().is_stateful()
     }
 }
 
