@@ -8,12 +8,15 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use loomlab_agents::{Course, SelfMotion, EscapeConfig, ImageExtent, Percept, TriggerSignal};
+use loomlab_agents::{Course, DecisionRule, EscapeConfig, ImageExtent, Percept, SelfMotion, TriggerSignal};
 
 fn strategy_update(c: &mut Criterion) {
     let cfg = EscapeConfig {
-        trigger: TriggerSignal::Tau,
-        course: Course::Image,
+        decision: DecisionRule {
+            trigger: TriggerSignal::Tau,
+            course: Course::Image,
+            ..DecisionRule::default()
+        },
         ..EscapeConfig::default()
     };
     let mut strategy = cfg.decider();

@@ -11,7 +11,7 @@
 //!    ([`LoomingSideEstimator`], the x centroid of the temporal contrast) — or, when the driving
 //!    detector localises the object ([`Signals::region`]), it is the middle of its image extent;
 //! 3. the escape controller reads the **driving** detector's trigger signal (the first detector;
-//!    θ̂ or the output, per [`EscapeConfig::trigger`]), runs its decider on it
+//!    θ̂ or the output, per [`DecisionRule::trigger`](crate::DecisionRule::trigger)), runs its decider on it
 //!    ([`crate::decision`]: θ̂ itself, or the urgency 1/τ̂, optionally gated by the collision-course
 //!    gate fed with the looming side as the object's azimuth) and returns the velocity command to
 //!    apply during the next camera period. When the driving detector numbers its tracks
@@ -22,10 +22,9 @@
 //! The runner and the environment are orchestration around this type: they own the simulator,
 //! the ground truth and the scoring, and never restate this step.
 //!
-//! An agent can also be driven by a trigger value that does not come from a detector (the
-//! ground-truth reference rows of the runner) through [`EscapeAgent::step_with_trigger`], and by a
-//! given looming side without any frame (physics-only replays) through [`EscapeAgent::decide`];
-//! the controller is the same.
+//! An agent can also be driven by a decision value that does not come from a detector and a given
+//! looming side, without any frame (the ground-truth reference rows and the physics-only replays
+//! of the runner), through [`EscapeAgent::act_on_value`]; the controller is the same.
 
 use loomlab_detector::{Detector, DetectorError, EfferenceCopy, Frame, Signals};
 
@@ -77,7 +76,7 @@ impl std::fmt::Debug for EscapeAgent {
 
 impl EscapeAgent {
     /// An agent whose first detector drives the controller (`detectors` may be empty when the
-    /// agent is only driven through [`decide`](Self::decide)).
+    /// agent is only driven through [`act_on_value`](Self::act_on_value)).
     pub fn new(detectors: Vec<Box<dyn Detector>>, controller: EscapeConfig) -> Result<Self, AgentError> {
         Ok(Self {
             detectors,
@@ -204,7 +203,9 @@ impl EscapeAgent {
         let looming_side = signals.first().and_then(region_side).or(contrast_side);
         let shake_rad = camera.map_or([0.0; 3], |c| c.shake_rad);
         let decision = match signals.first() {
-            Some(s) => self.controller.perceive_signals(t_s, s, looming_side, cruise, shake_rad),
+            Some(s) => self
+                .controller
+                .perceive_signals(t_s, s, looming_side, cruise, shake_rad),
             None => self.controller.perceive(t_s, Percept::unknown(), cruise, shake_rad),
         };
         let trigger_value = decision.value;
@@ -213,43 +214,19 @@ impl EscapeAgent {
         // a detector that localises the object escapes from the side on which the collision-course
         // gate predicts it to arrive (as `ideal_course` does), else from where it is now
         let looming_side = decision.escape_side(looming_side, region.is_some());
-        let mut step = self.decide_about(t_s, looming_side, trigger_value, object, cruise);
+        let mut step = self.act_on_value(t_s, looming_side, trigger_value, object, cruise);
         step.signals = signals;
         self.applied = Some(step.command);
         step
     }
 
-    /// The decision on `frame` from a decision value that does not come from the agent's detectors
-    /// (they are not stepped; `signals` is empty; the decider is bypassed): the looming
-    /// side still comes from the frames.
-    pub fn step_with_trigger(
-        &mut self,
-        t_s: f64,
-        frame: &Frame,
-        trigger_value: f64,
-        cruise: VelocityCommand,
-    ) -> AgentStep {
-        let looming_side = self.side.update(frame);
-        self.decide(t_s, looming_side, trigger_value, cruise)
-    }
-
-    /// The controller's decision from a given looming side and decision value (compared with
-    /// [`EscapeConfig::alarm_threshold`]), with no frame (the physics-only escape-deadline replays,
-    /// which take the side from the open-loop frames; the reference rows, whose strategies run on
-    /// ground truth). The looming-side estimator and the decider are not updated.
-    pub fn decide(
-        &mut self,
-        t_s: f64,
-        looming_side: Option<f32>,
-        trigger_value: f64,
-        cruise: VelocityCommand,
-    ) -> AgentStep {
-        self.decide_about(t_s, looming_side, trigger_value, None, cruise)
-    }
-
-    /// [`Self::decide`] naming the object the value comes from (the ideal reference rows, which
-    /// know it): a re-trigger keeps the dodge side only for the same object.
-    pub fn decide_about(
+    /// The controller's step on a decision value that does not come from the agent's detectors
+    /// and a given looming side, with no frame (the physics-only escape-deadline replays, which
+    /// force a trigger and take the side from the open-loop frames; the reference rows, whose
+    /// deciders run on ground truth), naming the object the value comes from when the caller knows
+    /// it (`object`; a re-trigger keeps the dodge side only for the same object). The detectors,
+    /// the looming-side estimator and the decider are not updated.
+    pub fn act_on_value(
         &mut self,
         t_s: f64,
         looming_side: Option<f32>,

@@ -54,9 +54,9 @@ use serde::{Deserialize, Serialize};
 
 use loomlab_sim::RobotBase;
 
-use crate::decision::{
-    BodyExtent, Course, Decider, Decision, DecisionRule, MAX_PERSISTENCE_FRAMES, Percept, SelfMotion, TriggerSignal,
-};
+use crate::decision::{BodyExtent, Decider, Decision, DecisionRule, Percept, SelfMotion};
+#[allow(unused_imports)] // for doc links
+use crate::decision::{Course, MAX_PERSISTENCE_FRAMES, TriggerSignal};
 use crate::{AgentError, VelocityCommand};
 use loomlab_detector::{Pinhole, Signals};
 
@@ -107,43 +107,13 @@ impl DodgeSide {
     }
 }
 
-/// Configuration of the [`EscapeController`].
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+/// Configuration of the [`EscapeController`] (the scenario's `[controller]` table: the keys of its
+/// [`DecisionRule`] and of the manoeuvre, flat in one table; every key optional).
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct EscapeConfig {
-    /// Which detector signal is compared with `threshold`.
-    pub trigger: TriggerSignal,
-    /// Trigger threshold: degrees for [`TriggerSignal::AngularSizeDeg`] (default 10°, the locust's
-    /// escape angle; tuned by the scenario suite), detector output units for [`TriggerSignal::Output`].
-    /// Not used by [`TriggerSignal::Tau`] (see `tau_threshold_s`).
-    pub threshold: f64,
-    /// [`TriggerSignal::Tau`]: alarm when the estimated time to contact τ̂ ≤ this (s, > 0).
-    pub tau_threshold_s: f64,
-    /// [`TriggerSignal::Tau`]: the smallest θ̂ (degrees, ≥ 0; default 1) for an alarm, and for a
-    /// frame to enter the τ̂ fit ([`crate::decision`]).
-    pub min_angular_size_deg: f64,
-    /// Length of the window over which τ̂ and the bearing rate are estimated (s, > 0).
-    pub tau_window_s: f64,
-    /// The collision-course gate ([`crate::decision`]); needs θ̂.
-    pub course: Course,
-    /// Persistence (frames, 1–[`MAX_PERSISTENCE_FRAMES`]; default 1: none): the decision value is
-    /// the smallest of the last this many frames' values, so an alarm needs the value at or above
-    /// the threshold on that many consecutive frames — for any threshold, so a calibration of the
-    /// threshold sees the same rule ([`crate::decision`]).
-    pub persistence_frames: usize,
-    /// The window of the persistence rule (frames, `persistence_frames`–[`MAX_PERSISTENCE_FRAMES`];
-    /// default: `persistence_frames`, i.e. consecutive frames): with a longer window M the
-    /// decision value is the K-th largest of the last M frames' values (K = `persistence_frames`),
-    /// so an alarm needs the value at or above the threshold on any K of the last M frames — a
-    /// K-of-M confirmation that a single frame's dropout does not reset ([`crate::decision`]).
-    pub persistence_window_frames: Option<usize>,
-    /// Closing speed the course gate assumes to turn τ̂ into a distance (m/s, > 0; default 10: a
-    /// thrown ball). An object closing faster looks nearer the robot's axis than it is (a fast near
-    /// pass may get through), a slower one farther (a slow graze of the body's edge may be gated
-    /// out); objects standing in the world close at the robot's own speed, which the gate uses.
-    pub course_closing_speed_mps: f64,
-    /// Window over which the course gate estimates the bearing and expansion rates (s, > 0).
-    pub course_window_s: f64,
+    /// How the controller decides ([`crate::decision`]); its fields are keys of this table.
+    #[serde(flatten)]
+    pub decision: DecisionRule,
     /// A re-trigger less than this long (s, ≥ 0) after the last frame that was an alarm, or after
     /// the controller re-armed following its last manoeuvre, keeps the previous dodge side: the
     /// same object is still looming, and dodging back would run into it.
@@ -200,16 +170,7 @@ pub struct EscapeConfig {
 impl Default for EscapeConfig {
     fn default() -> Self {
         Self {
-            trigger: TriggerSignal::AngularSizeDeg,
-            threshold: 10.0,
-            tau_threshold_s: 1.0,
-            min_angular_size_deg: 1.0,
-            tau_window_s: 0.1,
-            course: Course::Off,
-            persistence_frames: 1,
-            persistence_window_frames: None,
-            course_closing_speed_mps: 10.0,
-            course_window_s: 0.25,
+            decision: DecisionRule::default(),
             side_memory_s: 0.5,
             max_dodge_offset_m: None,
             manoeuvre: Manoeuvre::DodgeLateral,
@@ -231,7 +192,90 @@ impl Default for EscapeConfig {
     }
 }
 
-fn invalid(key: &'static str, value: impl ToString, reason: &str) -> AgentError {
+/// The keys of the escape controller's table, in order: the decision rule's, then the manoeuvre's
+/// (the keys [`EscapeConfig`] reads and writes).
+const KEYS: &[&str] = &[
+    "trigger",
+    "threshold",
+    "tau_threshold_s",
+    "min_angular_size_deg",
+    "tau_window_s",
+    "course",
+    "persistence_frames",
+    "persistence_window_frames",
+    "course_closing_speed_mps",
+    "course_window_s",
+    "side_memory_s",
+    "max_dodge_offset_m",
+    "manoeuvre",
+    "dodge_speed_mps",
+    "dodge_forward_scale",
+    "dodge_yaw_rate_rps",
+    "turn_rate_rps",
+    "reverse_speed_mps",
+    "duration_s",
+    "cooldown_s",
+    "default_side",
+    "side_deadband",
+];
+
+/// Reads the flat `[controller]` table into an [`EscapeConfig`] (its [`DecisionRule`] included):
+/// every key optional (the default otherwise), an unknown key an error that lists the known ones.
+struct EscapeConfigVisitor;
+
+impl<'de> serde::de::Visitor<'de> for EscapeConfigVisitor {
+    type Value = EscapeConfig;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("struct EscapeConfig")
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<EscapeConfig, A::Error> {
+        let mut c = EscapeConfig::default();
+        let mut seen = Vec::new();
+        while let Some(key) = map.next_key::<String>()? {
+            if seen.contains(&key) {
+                return Err(serde::de::Error::custom(format_args!("duplicate field `{key}`")));
+            }
+            let d = &mut c.decision;
+            match key.as_str() {
+                "trigger" => d.trigger = map.next_value()?,
+                "threshold" => d.threshold = map.next_value()?,
+                "tau_threshold_s" => d.tau_threshold_s = map.next_value()?,
+                "min_angular_size_deg" => d.min_angular_size_deg = map.next_value()?,
+                "tau_window_s" => d.tau_window_s = map.next_value()?,
+                "course" => d.course = map.next_value()?,
+                "persistence_frames" => d.persistence_frames = map.next_value()?,
+                "persistence_window_frames" => d.persistence_window_frames = map.next_value()?,
+                "course_closing_speed_mps" => d.course_closing_speed_mps = map.next_value()?,
+                "course_window_s" => d.course_window_s = map.next_value()?,
+                "side_memory_s" => c.side_memory_s = map.next_value()?,
+                "max_dodge_offset_m" => c.max_dodge_offset_m = map.next_value()?,
+                "manoeuvre" => c.manoeuvre = map.next_value()?,
+                "dodge_speed_mps" => c.dodge_speed_mps = map.next_value()?,
+                "dodge_forward_scale" => c.dodge_forward_scale = map.next_value()?,
+                "dodge_yaw_rate_rps" => c.dodge_yaw_rate_rps = map.next_value()?,
+                "turn_rate_rps" => c.turn_rate_rps = map.next_value()?,
+                "reverse_speed_mps" => c.reverse_speed_mps = map.next_value()?,
+                "duration_s" => c.duration_s = map.next_value()?,
+                "cooldown_s" => c.cooldown_s = map.next_value()?,
+                "default_side" => c.default_side = map.next_value()?,
+                "side_deadband" => c.side_deadband = map.next_value()?,
+                other => return Err(serde::de::Error::unknown_field(other, KEYS)),
+            }
+            seen.push(key);
+        }
+        Ok(c)
+    }
+}
+
+impl<'de> Deserialize<'de> for EscapeConfig {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        deserializer.deserialize_struct("EscapeConfig", KEYS, EscapeConfigVisitor)
+    }
+}
+
+pub(crate) fn invalid(key: &'static str, value: impl ToString, reason: &str) -> AgentError {
     AgentError::InvalidConfig {
         key,
         value: value.to_string(),
@@ -239,7 +283,7 @@ fn invalid(key: &'static str, value: impl ToString, reason: &str) -> AgentError 
     }
 }
 
-fn non_negative(key: &'static str, v: f64) -> Result<(), AgentError> {
+pub(crate) fn non_negative(key: &'static str, v: f64) -> Result<(), AgentError> {
     if v.is_finite() && v >= 0.0 {
         Ok(())
     } else {
@@ -250,9 +294,7 @@ fn non_negative(key: &'static str, v: f64) -> Result<(), AgentError> {
 impl EscapeConfig {
     /// Check every value; the error names the key, the value and the valid range.
     pub fn validate(&self) -> Result<(), AgentError> {
-        if !self.threshold.is_finite() {
-            return Err(invalid("escape.threshold", self.threshold, "must be a finite number"));
-        }
+        self.decision.validate()?;
         non_negative("escape.dodge_speed_mps", self.dodge_speed_mps)?;
         non_negative("escape.dodge_forward_scale", self.dodge_forward_scale)?;
         non_negative("escape.dodge_yaw_rate_rps", self.dodge_yaw_rate_rps)?;
@@ -266,36 +308,6 @@ impl EscapeConfig {
             ));
         }
         non_negative("escape.cooldown_s", self.cooldown_s)?;
-        for (key, v) in [
-            ("escape.tau_threshold_s", self.tau_threshold_s),
-            ("escape.tau_window_s", self.tau_window_s),
-            ("escape.course_closing_speed_mps", self.course_closing_speed_mps),
-            ("escape.course_window_s", self.course_window_s),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(invalid(key, v, "must be a finite number > 0"));
-            }
-        }
-        non_negative("escape.min_angular_size_deg", self.min_angular_size_deg)?;
-        if !(1..=MAX_PERSISTENCE_FRAMES).contains(&self.persistence_frames) {
-            return Err(invalid(
-                "escape.persistence_frames",
-                self.persistence_frames,
-                &format!("must be a whole number of frames from 1 (no persistence) to {MAX_PERSISTENCE_FRAMES}"),
-            ));
-        }
-        if let Some(m) = self.persistence_window_frames
-            && !(self.persistence_frames..=MAX_PERSISTENCE_FRAMES).contains(&m)
-        {
-            return Err(invalid(
-                "escape.persistence_window_frames",
-                m,
-                &format!(
-                    "must be a whole number of frames from escape.persistence_frames ({}) to {MAX_PERSISTENCE_FRAMES}",
-                    self.persistence_frames
-                ),
-            ));
-        }
         non_negative("escape.side_memory_s", self.side_memory_s)?;
         if let Some(v) = self.max_dodge_offset_m
             && !(v.is_finite() && v > 0.0)
@@ -322,13 +334,6 @@ impl EscapeConfig {
                 "must lie in (0, 180)",
             ));
         }
-        if self.course != Course::Off && self.trigger == TriggerSignal::Output {
-            return Err(invalid(
-                "escape.course",
-                "image",
-                "the collision-course gate needs θ̂: use trigger = \"tau\" or \"angular_size\" on a detector that gives θ̂",
-            ));
-        }
         if !(self.side_deadband.is_finite() && (0.0..1.0).contains(&self.side_deadband)) {
             return Err(invalid(
                 "escape.side_deadband",
@@ -342,29 +347,13 @@ impl EscapeConfig {
     /// The threshold the decision value is compared with: `threshold`, or the urgency
     /// `1 / tau_threshold_s` (s⁻¹) for [`TriggerSignal::Tau`].
     pub fn alarm_threshold(&self) -> f64 {
-        self.decision_rule().alarm_threshold()
+        self.decision.alarm_threshold()
     }
 
     /// Whether `signal` (a decision value) is an alarm: `signal >= alarm_threshold()` (NaN and
     /// `None` never are).
     pub fn is_alarm(&self, signal: Option<f64>) -> bool {
         signal.is_some_and(|s| s >= self.alarm_threshold())
-    }
-
-    /// This configuration's decision rule (its decision keys).
-    pub fn decision_rule(&self) -> DecisionRule {
-        DecisionRule {
-            trigger: self.trigger,
-            threshold: self.threshold,
-            tau_threshold_s: self.tau_threshold_s,
-            min_angular_size_deg: self.min_angular_size_deg,
-            tau_window_s: self.tau_window_s,
-            course: self.course,
-            course_closing_speed_mps: self.course_closing_speed_mps,
-            course_window_s: self.course_window_s,
-            persistence_frames: self.persistence_frames,
-            persistence_window_frames: self.persistence_window_frames,
-        }
     }
 
     /// The robot's body about its camera, for the course gate.
@@ -383,7 +372,7 @@ impl EscapeConfig {
 
     /// A fresh decider of this configuration ([`crate::decision`]).
     pub fn decider(&self) -> Decider {
-        Decider::new(self.decision_rule(), self.body(), self.pinhole())
+        Decider::new(self.decision, self.body(), self.pinhole())
     }
 
     /// The command of the manoeuvre towards `side` given the cruise command.
@@ -535,7 +524,7 @@ impl EscapeController {
         cruise: VelocityCommand,
         shake_rad: [f64; 3],
     ) -> Decision {
-        let value = self.config.trigger.value(signals).unwrap_or(f64::NAN);
+        let value = self.config.decision.trigger.value(signals).unwrap_or(f64::NAN);
         let motion = SelfMotion::of(self.last_command.unwrap_or(cruise), shake_rad);
         self.decider
             .decide_on_detector(t_s, value, looming_side, signals.region.as_ref(), motion)
@@ -565,7 +554,9 @@ impl EscapeController {
         looming_side: Option<f32>,
         cruise: VelocityCommand,
     ) -> (VelocityCommand, ControllerEvent) {
-        let value = self.perceive_signals(t_s, signals, looming_side, cruise, [0.0; 3]).value;
+        let value = self
+            .perceive_signals(t_s, signals, looming_side, cruise, [0.0; 3])
+            .value;
         self.step(t_s, value, looming_side, cruise)
     }
 

@@ -14,13 +14,16 @@ const CRUISE: VelocityCommand = VelocityCommand {
 fn controller(manoeuvre: Manoeuvre) -> EscapeController {
     EscapeController::new(EscapeConfig {
         manoeuvre,
-        threshold: 10.0,
         dodge_speed_mps: 1.5,
         dodge_forward_scale: 0.5,
         dodge_yaw_rate_rps: 0.0,
         reverse_speed_mps: 0.8,
         duration_s: 0.5,
         cooldown_s: 0.25,
+        decision: loomlab_agents::DecisionRule {
+            threshold: 10.0,
+            ..loomlab_agents::DecisionRule::default()
+        },
         ..EscapeConfig::default()
     })
     .unwrap()
@@ -72,8 +75,11 @@ fn trigger_signal_selects_the_right_field() {
     let mut hop = controller(Manoeuvre::Stop);
     assert!(!hop.step_signals(0.0, &s, None, CRUISE).1.is_trigger(), "θ̂ = 3° < 10°");
     let mut out = EscapeController::new(EscapeConfig {
-        trigger: TriggerSignal::Output,
-        threshold: 40.0,
+        decision: loomlab_agents::DecisionRule {
+            trigger: TriggerSignal::Output,
+            threshold: 40.0,
+            ..loomlab_agents::DecisionRule::default()
+        },
         ..EscapeConfig::default()
     })
     .unwrap();
@@ -252,7 +258,10 @@ fn non_finite_time_changes_nothing() {
 fn invalid_config_is_rejected_with_key() {
     let bad = [
         EscapeConfig {
-            threshold: f64::NAN,
+            decision: loomlab_agents::DecisionRule {
+                threshold: f64::NAN,
+                ..loomlab_agents::DecisionRule::default()
+            },
             ..Default::default()
         },
         EscapeConfig {
@@ -288,10 +297,31 @@ fn invalid_config_is_rejected_with_key() {
 }
 
 #[test]
+fn the_controller_table_is_flat_and_round_trips() {
+    // the decision rule's keys are keys of the controller's table, first and in their order (run
+    // fingerprints hash this serialization)
+    let cfg = EscapeConfig {
+        decision: loomlab_agents::DecisionRule {
+            trigger: TriggerSignal::Tau,
+            persistence_window_frames: Some(4),
+            ..loomlab_agents::DecisionRule::default()
+        },
+        duration_s: 0.7,
+        ..EscapeConfig::default()
+    };
+    let json = serde_json::to_string(&cfg).unwrap();
+    assert!(
+        json.starts_with(r#"{"trigger":"tau","threshold":10.0,"tau_threshold_s":1.0,"min_angular_size_deg":1.0,"tau_window_s":0.1,"course":"off","persistence_frames":1,"persistence_window_frames":4,"course_closing_speed_mps":10.0,"course_window_s":0.25,"side_memory_s":0.5,"#),
+        "{json}"
+    );
+    assert_eq!(serde_json::from_str::<EscapeConfig>(&json).unwrap(), cfg);
+}
+
+#[test]
 fn config_serde_defaults_and_unknown_keys() {
     let cfg: EscapeConfig =
         serde_json::from_str(r#"{"trigger":"output","threshold":3.5,"manoeuvre":"reverse"}"#).unwrap();
-    assert_eq!(cfg.trigger, TriggerSignal::Output);
+    assert_eq!(cfg.decision.trigger, TriggerSignal::Output);
     assert_eq!(cfg.manoeuvre, Manoeuvre::Reverse);
     assert_eq!(cfg.duration_s, EscapeConfig::default().duration_s);
     let err = serde_json::from_str::<EscapeConfig>(r#"{"threshhold":3.5}"#).unwrap_err();
@@ -367,7 +397,7 @@ fn a_dodge_on_a_differential_drive_turns_away_and_drives_instead_of_sidestepping
 /// relative to a camera that may itself drive forward.
 mod strategies {
     use loomlab_agents::{
-        Course, Decision, DodgeSide, SelfMotion, EscapeConfig, EscapeController, ImageExtent, Percept, Decider,
+        Course, Decider, Decision, DodgeSide, EscapeConfig, EscapeController, ImageExtent, Percept, SelfMotion,
         TriggerSignal, VelocityCommand,
     };
 
@@ -416,10 +446,13 @@ mod strategies {
 
     fn config(course: Course) -> EscapeConfig {
         EscapeConfig {
-            trigger: TriggerSignal::Tau,
-            tau_threshold_s: 1.0,
-            min_angular_size_deg: 1.0,
-            course,
+            decision: loomlab_agents::DecisionRule {
+                trigger: TriggerSignal::Tau,
+                tau_threshold_s: 1.0,
+                min_angular_size_deg: 1.0,
+                course,
+                ..loomlab_agents::DecisionRule::default()
+            },
             ..EscapeConfig::default()
         }
     }
@@ -452,7 +485,7 @@ mod strategies {
             };
             let frames = run(&config(Course::Off), &a, 0.05);
             let mut checked = 0;
-            let window = config(Course::Off).tau_window_s;
+            let window = config(Course::Off).decision.tau_window_s;
             for (t, theta, d) in &frames {
                 let truth = a.surface_ttc(*t);
                 // from 3° on, until the last window before contact (where the frames no longer fill
@@ -575,7 +608,10 @@ mod strategies {
         assert!((ttc - 1.0).abs() < 0.05, "alarm at true TTC {ttc:.3} s");
         // θ̂ below min_angular_size_deg never alarms, whatever τ̂
         let cfg = EscapeConfig {
-            min_angular_size_deg: 30.0,
+            decision: loomlab_agents::DecisionRule {
+                min_angular_size_deg: 30.0,
+                ..cfg.decision
+            },
             ..cfg
         };
         for (_, theta, d) in run(&cfg, &a, 0.05) {
@@ -741,7 +777,10 @@ mod strategies {
             if x - h[0] < 0.3 {
                 break;
             }
-            out.push((t, s.decide(t, box_percept([x, lateral_m, height_m], h), SelfMotion::default())));
+            out.push((
+                t,
+                s.decide(t, box_percept([x, lateral_m, height_m], h), SelfMotion::default()),
+            ));
         }
         out
     }
@@ -957,8 +996,11 @@ mod strategies {
     #[test]
     fn invalid_strategy_combinations_are_rejected() {
         let e = EscapeController::new(EscapeConfig {
-            trigger: TriggerSignal::Output,
-            course: Course::Image,
+            decision: loomlab_agents::DecisionRule {
+                trigger: TriggerSignal::Output,
+                course: Course::Image,
+                ..loomlab_agents::DecisionRule::default()
+            },
             ..EscapeConfig::default()
         })
         .unwrap_err()
@@ -966,15 +1008,24 @@ mod strategies {
         assert!(e.contains("escape.course") && e.contains("θ̂"), "{e}");
         for cfg in [
             EscapeConfig {
-                tau_threshold_s: 0.0,
+                decision: loomlab_agents::DecisionRule {
+                    tau_threshold_s: 0.0,
+                    ..config(Course::Off).decision
+                },
                 ..config(Course::Off)
             },
             EscapeConfig {
-                tau_window_s: f64::NAN,
+                decision: loomlab_agents::DecisionRule {
+                    tau_window_s: f64::NAN,
+                    ..config(Course::Off).decision
+                },
                 ..config(Course::Off)
             },
             EscapeConfig {
-                min_angular_size_deg: -1.0,
+                decision: loomlab_agents::DecisionRule {
+                    min_angular_size_deg: -1.0,
+                    ..config(Course::Off).decision
+                },
                 ..config(Course::Off)
             },
         ] {
@@ -982,21 +1033,26 @@ mod strategies {
         }
         let cfg: EscapeConfig =
             serde_json::from_str(r#"{"trigger":"angular_size","course":"image","tau_threshold_s":0.8}"#).unwrap();
-        assert_eq!(cfg.trigger, TriggerSignal::AngularSizeDeg);
-        assert_eq!(cfg.course, Course::Image);
+        assert_eq!(cfg.decision.trigger, TriggerSignal::AngularSizeDeg);
+        assert_eq!(cfg.decision.course, Course::Image);
         let cfg: EscapeConfig = serde_json::from_str(r#"{"trigger":"tau"}"#).unwrap();
-        assert_eq!(cfg.trigger, TriggerSignal::Tau);
+        assert_eq!(cfg.decision.trigger, TriggerSignal::Tau);
+    }
+
+    /// A default controller whose manoeuvre lasts `duration_s` and its cooldown `cooldown_s`.
+    fn timed_controller(duration_s: f64, cooldown_s: f64) -> EscapeController {
+        EscapeController::new(EscapeConfig {
+            duration_s,
+            cooldown_s,
+            ..EscapeConfig::default()
+        })
+        .unwrap()
     }
 
     #[test]
     fn a_retrigger_while_the_object_still_looms_keeps_the_side() {
-        let mut c = EscapeController::new(EscapeConfig {
-            duration_s: 0.5,
-            cooldown_s: 0.25,
-            side_memory_s: 0.5,
-            ..EscapeConfig::default()
-        })
-        .unwrap();
+        // side_memory_s 0.5 (the default)
+        let mut c = timed_controller(0.5, 0.25);
         let cruise = VelocityCommand::forward(1.0);
         // object on the right: dodge left
         assert_eq!(
@@ -1028,13 +1084,8 @@ mod strategies {
 
     #[test]
     fn a_retrigger_soon_after_rearming_does_not_undo_the_dodge() {
-        let mut c = EscapeController::new(EscapeConfig {
-            duration_s: 0.5,
-            cooldown_s: 0.25,
-            side_memory_s: 0.5,
-            ..EscapeConfig::default()
-        })
-        .unwrap();
+        // side_memory_s 0.5 (the default)
+        let mut c = timed_controller(0.5, 0.25);
         let cruise = VelocityCommand::forward(1.0);
         let triggered = |side| loomlab_agents::ControllerEvent::Triggered { side: Some(side) };
         // a brief alarm, object seen on the right: dodge left; the alarm clears at once
@@ -1060,12 +1111,7 @@ mod strategies {
 
     #[test]
     fn an_alarm_about_another_named_object_preempts_the_manoeuvre_and_its_cooldown() {
-        let mut c = EscapeController::new(EscapeConfig {
-            duration_s: 0.5,
-            cooldown_s: 0.5,
-            ..EscapeConfig::default()
-        })
-        .unwrap();
+        let mut c = timed_controller(0.5, 0.5);
         let cruise = VelocityCommand::forward(1.0);
         let triggered = |side| loomlab_agents::ControllerEvent::Triggered { side: Some(side) };
         c.set_object(Some(1));
@@ -1084,12 +1130,7 @@ mod strategies {
         assert_eq!(c.step(0.8, 20.0, Some(-0.6), cruise).1, triggered(DodgeSide::Right));
         assert_eq!(c.triggers(), 2);
         // unnamed values are all taken to be about one object: no pre-emption
-        let mut c = EscapeController::new(EscapeConfig {
-            duration_s: 0.5,
-            cooldown_s: 0.5,
-            ..EscapeConfig::default()
-        })
-        .unwrap();
+        let mut c = timed_controller(0.5, 0.5);
         c.step(0.0, 20.0, Some(0.6), cruise);
         assert_eq!(
             c.step(0.8, 20.0, Some(-0.6), cruise).1,
@@ -1196,9 +1237,12 @@ mod named_tracks {
             (20.0, left, 2),
         ];
         let config = EscapeConfig {
-            threshold: 10.0,
             duration_s: 0.6,
             cooldown_s: 0.5,
+            decision: loomlab_agents::DecisionRule {
+                threshold: 10.0,
+                ..loomlab_agents::DecisionRule::default()
+            },
             ..EscapeConfig::default()
         };
         let mut agent = EscapeAgent::new(vec![Box::new(Script(script.into_iter()))], config).unwrap();
@@ -1277,8 +1321,11 @@ mod arrival_side {
     #[test]
     fn an_object_seen_on_the_left_that_will_arrive_on_the_right_is_dodged_to_the_left() {
         let config = EscapeConfig {
-            trigger: TriggerSignal::Tau,
-            course: Course::Image,
+            decision: loomlab_agents::DecisionRule {
+                trigger: TriggerSignal::Tau,
+                course: Course::Image,
+                ..loomlab_agents::DecisionRule::default()
+            },
             ..EscapeConfig::default()
         };
         let mut agent = EscapeAgent::new(vec![Box::new(Crossing(0))], config).unwrap();
@@ -1328,8 +1375,11 @@ mod replay_on_signals {
     #[test]
     fn an_agent_replayed_on_signals_then_given_a_detector_copy_continues_identically() {
         let config = EscapeConfig {
-            trigger: TriggerSignal::AngularSizeDeg,
-            threshold: 12.0,
+            decision: loomlab_agents::DecisionRule {
+                trigger: TriggerSignal::AngularSizeDeg,
+                threshold: 12.0,
+                ..loomlab_agents::DecisionRule::default()
+            },
             ..EscapeConfig::default()
         };
         let cruise = VelocityCommand::forward(1.0);
@@ -1377,11 +1427,14 @@ mod replay_on_signals {
 
 /// The decision values of a persistence rule (K, window M) over raw values, one frame at 120 Hz.
 fn persisted(trigger: TriggerSignal, k: usize, m: Option<usize>, raw: &[f64]) -> Vec<f64> {
-    use loomlab_agents::{SelfMotion, Percept};
+    use loomlab_agents::{Percept, SelfMotion};
     let cfg = EscapeConfig {
-        trigger,
-        persistence_frames: k,
-        persistence_window_frames: m,
+        decision: loomlab_agents::DecisionRule {
+            trigger,
+            persistence_frames: k,
+            persistence_window_frames: m,
+            ..loomlab_agents::DecisionRule::default()
+        },
         ..Default::default()
     };
     cfg.validate().unwrap();
@@ -1422,7 +1475,10 @@ fn persistence_is_the_minimum_of_the_last_frames_for_any_threshold() {
     // bounded, and named in the error
     for k in [0, loomlab_agents::decision::MAX_PERSISTENCE_FRAMES + 1] {
         let e = EscapeConfig {
-            persistence_frames: k,
+            decision: loomlab_agents::DecisionRule {
+                persistence_frames: k,
+                ..loomlab_agents::DecisionRule::default()
+            },
             ..Default::default()
         }
         .validate()
@@ -1468,8 +1524,11 @@ fn a_persistence_window_alarms_on_any_k_of_the_last_m_frames_for_any_threshold()
     // at least K and bounded, named in the error
     for (k, m) in [(3, 2), (3, loomlab_agents::decision::MAX_PERSISTENCE_FRAMES + 1)] {
         let e = EscapeConfig {
-            persistence_frames: k,
-            persistence_window_frames: Some(m),
+            decision: loomlab_agents::DecisionRule {
+                persistence_frames: k,
+                persistence_window_frames: Some(m),
+                ..loomlab_agents::DecisionRule::default()
+            },
             ..Default::default()
         }
         .validate()

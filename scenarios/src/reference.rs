@@ -54,7 +54,7 @@
 //! urgency 1/τ̂ (s⁻¹, threshold `1 / tau_threshold_s`). Reference rows are excluded from
 //! regressions and from threshold calibration.
 
-use loomlab_agents::{Course, Decider, EscapeConfig, ImageExtent, Percept, SelfMotion, TriggerSignal};
+use loomlab_agents::{Course, Decider, DecisionRule, EscapeConfig, ImageExtent, Percept, SelfMotion, TriggerSignal};
 use loomlab_sim::{ObjectKind, ObjectTruth};
 
 /// Label of the never-alarming reference row.
@@ -126,23 +126,26 @@ impl IdealObserver {
     pub fn new(kind: IdealKind, base: &EscapeConfig, theta_threshold_deg: f64, frame_period_s: f64) -> Self {
         let shortest_window_s = IDEAL_TAU_WINDOW_FRAMES * frame_period_s;
         let config = EscapeConfig {
-            tau_window_s: shortest_window_s,
-            // ideal_tau has no gate: its window only serves the side it dodges to (where the object
-            // will arrive), which must be known as soon as τ̂ is
-            course_window_s: if kind == IdealKind::Tau {
-                shortest_window_s
-            } else {
-                base.course_window_s
-            },
-            trigger: match kind {
-                IdealKind::Theta => TriggerSignal::AngularSizeDeg,
-                IdealKind::Tau | IdealKind::Course => TriggerSignal::Tau,
-            },
-            threshold: theta_threshold_deg,
-            course: if kind == IdealKind::Course {
-                Course::Image
-            } else {
-                Course::Off
+            decision: DecisionRule {
+                tau_window_s: shortest_window_s,
+                // ideal_tau has no gate: its window only serves the side it dodges to (where the
+                // object will arrive), which must be known as soon as τ̂ is
+                course_window_s: if kind == IdealKind::Tau {
+                    shortest_window_s
+                } else {
+                    base.decision.course_window_s
+                },
+                trigger: match kind {
+                    IdealKind::Theta => TriggerSignal::AngularSizeDeg,
+                    IdealKind::Tau | IdealKind::Course => TriggerSignal::Tau,
+                },
+                threshold: theta_threshold_deg,
+                course: if kind == IdealKind::Course {
+                    Course::Image
+                } else {
+                    Course::Off
+                },
+                ..base.decision
             },
             ..base.clone()
         };

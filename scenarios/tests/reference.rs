@@ -42,7 +42,7 @@ fn ball(t_s: f64, launch_s: f64) -> ObjectTruth {
 #[test]
 fn ideal_tau_alarms_within_three_frames_of_a_late_launch_and_dodges_from_where_the_ball_will_pass() {
     let controller = EscapeConfig::default();
-    let threshold = 1.0 / controller.tau_threshold_s;
+    let threshold = 1.0 / controller.decision.tau_threshold_s;
     let launch_s = 0.5;
     let mut observer = IdealObserver::new(IdealKind::Tau, &controller, 10.0, 1.0 / HZ);
     let mut alarm = None;

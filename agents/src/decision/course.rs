@@ -97,7 +97,12 @@ pub(super) fn assess(
 }
 
 /// The bearing and expansion rates, the vertical course and the edges' arrival over the window.
-fn estimate<'a, I>(course: impl Fn() -> I, tau_s: Option<f64>, motion: &SelfMotion, rule: &DecisionRule) -> CourseEstimates
+fn estimate<'a, I>(
+    course: impl Fn() -> I,
+    tau_s: Option<f64>,
+    motion: &SelfMotion,
+    rule: &DecisionRule,
+) -> CourseEstimates
 where
     I: Iterator<Item = &'a Sample> + Clone,
 {

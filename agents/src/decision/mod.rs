@@ -12,7 +12,7 @@
 //! scenario runner's open-loop pass, the trace replays, the reference rows' ideal observers and the
 //! Gymnasium env all call it (a test, `agents/tests/decision_call_path.rs`, keeps it so). A real
 //! detector's percept is built by [`Percept::of_detector`] (`percept.rs`) with the camera's
-//! [`Pinhole`](loomlab_detector::Pinhole).
+//! [`Pinhole`].
 //!
 //! # Perceptual inputs
 //! The decider sees, per frame, a [`Percept`] and what the robot knows about itself ([`SelfMotion`]):

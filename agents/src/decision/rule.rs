@@ -3,6 +3,9 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::AgentError;
+use crate::escape::{invalid, non_negative};
+
 #[allow(unused_imports)] // for doc links
 use loomlab_detector::Signals;
 
@@ -55,34 +58,47 @@ pub enum Course {
 }
 
 /// How a row decides (see the [module docs](crate::decision)): the trigger and its threshold, the
-/// τ estimator's window, the optional collision-course gate and K-of-M persistence. The escape
-/// controller's `[controller]` keys of the same names configure it
-/// ([`EscapeConfig::decision_rule`](crate::EscapeConfig::decision_rule)).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// τ estimator's window, K-of-M persistence and the optional collision-course gate. The escape
+/// controller embeds it ([`EscapeConfig::decision`](crate::EscapeConfig::decision): its keys are
+/// keys of the scenario's `[controller]` table), and a scenario's `[[detectors]]` row sets its
+/// trigger, threshold, course and persistence. (Serialized flat, in this order, inside
+/// [`crate::EscapeConfig`].)
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct DecisionRule {
     /// Which detector signal is decided on (default: θ̂, [`TriggerSignal::AngularSizeDeg`]).
     pub trigger: TriggerSignal,
-    /// Alarm threshold of the angular-size (degrees; default 10) and output (detector units)
-    /// triggers; not used by [`TriggerSignal::Tau`].
+    /// Trigger threshold: degrees for [`TriggerSignal::AngularSizeDeg`] (default 10°, the locust's
+    /// escape angle; tuned by the scenario suite), detector output units for
+    /// [`TriggerSignal::Output`]. Not used by [`TriggerSignal::Tau`] (see `tau_threshold_s`).
     pub threshold: f64,
-    /// [`TriggerSignal::Tau`]: alarm when τ̂ ≤ this (s, > 0; default 1).
+    /// [`TriggerSignal::Tau`]: alarm when the estimated time to contact τ̂ ≤ this (s, > 0; default
+    /// 1).
     pub tau_threshold_s: f64,
-    /// Smallest θ̂ (degrees, ≥ 0; default 1) for a τ alarm, and for a frame to enter the τ̂ fit.
+    /// [`TriggerSignal::Tau`]: the smallest θ̂ (degrees, ≥ 0; default 1) for an alarm, and for a
+    /// frame to enter the τ̂ fit.
     pub min_angular_size_deg: f64,
-    /// Length of the τ̂ estimation window (s, > 0; default 0.1).
+    /// Length of the window over which τ̂ is estimated (s, > 0; default 0.1).
     pub tau_window_s: f64,
-    /// The collision-course gate (default off).
+    /// The collision-course gate (default off); needs θ̂.
     pub course: Course,
-    /// Closing speed the gate assumes to turn τ̂ into a distance (m/s, > 0; default 10).
+    /// Persistence K (frames, 1–[`MAX_PERSISTENCE_FRAMES`]; default 1: none): the decision value is
+    /// the smallest of the last K frames' values, so an alarm needs the value at or above the
+    /// threshold on K consecutive frames — for any threshold, so a calibration of the threshold
+    /// sees the same rule.
+    pub persistence_frames: usize,
+    /// The persistence window M (frames, K–[`MAX_PERSISTENCE_FRAMES`]; default `None`: M = K,
+    /// consecutive frames): with a longer window the decision value is the K-th largest of the
+    /// last M frames' values, so an alarm needs the value at or above the threshold on any K of the
+    /// last M frames — a K-of-M confirmation that a single frame's dropout does not reset.
+    pub persistence_window_frames: Option<usize>,
+    /// Closing speed the course gate assumes to turn τ̂ into a distance (m/s, > 0; default 10: a
+    /// thrown ball). An object closing faster looks nearer the robot's axis than it is (a fast near
+    /// pass may get through), a slower one farther (a slow graze of the body's edge may be gated
+    /// out); objects standing in the world close at the robot's own speed, which the gate uses.
     pub course_closing_speed_mps: f64,
-    /// Length of the window over which the gate estimates bearing and expansion rates (s, > 0;
+    /// Window over which the course gate estimates the bearing and expansion rates (s, > 0;
     /// default 0.25).
     pub course_window_s: f64,
-    /// Persistence K (frames, 1–[`MAX_PERSISTENCE_FRAMES`]; default 1: none): the value is the K-th
-    /// largest of the last M frames' values.
-    pub persistence_frames: usize,
-    /// The persistence window M (frames, ≥ K; default `None`: M = K, consecutive frames).
-    pub persistence_window_frames: Option<usize>,
 }
 
 impl Default for DecisionRule {
@@ -94,15 +110,61 @@ impl Default for DecisionRule {
             min_angular_size_deg: 1.0,
             tau_window_s: 0.1,
             course: Course::Off,
-            course_closing_speed_mps: 10.0,
-            course_window_s: 0.25,
             persistence_frames: 1,
             persistence_window_frames: None,
+            course_closing_speed_mps: 10.0,
+            course_window_s: 0.25,
         }
     }
 }
 
 impl DecisionRule {
+    /// Check every value; the error names the key (as a key of the escape controller's table,
+    /// `escape.<key>`), the value and the valid range.
+    pub fn validate(&self) -> Result<(), AgentError> {
+        if !self.threshold.is_finite() {
+            return Err(invalid("escape.threshold", self.threshold, "must be a finite number"));
+        }
+        for (key, v) in [
+            ("escape.tau_threshold_s", self.tau_threshold_s),
+            ("escape.tau_window_s", self.tau_window_s),
+            ("escape.course_closing_speed_mps", self.course_closing_speed_mps),
+            ("escape.course_window_s", self.course_window_s),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(invalid(key, v, "must be a finite number > 0"));
+            }
+        }
+        non_negative("escape.min_angular_size_deg", self.min_angular_size_deg)?;
+        if !(1..=MAX_PERSISTENCE_FRAMES).contains(&self.persistence_frames) {
+            return Err(invalid(
+                "escape.persistence_frames",
+                self.persistence_frames,
+                &format!("must be a whole number of frames from 1 (no persistence) to {MAX_PERSISTENCE_FRAMES}"),
+            ));
+        }
+        if let Some(m) = self.persistence_window_frames
+            && !(self.persistence_frames..=MAX_PERSISTENCE_FRAMES).contains(&m)
+        {
+            return Err(invalid(
+                "escape.persistence_window_frames",
+                m,
+                &format!(
+                    "must be a whole number of frames from escape.persistence_frames ({}) to {MAX_PERSISTENCE_FRAMES}",
+                    self.persistence_frames
+                ),
+            ));
+        }
+        if self.course != Course::Off && self.trigger == TriggerSignal::Output {
+            return Err(invalid(
+                "escape.course",
+                "image",
+                "the collision-course gate needs θ̂: use trigger = \"tau\" or \"angular_size\" on a detector that gives θ̂",
+            ));
+        }
+        Ok(())
+    }
+
     /// The persistence window M (frames, at least K).
     pub fn persistence_window(&self) -> usize {
         self.persistence_window_frames

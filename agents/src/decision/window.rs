@@ -2,8 +2,8 @@
 
 use std::collections::VecDeque;
 
-use super::percept::{Percept, SelfMotion};
 use super::JUMP_RATIO;
+use super::percept::{Percept, SelfMotion};
 
 /// One frame of the window: θ and directions in the camera mount's frame (the camera's own
 /// rotation removed).
@@ -71,4 +71,3 @@ impl SampleWindow {
         self.samples.iter().filter(move |s| s.t >= t_from)
     }
 }
-

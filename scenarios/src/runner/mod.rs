@@ -298,7 +298,13 @@ impl Runner {
         // ---- scores and closed loops: the detectors, then the reference rows ----
         let mut rows = detector_rows(ep, &mut pass, threat_object);
         if self.references {
-            rows.extend(reference_rows(ep, &pass.truth, &pass.t_s, deadline.as_ref(), threat_object));
+            rows.extend(reference_rows(
+                ep,
+                &pass.truth,
+                &pass.t_s,
+                deadline.as_ref(),
+                threat_object,
+            ));
         }
         let first_alarms: Vec<Option<usize>> = rows
             .iter()
@@ -420,7 +426,11 @@ fn detector_rows<'a>(ep: &'a EpisodeSpec, pass: &mut OpenLoop, threat_object: Op
         .zip(&mut pass.detectors)
         .map(|(spec, record)| {
             let (signal, raw, estimates) = match record.decided.take() {
-                Some(d) => (d.value, Some(std::mem::take(&mut record.signal)), Some((d.tau_s, d.gate_open))),
+                Some(d) => (
+                    d.value,
+                    Some(std::mem::take(&mut record.signal)),
+                    Some((d.tau_s, d.gate_open)),
+                ),
                 None => (std::mem::take(&mut record.signal), None, None),
             };
             let covers = threat_object.and_then(|id| covers_object(&record.regions, &pass.truth, id, &pinhole));

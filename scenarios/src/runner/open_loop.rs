@@ -58,7 +58,7 @@ impl DetectorRecord {
     }
 
     /// Frame `k`'s decision value (the decider's for a stateful row, else the signal).
-    fn decide(&mut self, k: usize, t_s: f64, looming_side: Option<f32>, motion: SelfMotion) -> f64 {
+    fn decision_value(&mut self, k: usize, t_s: f64, looming_side: Option<f32>, motion: SelfMotion) -> f64 {
         match (&mut self.decider, &mut self.decided) {
             (Some(decider), Some(decided)) => {
                 let d = decider.decide_on_detector(t_s, self.signal[k], looming_side, self.regions[k].as_ref(), motion);
@@ -126,9 +126,11 @@ impl Runner {
         };
         for (i, d) in ep.detectors.iter().enumerate() {
             let own = runs_as[i] == i;
-            instances
-                .built
-                .push(if own { Some(d.build(n as usize).map_err(|e| c.det(e))?) } else { None });
+            instances.built.push(if own {
+                Some(d.build(n as usize).map_err(|e| c.det(e))?)
+            } else {
+                None
+            });
         }
         let mut pass = OpenLoop {
             t_s: Vec::with_capacity(total),
@@ -238,7 +240,7 @@ fn open_loop_decisions(ep: &crate::schema::EpisodeSpec, instances: &Instances, p
         }
     }
     for (i, (record, spec)) in pass.detectors.iter_mut().zip(&ep.detectors).enumerate() {
-        let value = record.decide(k, pass.t_s[k], pass.sides[k], pass.motion[k]);
+        let value = record.decision_value(k, pass.t_s[k], pass.sides[k], pass.motion[k]);
         if record.alarmed_at.is_none() && value >= spec.threshold {
             record.alarmed_at = Some(k);
             record.snapshot = instances.built[pass.runs_as[i]].as_ref().and_then(|d| d.snapshot());

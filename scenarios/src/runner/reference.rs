@@ -1,6 +1,6 @@
 //! The reference rows of an episode and the closed loops of its ideal observers.
 
-use loomlab_agents::{EscapeAgent, EscapeConfig, SelfMotion, TriggerSignal, VelocityCommand};
+use loomlab_agents::{DecisionRule, EscapeAgent, SelfMotion, TriggerSignal, VelocityCommand};
 use loomlab_sim::{ObjectTruth, Sim};
 
 use super::Ctx;
@@ -39,7 +39,7 @@ pub(super) fn ideal_tail(
         let motion = SelfMotion::of(applied, camera.shake_rotation(t));
         let (value, side, object) = observer.update(t, truth, motion);
         agent
-            .decide_about(t, side, value, object, ep.cruise.command_at(t))
+            .act_on_value(t, side, value, object, ep.cruise.command_at(t))
             .command
     };
     let mut cmd = ep.cruise.command_at(0.0);
@@ -142,7 +142,7 @@ pub(super) fn reference_rows<'a>(
         };
         let mut r = row(
             label,
-            config.trigger,
+            config.decision.trigger,
             config.alarm_threshold(),
             signal_of(None),
             Tail::Ideal(kind),
@@ -160,5 +160,5 @@ pub fn ideal_theta_threshold_deg(ep: &EpisodeSpec) -> f64 {
     ep.detectors
         .iter()
         .find(|d| d.label == "hopfield" && d.trigger == TriggerSignal::AngularSizeDeg)
-        .map_or(EscapeConfig::default().threshold, |d| d.threshold)
+        .map_or(DecisionRule::default().threshold, |d| d.threshold)
 }

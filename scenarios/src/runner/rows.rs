@@ -4,8 +4,8 @@ use loomlab_agents::TriggerSignal;
 use loomlab_detector::{ImageRegion, Pinhole};
 use loomlab_sim::ObjectTruth;
 
-use crate::reference::IdealKind;
 use super::trace::{DecisionTrace, DetectorTrace};
+use crate::reference::IdealKind;
 use crate::schema::DetectorSpec;
 
 /// For a detector that numbers its tracks ([`ImageRegion::track`], `tracker`): per frame, whether
