@@ -1076,8 +1076,11 @@ params = { front_end = "adapted", readout = "winner" }
         "the camera's shake is recorded"
     );
     let config = loomlab_agents::EscapeConfig {
-        trigger: loomlab_agents::TriggerSignal::Tau,
-        course: loomlab_agents::Course::Image,
+        decision: loomlab_agents::DecisionRule {
+            trigger: loomlab_agents::TriggerSignal::Tau,
+            course: loomlab_agents::Course::Image,
+            ..loomlab_agents::DecisionRule::default()
+        },
         ..Default::default()
     };
     for label in ["tracker_tau", "hopfield_tau"] {
@@ -1092,7 +1095,10 @@ params = { front_end = "adapted", readout = "winner" }
     let r = loomlab_scenarios::replay::replay_run(&out, "tracker_tau", &config).unwrap();
     assert_eq!((r.recorded.evadable, r.recorded.hits), (1, 1), "{r:?}");
     let late = loomlab_agents::EscapeConfig {
-        min_angular_size_deg: 60.0,
+        decision: loomlab_agents::DecisionRule {
+            min_angular_size_deg: 60.0,
+            ..config.decision
+        },
         ..config.clone()
     };
     let r = loomlab_scenarios::replay::replay_run(&out, "tracker_tau", &late).unwrap();

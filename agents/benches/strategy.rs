@@ -8,15 +8,18 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use loomlab_agents::{Course, Ego, EscapeConfig, ImageExtent, Percept, TriggerSignal};
+use loomlab_agents::{Course, DecisionRule, EscapeConfig, ImageExtent, Percept, SelfMotion, TriggerSignal};
 
 fn strategy_update(c: &mut Criterion) {
     let cfg = EscapeConfig {
-        trigger: TriggerSignal::Tau,
-        course: Course::Image,
+        decision: DecisionRule {
+            trigger: TriggerSignal::Tau,
+            course: Course::Image,
+            ..DecisionRule::default()
+        },
         ..EscapeConfig::default()
     };
-    let mut strategy = cfg.strategy();
+    let mut strategy = cfg.decider();
     let mut k = 0u64;
     let mut group = c.benchmark_group("strategy");
     group.throughput(Throughput::Elements(1));
@@ -31,11 +34,11 @@ fn strategy_update(c: &mut Criterion) {
                 elevation_deg: None,
                 extent: None,
             };
-            black_box(strategy.update(t, black_box(p), Ego::default()).value)
+            black_box(strategy.decide(t, black_box(p), SelfMotion::default()).value)
         })
     });
     // the ideal rows' percept: elevation and image extent too (every object, every frame)
-    let mut strategy = cfg.strategy();
+    let mut strategy = cfg.decider();
     let mut k = 0u64;
     group.bench_function("tau_course_update_with_extent", |b| {
         b.iter(|| {
@@ -53,7 +56,7 @@ fn strategy_update(c: &mut Criterion) {
                     elevation_deg: [el - half, el + half],
                 }),
             };
-            black_box(strategy.update(t, black_box(p), Ego::default()).value)
+            black_box(strategy.decide(t, black_box(p), SelfMotion::default()).value)
         })
     });
     group.finish();

@@ -11,8 +11,8 @@
 //!    ([`LoomingSideEstimator`], the x centroid of the temporal contrast) — or, when the driving
 //!    detector localises the object ([`Signals::region`]), it is the middle of its image extent;
 //! 3. the escape controller reads the **driving** detector's trigger signal (the first detector;
-//!    θ̂ or the output, per [`EscapeConfig::trigger`]), runs its decision strategy on it
-//!    ([`crate::strategy`]: θ̂ itself, or the urgency 1/τ̂, optionally gated by the collision-course
+//!    θ̂ or the output, per [`DecisionRule::trigger`](crate::DecisionRule::trigger)), runs its decider on it
+//!    ([`crate::decision`]: θ̂ itself, or the urgency 1/τ̂, optionally gated by the collision-course
 //!    gate fed with the looming side as the object's azimuth) and returns the velocity command to
 //!    apply during the next camera period. When the driving detector numbers its tracks
 //!    ([`ImageRegion::track`](loomlab_detector::ImageRegion::track), `tracker`), the controller is
@@ -22,14 +22,13 @@
 //! The runner and the environment are orchestration around this type: they own the simulator,
 //! the ground truth and the scoring, and never restate this step.
 //!
-//! An agent can also be driven by a trigger value that does not come from a detector (the
-//! ground-truth reference rows of the runner) through [`EscapeAgent::step_with_trigger`], and by a
-//! given looming side without any frame (physics-only replays) through [`EscapeAgent::decide`];
-//! the controller is the same.
+//! An agent can also be driven by a decision value that does not come from a detector and a given
+//! looming side, without any frame (the ground-truth reference rows and the physics-only replays
+//! of the runner), through [`EscapeAgent::act_on_value`]; the controller is the same.
 
 use loomlab_detector::{Detector, DetectorError, EfferenceCopy, Frame, Signals};
 
-use crate::strategy::Percept;
+use crate::decision::Percept;
 use crate::{
     AgentError, CameraSense, ControllerEvent, EgoSensor, EscapeConfig, EscapeController, LoomingSideEstimator,
     VelocityCommand,
@@ -40,7 +39,7 @@ use crate::{
 pub struct AgentStep {
     /// Every detector's signals on this frame, in the agent's detector order.
     pub signals: Vec<Signals>,
-    /// The driving detector's decision value: its trigger signal after the decision strategy
+    /// The driving detector's decision value: its trigger signal after the decider
     /// (θ̂, the output, or the urgency 1/τ̂; NaN when it gives none).
     pub trigger_value: f64,
     /// The looming object's image x in [-1, 1] from this frame and the previous one (`None`:
@@ -62,7 +61,8 @@ pub struct EscapeAgent {
     /// frame, the detectors' efference copy (`None`: no step since the last reset; then the cruise
     /// command).
     applied: Option<VelocityCommand>,
-    ego: EgoSensor,
+    /// Turns the camera's poses into the detectors' efference copies.
+    efference_sensor: EgoSensor,
 }
 
 impl std::fmt::Debug for EscapeAgent {
@@ -76,14 +76,14 @@ impl std::fmt::Debug for EscapeAgent {
 
 impl EscapeAgent {
     /// An agent whose first detector drives the controller (`detectors` may be empty when the
-    /// agent is only driven through [`decide`](Self::decide)).
+    /// agent is only driven through [`act_on_value`](Self::act_on_value)).
     pub fn new(detectors: Vec<Box<dyn Detector>>, controller: EscapeConfig) -> Result<Self, AgentError> {
         Ok(Self {
             detectors,
             side: LoomingSideEstimator::default(),
             controller: EscapeController::new(controller)?,
             applied: None,
-            ego: EgoSensor::default(),
+            efference_sensor: EgoSensor::default(),
         })
     }
 
@@ -95,7 +95,7 @@ impl EscapeAgent {
             side: LoomingSideEstimator::default(),
             controller,
             applied: None,
-            ego: EgoSensor::default(),
+            efference_sensor: EgoSensor::default(),
         }
     }
 
@@ -107,7 +107,7 @@ impl EscapeAgent {
         self.side.reset();
         self.controller.reset();
         self.applied = None;
-        self.ego.reset();
+        self.efference_sensor.reset();
     }
 
     /// Replaces the detector at `index` (e.g. rebuilt with other parameters).
@@ -144,7 +144,7 @@ impl EscapeAgent {
     /// [`Self::step`] with the camera's state at `t_s` (`camera`, as the robot's odometry and
     /// inertial sensor know it): the detectors' efference copy then also holds the camera's motion
     /// since the previous step and its pose above the ground ([`EgoSensor`]), and the decision
-    /// strategy removes the camera's shake from image directions ([`crate::Ego`]).
+    /// decider removes the camera's shake from image directions ([`crate::SelfMotion`]).
     pub fn step_posed(
         &mut self,
         t_s: f64,
@@ -152,10 +152,10 @@ impl EscapeAgent {
         cruise: VelocityCommand,
         camera: Option<&CameraSense>,
     ) -> Result<AgentStep, DetectorError> {
-        let ego = self.efference_copy(t_s, cruise, camera);
+        let efference = self.efference_copy(t_s, cruise, camera);
         let mut signals = Vec::with_capacity(self.detectors.len());
         for d in &mut self.detectors {
-            signals.push(d.step_moving(frame, &ego)?);
+            signals.push(d.step_moving(frame, &efference)?);
         }
         let contrast_side = self.side.update(frame);
         Ok(self.decide_on_signals(t_s, cruise, camera, signals, contrast_side))
@@ -165,8 +165,8 @@ impl EscapeAgent {
     /// `signals`, those of detectors identical to the agent's stepped on the same frames with the
     /// same efference copies, and `contrast_side`, what a [`LoomingSideEstimator`] gave on the same
     /// frames (the scenario runner's open-loop pass, replayed up to an alarm). The detectors are
-    /// not stepped and the estimator only remembers the frame; the efference copy, decision
-    /// strategy and controller advance exactly as in [`Self::step_posed`].
+    /// not stepped and the estimator only remembers the frame; the efference copy, decider
+    /// and controller advance exactly as in [`Self::step_posed`].
     pub fn step_posed_with_signals(
         &mut self,
         t_s: f64,
@@ -181,17 +181,17 @@ impl EscapeAgent {
         self.decide_on_signals(t_s, cruise, camera, signals, contrast_side)
     }
 
-    /// The efference copy of the camera period that ends at `t_s` (advances the ego sensor).
+    /// The efference copy of the camera period that ends at `t_s` (advances the efference sensor).
     fn efference_copy(&mut self, t_s: f64, cruise: VelocityCommand, camera: Option<&CameraSense>) -> EfferenceCopy {
         let applied = self.applied.unwrap_or(cruise);
         match camera {
-            Some(camera) => self.ego.sense(applied, t_s, &camera.pose),
+            Some(camera) => self.efference_sensor.sense(applied, t_s, &camera.pose),
             None => applied.efference_copy(),
         }
     }
 
     /// Everything of a step after the detectors and the contrast side: looming side, decision
-    /// strategy, controller.
+    /// decider, controller.
     fn decide_on_signals(
         &mut self,
         t_s: f64,
@@ -201,60 +201,32 @@ impl EscapeAgent {
         contrast_side: Option<f32>,
     ) -> AgentStep {
         let looming_side = signals.first().and_then(region_side).or(contrast_side);
-        let percept = match signals.first() {
-            Some(s) => self.controller.percept(s, looming_side),
-            None => Percept {
-                value: f64::NAN,
-                ..Percept::default()
-            },
-        };
         let shake_rad = camera.map_or([0.0; 3], |c| c.shake_rad);
-        let decision = self.controller.perceive_shaken(t_s, percept, cruise, shake_rad);
+        let decision = match signals.first() {
+            Some(s) => self
+                .controller
+                .perceive_signals(t_s, s, looming_side, cruise, shake_rad),
+            None => self.controller.perceive(t_s, Percept::unknown(), cruise, shake_rad),
+        };
         let trigger_value = decision.value;
-        let object = signals.first().and_then(|s| s.region).and_then(|r| r.track);
+        let region = signals.first().and_then(|s| s.region);
+        let object = region.and_then(|r| r.track);
         // a detector that localises the object escapes from the side on which the collision-course
         // gate predicts it to arrive (as `ideal_course` does), else from where it is now
-        let looming_side = match signals.first().and_then(|s| s.region) {
-            Some(_) => decision.pass_side.or(looming_side),
-            None => looming_side,
-        };
-        let mut step = self.decide_about(t_s, looming_side, trigger_value, object, cruise);
+        let looming_side = decision.escape_side(looming_side, region.is_some());
+        let mut step = self.act_on_value(t_s, looming_side, trigger_value, object, cruise);
         step.signals = signals;
         self.applied = Some(step.command);
         step
     }
 
-    /// The decision on `frame` from a decision value that does not come from the agent's detectors
-    /// (they are not stepped; `signals` is empty; the decision strategy is bypassed): the looming
-    /// side still comes from the frames.
-    pub fn step_with_trigger(
-        &mut self,
-        t_s: f64,
-        frame: &Frame,
-        trigger_value: f64,
-        cruise: VelocityCommand,
-    ) -> AgentStep {
-        let looming_side = self.side.update(frame);
-        self.decide(t_s, looming_side, trigger_value, cruise)
-    }
-
-    /// The controller's decision from a given looming side and decision value (compared with
-    /// [`EscapeConfig::alarm_threshold`]), with no frame (the physics-only escape-deadline replays,
-    /// which take the side from the open-loop frames; the reference rows, whose strategies run on
-    /// ground truth). The looming-side estimator and the decision strategy are not updated.
-    pub fn decide(
-        &mut self,
-        t_s: f64,
-        looming_side: Option<f32>,
-        trigger_value: f64,
-        cruise: VelocityCommand,
-    ) -> AgentStep {
-        self.decide_about(t_s, looming_side, trigger_value, None, cruise)
-    }
-
-    /// [`Self::decide`] naming the object the value comes from (the ideal reference rows, which
-    /// know it): a re-trigger keeps the dodge side only for the same object.
-    pub fn decide_about(
+    /// The controller's step on a decision value that does not come from the agent's detectors
+    /// and a given looming side, with no frame (the physics-only escape-deadline replays, which
+    /// force a trigger and take the side from the open-loop frames; the reference rows, whose
+    /// deciders run on ground truth), naming the object the value comes from when the caller knows
+    /// it (`object`; a re-trigger keeps the dodge side only for the same object). The detectors,
+    /// the looming-side estimator and the decider are not updated.
+    pub fn act_on_value(
         &mut self,
         t_s: f64,
         looming_side: Option<f32>,

@@ -4,7 +4,7 @@
 //! The runner's open-loop pass, its closed-loop tails, the escape-deadline replays and the
 //! Gymnasium env all build a detector's [`EfferenceCopy`] with this one type, so a detector sees
 //! the same self-knowledge wherever it runs; they take the camera's state from the simulator as one
-//! [`CameraSense`], whose shake also reaches the decision strategies ([`crate::Ego`]). Only the
+//! [`CameraSense`], whose shake also reaches the decider ([`crate::SelfMotion`]). Only the
 //! robot's own camera enters it: never anything about other objects.
 
 use loomlab_detector::EfferenceCopy;
@@ -51,22 +51,22 @@ impl EgoSensor {
     /// applied, with `camera` the camera's world pose at `t_s` (x = optical axis, z = up, the
     /// ground plane z = 0). The first call after a reset knows the pose but no motion (`dt_s = 0`).
     pub fn sense(&mut self, command: VelocityCommand, t_s: f64, camera: &Pose64) -> EfferenceCopy {
-        let mut ego = command.efference_copy();
+        let mut efference = command.efference_copy();
         let up = camera.rotation.inverse() * DVec3::Z;
-        ego.height_m = camera.position.z;
-        ego.pitch_rad = up.x.clamp(-1.0, 1.0).asin();
-        ego.roll_rad = up.y.atan2(up.z);
+        efference.height_m = camera.position.z;
+        efference.pitch_rad = up.x.clamp(-1.0, 1.0).asin();
+        efference.roll_rad = up.y.atan2(up.z);
         if let Some((t0, previous)) = &self.previous
             && t_s > *t0
         {
             let inverse = previous.rotation.inverse();
             let rotation = (inverse * camera.rotation).normalize().to_scaled_axis();
             let translation = inverse * (camera.position - previous.position);
-            ego.dt_s = t_s - t0;
-            ego.rotation_rad = rotation.to_array();
-            ego.translation_m = translation.to_array();
+            efference.dt_s = t_s - t0;
+            efference.rotation_rad = rotation.to_array();
+            efference.translation_m = translation.to_array();
         }
         self.previous = Some((t_s, *camera));
-        ego
+        efference
     }
 }

@@ -2,7 +2,7 @@
 //! escape manoeuvre for a fixed time, then a cooldown during which it cannot trigger again.
 //!
 //! # Trigger semantics
-//! Each frame the controller's decision strategy ([`crate::strategy`]) turns the percept into one
+//! Each frame the controller's decider ([`crate::decision`]) turns the percept into one
 //! decision value, compared against [`EscapeConfig::alarm_threshold`]:
 //! - [`TriggerSignal::AngularSizeDeg`] (`"angular_size_deg"` or `"angular_size"`): the Hopfield
 //!   detector's angular-size estimate θ̂ in degrees ([`Signals::angular_size_deg`]) against
@@ -54,45 +54,11 @@ use serde::{Deserialize, Serialize};
 
 use loomlab_sim::RobotBase;
 
-use crate::strategy::{Course, Decision, Ego, ImageExtent, Percept, Strategy, StrategyParams};
-use crate::{AgentError, VelocityCommand};
-
+use crate::decision::{BodyExtent, Decider, Decision, DecisionRule, Percept, SelfMotion};
 #[allow(unused_imports)] // for doc links
-use loomlab_detector::{ImageRegion, Signals};
-
-/// Which detector signal the controller compares against its threshold.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum TriggerSignal {
-    /// The angular-size estimate θ̂ in degrees ([`Signals::angular_size_deg`], Hopfield detector).
-    /// Also spelled `angular_size`.
-    #[default]
-    #[serde(alias = "angular_size")]
-    AngularSizeDeg,
-    /// The detector's primary output ([`Signals::output`]) in its own units (baselines).
-    Output,
-    /// Time to contact estimated from θ̂ ([`crate::strategy`]): the value is the urgency 1/τ̂
-    /// (s⁻¹), alarm when τ̂ ≤ [`EscapeConfig::tau_threshold_s`] and θ̂ ≥
-    /// [`EscapeConfig::min_angular_size_deg`]. Needs a detector that gives θ̂.
-    Tau,
-}
-
-impl TriggerSignal {
-    /// The scalar this trigger reads from a detector's signals (`None` when the detector gives none):
-    /// θ̂ for the angular-size and τ triggers (τ is estimated from θ̂ by the strategy), the output
-    /// otherwise.
-    pub fn value(self, signals: &Signals) -> Option<f64> {
-        match self {
-            Self::AngularSizeDeg | Self::Tau => signals.angular_size_deg,
-            Self::Output => Some(signals.output),
-        }
-    }
-
-    /// Whether this trigger reads θ̂ (degrees) rather than a detector output.
-    pub fn reads_angular_size(self) -> bool {
-        matches!(self, Self::AngularSizeDeg | Self::Tau)
-    }
-}
+use crate::decision::{Course, MAX_PERSISTENCE_FRAMES, TriggerSignal};
+use crate::{AgentError, VelocityCommand};
+use loomlab_detector::{Pinhole, Signals};
 
 /// The escape manoeuvre run after a trigger.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -141,46 +107,13 @@ impl DodgeSide {
     }
 }
 
-/// The most frames of [`EscapeConfig::persistence_frames`] (10 000: over a minute at 120 Hz).
-pub const MAX_PERSISTENCE_FRAMES: usize = 10_000;
-
-/// Configuration of the [`EscapeController`].
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+/// Configuration of the [`EscapeController`] (the scenario's `[controller]` table: the keys of its
+/// [`DecisionRule`] and of the manoeuvre, flat in one table; every key optional).
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct EscapeConfig {
-    /// Which detector signal is compared with `threshold`.
-    pub trigger: TriggerSignal,
-    /// Trigger threshold: degrees for [`TriggerSignal::AngularSizeDeg`] (default 10°, the locust's
-    /// escape angle; tuned by the scenario suite), detector output units for [`TriggerSignal::Output`].
-    /// Not used by [`TriggerSignal::Tau`] (see `tau_threshold_s`).
-    pub threshold: f64,
-    /// [`TriggerSignal::Tau`]: alarm when the estimated time to contact τ̂ ≤ this (s, > 0).
-    pub tau_threshold_s: f64,
-    /// [`TriggerSignal::Tau`]: the smallest θ̂ (degrees, ≥ 0; default 1) for an alarm, and for a
-    /// frame to enter the τ̂ fit ([`crate::strategy`]).
-    pub min_angular_size_deg: f64,
-    /// Length of the window over which τ̂ and the bearing rate are estimated (s, > 0).
-    pub tau_window_s: f64,
-    /// The collision-course gate ([`crate::strategy`]); needs θ̂.
-    pub course: Course,
-    /// Persistence (frames, 1–[`MAX_PERSISTENCE_FRAMES`]; default 1: none): the decision value is
-    /// the smallest of the last this many frames' values, so an alarm needs the value at or above
-    /// the threshold on that many consecutive frames — for any threshold, so a calibration of the
-    /// threshold sees the same rule ([`crate::strategy`]).
-    pub persistence_frames: usize,
-    /// The window of the persistence rule (frames, `persistence_frames`–[`MAX_PERSISTENCE_FRAMES`];
-    /// default: `persistence_frames`, i.e. consecutive frames): with a longer window M the
-    /// decision value is the K-th largest of the last M frames' values (K = `persistence_frames`),
-    /// so an alarm needs the value at or above the threshold on any K of the last M frames — a
-    /// K-of-M confirmation that a single frame's dropout does not reset ([`crate::strategy`]).
-    pub persistence_window_frames: Option<usize>,
-    /// Closing speed the course gate assumes to turn τ̂ into a distance (m/s, > 0; default 10: a
-    /// thrown ball). An object closing faster looks nearer the robot's axis than it is (a fast near
-    /// pass may get through), a slower one farther (a slow graze of the body's edge may be gated
-    /// out); objects standing in the world close at the robot's own speed, which the gate uses.
-    pub course_closing_speed_mps: f64,
-    /// Window over which the course gate estimates the bearing and expansion rates (s, > 0).
-    pub course_window_s: f64,
+    /// How the controller decides ([`crate::decision`]); its fields are keys of this table.
+    #[serde(flatten)]
+    pub decision: DecisionRule,
     /// A re-trigger less than this long (s, ≥ 0) after the last frame that was an alarm, or after
     /// the controller re-armed following its last manoeuvre, keeps the previous dodge side: the
     /// same object is still looming, and dodging back would run into it.
@@ -237,16 +170,7 @@ pub struct EscapeConfig {
 impl Default for EscapeConfig {
     fn default() -> Self {
         Self {
-            trigger: TriggerSignal::AngularSizeDeg,
-            threshold: 10.0,
-            tau_threshold_s: 1.0,
-            min_angular_size_deg: 1.0,
-            tau_window_s: 0.1,
-            course: Course::Off,
-            persistence_frames: 1,
-            persistence_window_frames: None,
-            course_closing_speed_mps: 10.0,
-            course_window_s: 0.25,
+            decision: DecisionRule::default(),
             side_memory_s: 0.5,
             max_dodge_offset_m: None,
             manoeuvre: Manoeuvre::DodgeLateral,
@@ -268,7 +192,90 @@ impl Default for EscapeConfig {
     }
 }
 
-fn invalid(key: &'static str, value: impl ToString, reason: &str) -> AgentError {
+/// The keys of the escape controller's table, in order: the decision rule's, then the manoeuvre's
+/// (the keys [`EscapeConfig`] reads and writes).
+const KEYS: &[&str] = &[
+    "trigger",
+    "threshold",
+    "tau_threshold_s",
+    "min_angular_size_deg",
+    "tau_window_s",
+    "course",
+    "persistence_frames",
+    "persistence_window_frames",
+    "course_closing_speed_mps",
+    "course_window_s",
+    "side_memory_s",
+    "max_dodge_offset_m",
+    "manoeuvre",
+    "dodge_speed_mps",
+    "dodge_forward_scale",
+    "dodge_yaw_rate_rps",
+    "turn_rate_rps",
+    "reverse_speed_mps",
+    "duration_s",
+    "cooldown_s",
+    "default_side",
+    "side_deadband",
+];
+
+/// Reads the flat `[controller]` table into an [`EscapeConfig`] (its [`DecisionRule`] included):
+/// every key optional (the default otherwise), an unknown key an error that lists the known ones.
+struct EscapeConfigVisitor;
+
+impl<'de> serde::de::Visitor<'de> for EscapeConfigVisitor {
+    type Value = EscapeConfig;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("struct EscapeConfig")
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<EscapeConfig, A::Error> {
+        let mut c = EscapeConfig::default();
+        let mut seen = Vec::new();
+        while let Some(key) = map.next_key::<String>()? {
+            if seen.contains(&key) {
+                return Err(serde::de::Error::custom(format_args!("duplicate field `{key}`")));
+            }
+            let d = &mut c.decision;
+            match key.as_str() {
+                "trigger" => d.trigger = map.next_value()?,
+                "threshold" => d.threshold = map.next_value()?,
+                "tau_threshold_s" => d.tau_threshold_s = map.next_value()?,
+                "min_angular_size_deg" => d.min_angular_size_deg = map.next_value()?,
+                "tau_window_s" => d.tau_window_s = map.next_value()?,
+                "course" => d.course = map.next_value()?,
+                "persistence_frames" => d.persistence_frames = map.next_value()?,
+                "persistence_window_frames" => d.persistence_window_frames = map.next_value()?,
+                "course_closing_speed_mps" => d.course_closing_speed_mps = map.next_value()?,
+                "course_window_s" => d.course_window_s = map.next_value()?,
+                "side_memory_s" => c.side_memory_s = map.next_value()?,
+                "max_dodge_offset_m" => c.max_dodge_offset_m = map.next_value()?,
+                "manoeuvre" => c.manoeuvre = map.next_value()?,
+                "dodge_speed_mps" => c.dodge_speed_mps = map.next_value()?,
+                "dodge_forward_scale" => c.dodge_forward_scale = map.next_value()?,
+                "dodge_yaw_rate_rps" => c.dodge_yaw_rate_rps = map.next_value()?,
+                "turn_rate_rps" => c.turn_rate_rps = map.next_value()?,
+                "reverse_speed_mps" => c.reverse_speed_mps = map.next_value()?,
+                "duration_s" => c.duration_s = map.next_value()?,
+                "cooldown_s" => c.cooldown_s = map.next_value()?,
+                "default_side" => c.default_side = map.next_value()?,
+                "side_deadband" => c.side_deadband = map.next_value()?,
+                other => return Err(serde::de::Error::unknown_field(other, KEYS)),
+            }
+            seen.push(key);
+        }
+        Ok(c)
+    }
+}
+
+impl<'de> Deserialize<'de> for EscapeConfig {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        deserializer.deserialize_struct("EscapeConfig", KEYS, EscapeConfigVisitor)
+    }
+}
+
+pub(crate) fn invalid(key: &'static str, value: impl ToString, reason: &str) -> AgentError {
     AgentError::InvalidConfig {
         key,
         value: value.to_string(),
@@ -276,7 +283,7 @@ fn invalid(key: &'static str, value: impl ToString, reason: &str) -> AgentError 
     }
 }
 
-fn non_negative(key: &'static str, v: f64) -> Result<(), AgentError> {
+pub(crate) fn non_negative(key: &'static str, v: f64) -> Result<(), AgentError> {
     if v.is_finite() && v >= 0.0 {
         Ok(())
     } else {
@@ -287,9 +294,7 @@ fn non_negative(key: &'static str, v: f64) -> Result<(), AgentError> {
 impl EscapeConfig {
     /// Check every value; the error names the key, the value and the valid range.
     pub fn validate(&self) -> Result<(), AgentError> {
-        if !self.threshold.is_finite() {
-            return Err(invalid("escape.threshold", self.threshold, "must be a finite number"));
-        }
+        self.decision.validate()?;
         non_negative("escape.dodge_speed_mps", self.dodge_speed_mps)?;
         non_negative("escape.dodge_forward_scale", self.dodge_forward_scale)?;
         non_negative("escape.dodge_yaw_rate_rps", self.dodge_yaw_rate_rps)?;
@@ -303,36 +308,6 @@ impl EscapeConfig {
             ));
         }
         non_negative("escape.cooldown_s", self.cooldown_s)?;
-        for (key, v) in [
-            ("escape.tau_threshold_s", self.tau_threshold_s),
-            ("escape.tau_window_s", self.tau_window_s),
-            ("escape.course_closing_speed_mps", self.course_closing_speed_mps),
-            ("escape.course_window_s", self.course_window_s),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(invalid(key, v, "must be a finite number > 0"));
-            }
-        }
-        non_negative("escape.min_angular_size_deg", self.min_angular_size_deg)?;
-        if !(1..=MAX_PERSISTENCE_FRAMES).contains(&self.persistence_frames) {
-            return Err(invalid(
-                "escape.persistence_frames",
-                self.persistence_frames,
-                &format!("must be a whole number of frames from 1 (no persistence) to {MAX_PERSISTENCE_FRAMES}"),
-            ));
-        }
-        if let Some(m) = self.persistence_window_frames
-            && !(self.persistence_frames..=MAX_PERSISTENCE_FRAMES).contains(&m)
-        {
-            return Err(invalid(
-                "escape.persistence_window_frames",
-                m,
-                &format!(
-                    "must be a whole number of frames from escape.persistence_frames ({}) to {MAX_PERSISTENCE_FRAMES}",
-                    self.persistence_frames
-                ),
-            ));
-        }
         non_negative("escape.side_memory_s", self.side_memory_s)?;
         if let Some(v) = self.max_dodge_offset_m
             && !(v.is_finite() && v > 0.0)
@@ -359,13 +334,6 @@ impl EscapeConfig {
                 "must lie in (0, 180)",
             ));
         }
-        if self.course != Course::Off && self.trigger == TriggerSignal::Output {
-            return Err(invalid(
-                "escape.course",
-                "image",
-                "the collision-course gate needs θ̂: use trigger = \"tau\" or \"angular_size\" on a detector that gives θ̂",
-            ));
-        }
         if !(self.side_deadband.is_finite() && (0.0..1.0).contains(&self.side_deadband)) {
             return Err(invalid(
                 "escape.side_deadband",
@@ -379,10 +347,7 @@ impl EscapeConfig {
     /// The threshold the decision value is compared with: `threshold`, or the urgency
     /// `1 / tau_threshold_s` (s⁻¹) for [`TriggerSignal::Tau`].
     pub fn alarm_threshold(&self) -> f64 {
-        match self.trigger {
-            TriggerSignal::Tau => 1.0 / self.tau_threshold_s,
-            _ => self.threshold,
-        }
+        self.decision.alarm_threshold()
     }
 
     /// Whether `signal` (a decision value) is an alarm: `signal >= alarm_threshold()` (NaN and
@@ -391,80 +356,23 @@ impl EscapeConfig {
         signal.is_some_and(|s| s >= self.alarm_threshold())
     }
 
-    /// The parameters of this configuration's decision strategy.
-    pub fn strategy_params(&self) -> StrategyParams {
-        StrategyParams {
-            tau: self.trigger == TriggerSignal::Tau,
-            min_angular_size_deg: self.min_angular_size_deg,
-            window_s: self.tau_window_s,
-            course: self.course,
-            persistence_frames: self.persistence_frames,
-            persistence_window_frames: self.persistence_window_frames.unwrap_or(self.persistence_frames),
-            closing_speed_mps: self.course_closing_speed_mps,
-            course_window_s: self.course_window_s,
-            body_half_width_m: self.body_half_width_m,
-            body_above_camera_m: self.body_above_camera_m,
-            body_below_camera_m: self.body_below_camera_m,
-            angle_valued: self.trigger.reads_angular_size(),
+    /// The robot's body about its camera, for the course gate.
+    pub fn body(&self) -> BodyExtent {
+        BodyExtent {
+            half_width_m: self.body_half_width_m,
+            above_camera_m: self.body_above_camera_m,
+            below_camera_m: self.body_below_camera_m,
         }
     }
 
-    /// A fresh decision strategy of this configuration ([`crate::strategy`]).
-    pub fn strategy(&self) -> Strategy {
-        Strategy::new(self.strategy_params())
+    /// The robot's camera (image coordinates ↔ angles).
+    pub fn pinhole(&self) -> Pinhole {
+        Pinhole::new(self.camera_fov_deg)
     }
 
-    /// The azimuth (degrees, positive right) of image x in [−1, 1] for this camera.
-    pub fn azimuth_deg(&self, image_x: f32) -> f64 {
-        self.image_angle_deg(f64::from(image_x))
-    }
-
-    /// The angle from the optical axis (degrees) of an image coordinate in [−1, 1] (x or y) for
-    /// this camera's field of view.
-    fn image_angle_deg(&self, image_coord: f64) -> f64 {
-        (image_coord * (self.camera_fov_deg / 2.0).to_radians().tan())
-            .atan()
-            .to_degrees()
-    }
-
-    /// The percept of a real detector: its decision-signal value (θ̂, or the output for output
-    /// triggers) and the looming side (image x in [−1, 1]) as an azimuth.
-    pub fn percept(&self, value: f64, looming_side: Option<f32>) -> Percept {
-        Percept {
-            value,
-            azimuth_deg: looming_side.filter(|x| x.is_finite()).map(|x| self.azimuth_deg(x)),
-            elevation_deg: None,
-            extent: None,
-        }
-    }
-
-    /// The elevation (degrees, positive up) of image y in [−1, 1] for this camera.
-    pub fn elevation_deg(&self, image_y: f64) -> f64 {
-        self.image_angle_deg(image_y)
-    }
-
-    /// The percept of a real detector that localises the object ([`Signals::region`], e.g.
-    /// `tracker`): the middle of its image extent as azimuth and elevation, and the extent as
-    /// angles, converted with the camera's field of view. Without a region (or with a non-finite
-    /// one), [`Self::percept`] from the looming side.
-    pub fn percept_of(&self, value: f64, looming_side: Option<f32>, region: Option<&ImageRegion>) -> Percept {
-        let finite = |r: &&ImageRegion| r.x.iter().chain(&r.y).all(|v| v.is_finite());
-        match region.filter(finite) {
-            None => self.percept(value, looming_side),
-            Some(r) => {
-                let azimuth_deg = [self.image_angle_deg(r.x[0]), self.image_angle_deg(r.x[1])];
-                let elevation_deg = [self.elevation_deg(r.y[0]), self.elevation_deg(r.y[1])];
-                Percept {
-                    value,
-                    azimuth_deg: Some(self.image_angle_deg((r.x[0] + r.x[1]) / 2.0)),
-                    elevation_deg: Some(self.elevation_deg((r.y[0] + r.y[1]) / 2.0)),
-                    extent: Some(ImageExtent {
-                        azimuth_deg,
-                        elevation_deg,
-                    }),
-                }
-            }
-        }
+    /// A fresh decider of this configuration ([`crate::decision`]).
+    pub fn decider(&self) -> Decider {
+        Decider::new(self.decision, self.body(), self.pinhole())
     }
 
     /// The command of the manoeuvre towards `side` given the cruise command.
@@ -532,7 +440,7 @@ pub struct EscapeController {
     phase: Phase,
     triggers: usize,
     first_trigger_s: Option<f64>,
-    strategy: Strategy,
+    decider: Decider,
     last_command: Option<VelocityCommand>,
     last_side: Option<DodgeSide>,
     last_alarm_s: Option<f64>,
@@ -552,7 +460,7 @@ impl EscapeController {
     pub fn new(config: EscapeConfig) -> Result<Self, AgentError> {
         config.validate()?;
         Ok(Self {
-            strategy: config.strategy(),
+            decider: config.decider(),
             config,
             phase: Phase::Armed,
             triggers: 0,
@@ -578,7 +486,7 @@ impl EscapeController {
         self.phase = Phase::Armed;
         self.triggers = 0;
         self.first_trigger_s = None;
-        self.strategy.reset();
+        self.decider.reset();
         self.last_command = None;
         self.last_side = None;
         self.last_alarm_s = None;
@@ -596,26 +504,30 @@ impl EscapeController {
         self.object = object;
     }
 
-    /// Feed this frame's percept to the decision strategy ([`crate::strategy`]) and return its
-    /// decision; `decision.value` is what [`Self::step`] then compares with the alarm threshold.
-    /// The robot's own motion is the command this controller returned in its last step (`cruise`
-    /// before the first).
-    pub fn perceive(&mut self, t_s: f64, percept: Percept, cruise: VelocityCommand) -> Decision {
-        self.perceive_shaken(t_s, percept, cruise, [0.0; 3])
+    /// Feed this frame's percept to the decider ([`crate::decision`]) and return its decision;
+    /// `decision.value` is what [`Self::step`] then compares with the alarm threshold. The robot's
+    /// own motion is the command this controller returned in its last step (`cruise` before the
+    /// first) and its camera's rotation relative to its mount, `shake_rad` (`[yaw, pitch, roll]`,
+    /// rad, as [`crate::CameraSense::shake_rad`]; zeros for a rigid mount).
+    pub fn perceive(&mut self, t_s: f64, percept: Percept, cruise: VelocityCommand, shake_rad: [f64; 3]) -> Decision {
+        let motion = SelfMotion::of(self.last_command.unwrap_or(cruise), shake_rad);
+        self.decider.decide(t_s, percept, motion)
     }
 
-    /// [`Self::perceive`] for a camera whose rotation relative to its mount is `shake_rad`
-    /// (`[yaw, pitch, roll]`, rad, as [`crate::CameraSense::shake_rad`]): the strategy removes it
-    /// from image directions.
-    pub fn perceive_shaken(
+    /// [`Self::perceive`] on a real detector's `signals`: its trigger signal, and its image region
+    /// when it gives one, else the looming side ([`Percept::of_detector`]).
+    pub fn perceive_signals(
         &mut self,
         t_s: f64,
-        percept: Percept,
+        signals: &Signals,
+        looming_side: Option<f32>,
         cruise: VelocityCommand,
         shake_rad: [f64; 3],
     ) -> Decision {
-        let ego = Ego::of(self.last_command.unwrap_or(cruise), shake_rad);
-        self.strategy.update(t_s, percept, ego)
+        let value = self.config.decision.trigger.value(signals).unwrap_or(f64::NAN);
+        let motion = SelfMotion::of(self.last_command.unwrap_or(cruise), shake_rad);
+        self.decider
+            .decide_on_detector(t_s, value, looming_side, signals.region.as_ref(), motion)
     }
 
     /// Number of triggers since the last reset.
@@ -633,8 +545,8 @@ impl EscapeController {
         self.first_trigger_s
     }
 
-    /// Read this controller's trigger signal from a detector's signals, run the decision strategy
-    /// on it (with the looming side as the object's image position) and step.
+    /// Read this controller's trigger signal from a detector's signals, run the decider on it
+    /// (with the looming side as the object's image position; a rigid camera) and step.
     pub fn step_signals(
         &mut self,
         t_s: f64,
@@ -642,19 +554,10 @@ impl EscapeController {
         looming_side: Option<f32>,
         cruise: VelocityCommand,
     ) -> (VelocityCommand, ControllerEvent) {
-        let percept = self.percept(signals, looming_side);
-        let value = self.perceive(t_s, percept, cruise).value;
+        let value = self
+            .perceive_signals(t_s, signals, looming_side, cruise, [0.0; 3])
+            .value;
         self.step(t_s, value, looming_side, cruise)
-    }
-
-    /// The percept of a real detector: its trigger signal, and its image region when it gives one
-    /// ([`EscapeConfig::percept_of`]), else the looming side as an azimuth.
-    pub fn percept(&self, signals: &Signals, looming_side: Option<f32>) -> Percept {
-        self.config.percept_of(
-            self.config.trigger.value(signals).unwrap_or(f64::NAN),
-            looming_side,
-            signals.region.as_ref(),
-        )
     }
 
     /// Advance to time `t_s` with this frame's trigger-signal value (see [`TriggerSignal`]), the

@@ -1,6 +1,8 @@
 //! Controllers: the escape controller and RL action adapters (design §1).
 //!
 //! This crate turns detector [`Signals`](loomlab_detector::Signals) into velocity commands:
+//! - [`decision`]: the one pipeline from a frame's percept to a decision ([`Decider`], configured by
+//!   a [`DecisionRule`]);
 //! - [`EscapeController`]: a threshold-triggered escape manoeuvre (lateral dodge, stop or reverse)
 //!   with a fixed duration and a cooldown, configured by [`EscapeConfig`];
 //! - [`DiscreteAction`] and [`ContinuousAction`]: the action spaces offered to external RL agents,
@@ -16,17 +18,19 @@
 pub mod action;
 pub mod agent;
 pub mod command;
+pub mod decision;
 pub mod ego;
 pub mod error;
 pub mod escape;
 pub mod looming_side;
-pub mod strategy;
 
 pub use action::{ActionConfig, ContinuousAction, DiscreteAction};
 pub use agent::{AgentStep, EscapeAgent};
 pub use command::VelocityCommand;
+pub use decision::{
+    BodyExtent, Course, Decider, Decision, DecisionRule, ImageExtent, Percept, SelfMotion, TriggerSignal,
+};
 pub use ego::{CameraSense, EgoSensor};
 pub use error::AgentError;
-pub use escape::{ControllerEvent, DodgeSide, EscapeConfig, EscapeController, Manoeuvre, TriggerSignal};
+pub use escape::{ControllerEvent, DodgeSide, EscapeConfig, EscapeController, Manoeuvre};
 pub use looming_side::LoomingSideEstimator;
-pub use strategy::{Course, Decision, Ego, ImageExtent, Percept, Strategy, StrategyParams};

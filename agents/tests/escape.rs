@@ -14,13 +14,16 @@ const CRUISE: VelocityCommand = VelocityCommand {
 fn controller(manoeuvre: Manoeuvre) -> EscapeController {
     EscapeController::new(EscapeConfig {
         manoeuvre,
-        threshold: 10.0,
         dodge_speed_mps: 1.5,
         dodge_forward_scale: 0.5,
         dodge_yaw_rate_rps: 0.0,
         reverse_speed_mps: 0.8,
         duration_s: 0.5,
         cooldown_s: 0.25,
+        decision: loomlab_agents::DecisionRule {
+            threshold: 10.0,
+            ..loomlab_agents::DecisionRule::default()
+        },
         ..EscapeConfig::default()
     })
     .unwrap()
@@ -72,8 +75,11 @@ fn trigger_signal_selects_the_right_field() {
     let mut hop = controller(Manoeuvre::Stop);
     assert!(!hop.step_signals(0.0, &s, None, CRUISE).1.is_trigger(), "θ̂ = 3° < 10°");
     let mut out = EscapeController::new(EscapeConfig {
-        trigger: TriggerSignal::Output,
-        threshold: 40.0,
+        decision: loomlab_agents::DecisionRule {
+            trigger: TriggerSignal::Output,
+            threshold: 40.0,
+            ..loomlab_agents::DecisionRule::default()
+        },
         ..EscapeConfig::default()
     })
     .unwrap();
@@ -252,7 +258,10 @@ fn non_finite_time_changes_nothing() {
 fn invalid_config_is_rejected_with_key() {
     let bad = [
         EscapeConfig {
-            threshold: f64::NAN,
+            decision: loomlab_agents::DecisionRule {
+                threshold: f64::NAN,
+                ..loomlab_agents::DecisionRule::default()
+            },
             ..Default::default()
         },
         EscapeConfig {
@@ -288,10 +297,31 @@ fn invalid_config_is_rejected_with_key() {
 }
 
 #[test]
+fn the_controller_table_is_flat_and_round_trips() {
+    // the decision rule's keys are keys of the controller's table, first and in their order (run
+    // fingerprints hash this serialization)
+    let cfg = EscapeConfig {
+        decision: loomlab_agents::DecisionRule {
+            trigger: TriggerSignal::Tau,
+            persistence_window_frames: Some(4),
+            ..loomlab_agents::DecisionRule::default()
+        },
+        duration_s: 0.7,
+        ..EscapeConfig::default()
+    };
+    let json = serde_json::to_string(&cfg).unwrap();
+    assert!(
+        json.starts_with(r#"{"trigger":"tau","threshold":10.0,"tau_threshold_s":1.0,"min_angular_size_deg":1.0,"tau_window_s":0.1,"course":"off","persistence_frames":1,"persistence_window_frames":4,"course_closing_speed_mps":10.0,"course_window_s":0.25,"side_memory_s":0.5,"#),
+        "{json}"
+    );
+    assert_eq!(serde_json::from_str::<EscapeConfig>(&json).unwrap(), cfg);
+}
+
+#[test]
 fn config_serde_defaults_and_unknown_keys() {
     let cfg: EscapeConfig =
         serde_json::from_str(r#"{"trigger":"output","threshold":3.5,"manoeuvre":"reverse"}"#).unwrap();
-    assert_eq!(cfg.trigger, TriggerSignal::Output);
+    assert_eq!(cfg.decision.trigger, TriggerSignal::Output);
     assert_eq!(cfg.manoeuvre, Manoeuvre::Reverse);
     assert_eq!(cfg.duration_s, EscapeConfig::default().duration_s);
     let err = serde_json::from_str::<EscapeConfig>(r#"{"threshhold":3.5}"#).unwrap_err();
@@ -367,7 +397,7 @@ fn a_dodge_on_a_differential_drive_turns_away_and_drives_instead_of_sidestepping
 /// relative to a camera that may itself drive forward.
 mod strategies {
     use loomlab_agents::{
-        Course, Decision, DodgeSide, Ego, EscapeConfig, EscapeController, ImageExtent, Percept, Strategy,
+        Course, Decider, Decision, DodgeSide, EscapeConfig, EscapeController, ImageExtent, Percept, SelfMotion,
         TriggerSignal, VelocityCommand,
     };
 
@@ -405,21 +435,24 @@ mod strategies {
             let closing = -(self.u[0] - self.camera_vx);
             (x.hypot(y) - self.r) / closing
         }
-        fn ego(&self) -> Ego {
-            Ego {
+        fn ego(&self) -> SelfMotion {
+            SelfMotion {
                 yaw_rate_rps: 0.0,
                 forward_mps: self.camera_vx,
-                ..Ego::default()
+                ..SelfMotion::default()
             }
         }
     }
 
     fn config(course: Course) -> EscapeConfig {
         EscapeConfig {
-            trigger: TriggerSignal::Tau,
-            tau_threshold_s: 1.0,
-            min_angular_size_deg: 1.0,
-            course,
+            decision: loomlab_agents::DecisionRule {
+                trigger: TriggerSignal::Tau,
+                tau_threshold_s: 1.0,
+                min_angular_size_deg: 1.0,
+                course,
+                ..loomlab_agents::DecisionRule::default()
+            },
             ..EscapeConfig::default()
         }
     }
@@ -427,7 +460,7 @@ mod strategies {
     /// Runs the strategy over the approach until the sphere is within `stop_m` of the camera;
     /// returns (t, θ, decision) per frame.
     fn run(cfg: &EscapeConfig, a: &Approach, stop_m: f64) -> Vec<(f64, f64, loomlab_agents::Decision)> {
-        let mut s: Strategy = cfg.strategy();
+        let mut s: Decider = cfg.decider();
         let mut out = Vec::new();
         for k in 0..2000 {
             let t = k as f64 * DT;
@@ -436,7 +469,7 @@ mod strategies {
                 break;
             }
             let p = a.percept(t);
-            out.push((t, p.value, s.update(t, p, a.ego())));
+            out.push((t, p.value, s.decide(t, p, a.ego())));
         }
         out
     }
@@ -452,7 +485,7 @@ mod strategies {
             };
             let frames = run(&config(Course::Off), &a, 0.05);
             let mut checked = 0;
-            let window = config(Course::Off).tau_window_s;
+            let window = config(Course::Off).decision.tau_window_s;
             for (t, theta, d) in &frames {
                 let truth = a.surface_ttc(*t);
                 // from 3° on, until the last window before contact (where the frames no longer fill
@@ -477,28 +510,28 @@ mod strategies {
         // compensated Hopfield read-out in car_oncoming): no estimate followed by one, not an
         // expansion; ln θ̂ across the jump would give τ̂ ≈ 1 ms and an alarm
         let cfg = config(Course::Off);
-        let mut s = cfg.strategy();
+        let mut s = cfg.decider();
         let mut theta: f64 = 1e-3;
         for k in 0..60 {
             theta /= 2.0;
-            let d = s.update(
+            let d = s.decide(
                 k as f64 * DT,
                 Percept {
                     value: theta.max(1e-30),
                     ..Percept::default()
                 },
-                Ego::default(),
+                SelfMotion::default(),
             );
             assert_eq!(d.value, 0.0);
         }
         for (k, theta) in [(60, 5.0), (61, 2.5), (62, 1.25), (63, 0.6)] {
-            let d = s.update(
+            let d = s.decide(
                 k as f64 * DT,
                 Percept {
                     value: theta,
                     ..Percept::default()
                 },
-                Ego::default(),
+                SelfMotion::default(),
             );
             assert_eq!(d.value, 0.0, "frame {k}: θ̂ {theta}°, τ̂ {:?}", d.tau_s);
         }
@@ -510,47 +543,47 @@ mod strategies {
         // in one frame. Across the jump ln θ̂ would give τ̂ of a few frames and an alarm; after it
         // the window holds only the new hypothesis's frames
         let cfg = config(Course::Off);
-        let mut s = cfg.strategy();
+        let mut s = cfg.decider();
         let theta = |k: usize| 5.0 * (k as f64 * DT / 3.0).exp();
         for k in 0..40 {
-            let d = s.update(
+            let d = s.decide(
                 k as f64 * DT,
                 Percept {
                     value: theta(k),
                     ..Percept::default()
                 },
-                Ego::default(),
+                SelfMotion::default(),
             );
             assert!(d.value < cfg.alarm_threshold(), "frame {k}: τ̂ {:?}", d.tau_s);
         }
         for k in 40..80 {
-            let d = s.update(
+            let d = s.decide(
                 k as f64 * DT,
                 Percept {
                     value: 2.0 * theta(k),
                     ..Percept::default()
                 },
-                Ego::default(),
+                SelfMotion::default(),
             );
             assert!(d.value < cfg.alarm_threshold(), "frame {k}: τ̂ {:?}", d.tau_s);
-            if k >= 40 + loomlab_agents::strategy::MIN_SAMPLES + 2 {
+            if k >= 40 + loomlab_agents::decision::MIN_SAMPLES + 2 {
                 let tau = d.tau_s.expect("an estimate from the new frames");
                 assert!((tau - 3.0).abs() < 0.5, "frame {k}: τ̂ {tau}");
             }
         }
         // a jump just below the ratio is growth: it is fitted (τ̂ of a few frames)
-        let mut s = cfg.strategy();
+        let mut s = cfg.decider();
         let mut last = f64::NAN;
         for k in 0..45 {
             let value = if k < 40 { theta(k) } else { theta(k) * 1.25 };
             last = s
-                .update(
+                .decide(
                     k as f64 * DT,
                     Percept {
                         value,
                         ..Percept::default()
                     },
-                    Ego::default(),
+                    SelfMotion::default(),
                 )
                 .value;
         }
@@ -575,7 +608,10 @@ mod strategies {
         assert!((ttc - 1.0).abs() < 0.05, "alarm at true TTC {ttc:.3} s");
         // θ̂ below min_angular_size_deg never alarms, whatever τ̂
         let cfg = EscapeConfig {
-            min_angular_size_deg: 30.0,
+            decision: loomlab_agents::DecisionRule {
+                min_angular_size_deg: 30.0,
+                ..cfg.decision
+            },
             ..cfg
         };
         for (_, theta, d) in run(&cfg, &a, 0.05) {
@@ -617,7 +653,7 @@ mod strategies {
     /// The approach's second axis taken as height: the object is seen straight ahead in azimuth,
     /// at the elevation of its centre.
     fn run_vertical(cfg: &EscapeConfig, a: &Approach) -> Vec<(f64, f64, loomlab_agents::Decision)> {
-        let mut s: Strategy = cfg.strategy();
+        let mut s: Decider = cfg.decider();
         let mut out = Vec::new();
         for k in 0..2000 {
             let t = k as f64 * DT;
@@ -631,7 +667,7 @@ mod strategies {
                 elevation_deg: Some(z.atan2(x).to_degrees()),
                 extent: None,
             };
-            out.push((t, p.value, s.update(t, p, a.ego())));
+            out.push((t, p.value, s.decide(t, p, a.ego())));
         }
         out
     }
@@ -733,7 +769,7 @@ mod strategies {
     /// Runs the gate on a box driving at `speed` along −x, its centre `lateral_m` to the side of
     /// the camera (positive left) and `height_m` above it; the camera stands.
     fn run_box(cfg: &EscapeConfig, lateral_m: f64, height_m: f64, h: [f64; 3], speed: f64) -> Vec<(f64, Decision)> {
-        let mut s: Strategy = cfg.strategy();
+        let mut s: Decider = cfg.decider();
         let mut out = Vec::new();
         for k in 0..2000 {
             let t = k as f64 * DT;
@@ -741,7 +777,10 @@ mod strategies {
             if x - h[0] < 0.3 {
                 break;
             }
-            out.push((t, s.update(t, box_percept([x, lateral_m, height_m], h), Ego::default())));
+            out.push((
+                t,
+                s.decide(t, box_percept([x, lateral_m, height_m], h), SelfMotion::default()),
+            ));
         }
         out
     }
@@ -756,7 +795,7 @@ mod strategies {
         let passing_car = run_box(&cfg, w + 1.0 + car[1], 0.4, car, 6.0);
         assert!(passing_car.iter().all(|(_, d)| d.value < cfg.alarm_threshold()));
         // judged as a sphere of its angular size (no image extent, as for a detector row) it passes
-        let mut sphere = cfg.strategy();
+        let mut sphere = cfg.decider();
         let sphere_alarms = (0..2000).any(|k| {
             let t = k as f64 * DT;
             let x = 20.0 - 6.0 * t;
@@ -764,7 +803,7 @@ mod strategies {
                 extent: None,
                 ..box_percept([x, w + 1.0 + car[1], 0.4], car)
             };
-            x - car[0] >= 0.3 && sphere.update(t, p, Ego::default()).value >= cfg.alarm_threshold()
+            x - car[0] >= 0.3 && sphere.decide(t, p, SelfMotion::default()).value >= cfg.alarm_threshold()
         });
         assert!(
             sphere_alarms,
@@ -803,7 +842,7 @@ mod strategies {
             25.0 - 6.0 * tb - 6.0 * after + if brake { 1.5 * after * after } else { 0.0 }
         };
         for brake in [true, false] {
-            let mut s = cfg.strategy();
+            let mut s = cfg.decider();
             let mut alarm = false;
             let mut rate = None;
             for k in 0..480 {
@@ -818,7 +857,7 @@ mod strategies {
                     elevation_deg: None,
                     extent: None,
                 };
-                let decision = s.update(t, p, Ego::default());
+                let decision = s.decide(t, p, SelfMotion::default());
                 alarm |= decision.value >= cfg.alarm_threshold();
                 if (1.4..1.5).contains(&t) {
                     rate = decision.tau_rate;
@@ -844,7 +883,7 @@ mod strategies {
         // z = vz·t − g·t²/2 with vz = g (so z = 0 at t = 2 s); the camera pitches ±1.5° at 4 Hz
         let r = 0.2;
         let run = |aim_z: f64, shake: bool| {
-            let mut s = cfg.strategy();
+            let mut s = cfg.decider();
             let mut first = None;
             for k in 0..240 {
                 let t = k as f64 * DT;
@@ -869,11 +908,11 @@ mod strategies {
                         elevation_deg: [el - half, el + half],
                     }),
                 };
-                let ego = Ego {
+                let ego = SelfMotion {
                     camera_pitch_rad: pitch,
-                    ..Ego::default()
+                    ..SelfMotion::default()
                 };
-                let d = s.update(t, p, ego);
+                let d = s.decide(t, p, ego);
                 if d.value >= cfg.alarm_threshold() && first.is_none() {
                     first = Some(t);
                 }
@@ -941,7 +980,7 @@ mod strategies {
         let mut trigger = None;
         for k in 0..200 {
             let t = k as f64 * DT;
-            let v = c.perceive(t, a.percept(t), cruise).value;
+            let v = c.perceive(t, a.percept(t), cruise, [0.0; 3]).value;
             if c.step(t, v, Some(0.5), cruise).1.is_trigger() {
                 trigger = Some(t);
                 break;
@@ -951,14 +990,17 @@ mod strategies {
         assert!((a.surface_ttc(t) - 1.0).abs() < 0.05);
         // reset forgets the window
         c.reset();
-        assert_eq!(c.perceive(0.0, a.percept(0.0), cruise).value, 0.0);
+        assert_eq!(c.perceive(0.0, a.percept(0.0), cruise, [0.0; 3]).value, 0.0);
     }
 
     #[test]
     fn invalid_strategy_combinations_are_rejected() {
         let e = EscapeController::new(EscapeConfig {
-            trigger: TriggerSignal::Output,
-            course: Course::Image,
+            decision: loomlab_agents::DecisionRule {
+                trigger: TriggerSignal::Output,
+                course: Course::Image,
+                ..loomlab_agents::DecisionRule::default()
+            },
             ..EscapeConfig::default()
         })
         .unwrap_err()
@@ -966,15 +1008,24 @@ mod strategies {
         assert!(e.contains("escape.course") && e.contains("θ̂"), "{e}");
         for cfg in [
             EscapeConfig {
-                tau_threshold_s: 0.0,
+                decision: loomlab_agents::DecisionRule {
+                    tau_threshold_s: 0.0,
+                    ..config(Course::Off).decision
+                },
                 ..config(Course::Off)
             },
             EscapeConfig {
-                tau_window_s: f64::NAN,
+                decision: loomlab_agents::DecisionRule {
+                    tau_window_s: f64::NAN,
+                    ..config(Course::Off).decision
+                },
                 ..config(Course::Off)
             },
             EscapeConfig {
-                min_angular_size_deg: -1.0,
+                decision: loomlab_agents::DecisionRule {
+                    min_angular_size_deg: -1.0,
+                    ..config(Course::Off).decision
+                },
                 ..config(Course::Off)
             },
         ] {
@@ -982,21 +1033,26 @@ mod strategies {
         }
         let cfg: EscapeConfig =
             serde_json::from_str(r#"{"trigger":"angular_size","course":"image","tau_threshold_s":0.8}"#).unwrap();
-        assert_eq!(cfg.trigger, TriggerSignal::AngularSizeDeg);
-        assert_eq!(cfg.course, Course::Image);
+        assert_eq!(cfg.decision.trigger, TriggerSignal::AngularSizeDeg);
+        assert_eq!(cfg.decision.course, Course::Image);
         let cfg: EscapeConfig = serde_json::from_str(r#"{"trigger":"tau"}"#).unwrap();
-        assert_eq!(cfg.trigger, TriggerSignal::Tau);
+        assert_eq!(cfg.decision.trigger, TriggerSignal::Tau);
+    }
+
+    /// A default controller whose manoeuvre lasts `duration_s` and its cooldown `cooldown_s`.
+    fn timed_controller(duration_s: f64, cooldown_s: f64) -> EscapeController {
+        EscapeController::new(EscapeConfig {
+            duration_s,
+            cooldown_s,
+            ..EscapeConfig::default()
+        })
+        .unwrap()
     }
 
     #[test]
     fn a_retrigger_while_the_object_still_looms_keeps_the_side() {
-        let mut c = EscapeController::new(EscapeConfig {
-            duration_s: 0.5,
-            cooldown_s: 0.25,
-            side_memory_s: 0.5,
-            ..EscapeConfig::default()
-        })
-        .unwrap();
+        // side_memory_s 0.5 (the default)
+        let mut c = timed_controller(0.5, 0.25);
         let cruise = VelocityCommand::forward(1.0);
         // object on the right: dodge left
         assert_eq!(
@@ -1028,13 +1084,8 @@ mod strategies {
 
     #[test]
     fn a_retrigger_soon_after_rearming_does_not_undo_the_dodge() {
-        let mut c = EscapeController::new(EscapeConfig {
-            duration_s: 0.5,
-            cooldown_s: 0.25,
-            side_memory_s: 0.5,
-            ..EscapeConfig::default()
-        })
-        .unwrap();
+        // side_memory_s 0.5 (the default)
+        let mut c = timed_controller(0.5, 0.25);
         let cruise = VelocityCommand::forward(1.0);
         let triggered = |side| loomlab_agents::ControllerEvent::Triggered { side: Some(side) };
         // a brief alarm, object seen on the right: dodge left; the alarm clears at once
@@ -1060,12 +1111,7 @@ mod strategies {
 
     #[test]
     fn an_alarm_about_another_named_object_preempts_the_manoeuvre_and_its_cooldown() {
-        let mut c = EscapeController::new(EscapeConfig {
-            duration_s: 0.5,
-            cooldown_s: 0.5,
-            ..EscapeConfig::default()
-        })
-        .unwrap();
+        let mut c = timed_controller(0.5, 0.5);
         let cruise = VelocityCommand::forward(1.0);
         let triggered = |side| loomlab_agents::ControllerEvent::Triggered { side: Some(side) };
         c.set_object(Some(1));
@@ -1084,12 +1130,7 @@ mod strategies {
         assert_eq!(c.step(0.8, 20.0, Some(-0.6), cruise).1, triggered(DodgeSide::Right));
         assert_eq!(c.triggers(), 2);
         // unnamed values are all taken to be about one object: no pre-emption
-        let mut c = EscapeController::new(EscapeConfig {
-            duration_s: 0.5,
-            cooldown_s: 0.5,
-            ..EscapeConfig::default()
-        })
-        .unwrap();
+        let mut c = timed_controller(0.5, 0.5);
         c.step(0.0, 20.0, Some(0.6), cruise);
         assert_eq!(
             c.step(0.8, 20.0, Some(-0.6), cruise).1,
@@ -1196,9 +1237,12 @@ mod named_tracks {
             (20.0, left, 2),
         ];
         let config = EscapeConfig {
-            threshold: 10.0,
             duration_s: 0.6,
             cooldown_s: 0.5,
+            decision: loomlab_agents::DecisionRule {
+                threshold: 10.0,
+                ..loomlab_agents::DecisionRule::default()
+            },
             ..EscapeConfig::default()
         };
         let mut agent = EscapeAgent::new(vec![Box::new(Script(script.into_iter()))], config).unwrap();
@@ -1277,8 +1321,11 @@ mod arrival_side {
     #[test]
     fn an_object_seen_on_the_left_that_will_arrive_on_the_right_is_dodged_to_the_left() {
         let config = EscapeConfig {
-            trigger: TriggerSignal::Tau,
-            course: Course::Image,
+            decision: loomlab_agents::DecisionRule {
+                trigger: TriggerSignal::Tau,
+                course: Course::Image,
+                ..loomlab_agents::DecisionRule::default()
+            },
             ..EscapeConfig::default()
         };
         let mut agent = EscapeAgent::new(vec![Box::new(Crossing(0))], config).unwrap();
@@ -1328,8 +1375,11 @@ mod replay_on_signals {
     #[test]
     fn an_agent_replayed_on_signals_then_given_a_detector_copy_continues_identically() {
         let config = EscapeConfig {
-            trigger: TriggerSignal::AngularSizeDeg,
-            threshold: 12.0,
+            decision: loomlab_agents::DecisionRule {
+                trigger: TriggerSignal::AngularSizeDeg,
+                threshold: 12.0,
+                ..loomlab_agents::DecisionRule::default()
+            },
             ..EscapeConfig::default()
         };
         let cruise = VelocityCommand::forward(1.0);
@@ -1377,15 +1427,18 @@ mod replay_on_signals {
 
 /// The decision values of a persistence rule (K, window M) over raw values, one frame at 120 Hz.
 fn persisted(trigger: TriggerSignal, k: usize, m: Option<usize>, raw: &[f64]) -> Vec<f64> {
-    use loomlab_agents::{Ego, Percept};
+    use loomlab_agents::{Percept, SelfMotion};
     let cfg = EscapeConfig {
-        trigger,
-        persistence_frames: k,
-        persistence_window_frames: m,
+        decision: loomlab_agents::DecisionRule {
+            trigger,
+            persistence_frames: k,
+            persistence_window_frames: m,
+            ..loomlab_agents::DecisionRule::default()
+        },
         ..Default::default()
     };
     cfg.validate().unwrap();
-    let mut s = cfg.strategy();
+    let mut s = cfg.decider();
     raw.iter()
         .enumerate()
         .map(|(i, &v)| {
@@ -1393,7 +1446,7 @@ fn persisted(trigger: TriggerSignal, k: usize, m: Option<usize>, raw: &[f64]) ->
                 value: v,
                 ..Default::default()
             };
-            s.update(i as f64 / 120.0, p, Ego::default()).value
+            s.decide(i as f64 / 120.0, p, SelfMotion::default()).value
         })
         .collect()
 }
@@ -1420,9 +1473,12 @@ fn persistence_is_the_minimum_of_the_last_frames_for_any_threshold() {
         }
     }
     // bounded, and named in the error
-    for k in [0, loomlab_agents::escape::MAX_PERSISTENCE_FRAMES + 1] {
+    for k in [0, loomlab_agents::decision::MAX_PERSISTENCE_FRAMES + 1] {
         let e = EscapeConfig {
-            persistence_frames: k,
+            decision: loomlab_agents::DecisionRule {
+                persistence_frames: k,
+                ..loomlab_agents::DecisionRule::default()
+            },
             ..Default::default()
         }
         .validate()
@@ -1466,10 +1522,13 @@ fn a_persistence_window_alarms_on_any_k_of_the_last_m_frames_for_any_threshold()
         assert!(values[7] >= 5.0 && run(k, None)[7] < 5.0, "{values:?}");
     }
     // at least K and bounded, named in the error
-    for (k, m) in [(3, 2), (3, loomlab_agents::escape::MAX_PERSISTENCE_FRAMES + 1)] {
+    for (k, m) in [(3, 2), (3, loomlab_agents::decision::MAX_PERSISTENCE_FRAMES + 1)] {
         let e = EscapeConfig {
-            persistence_frames: k,
-            persistence_window_frames: Some(m),
+            decision: loomlab_agents::DecisionRule {
+                persistence_frames: k,
+                persistence_window_frames: Some(m),
+                ..loomlab_agents::DecisionRule::default()
+            },
             ..Default::default()
         }
         .validate()

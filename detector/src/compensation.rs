@@ -162,7 +162,7 @@ pub struct Warper {
 impl Warper {
     /// Rays of an n×n camera of full field of view `fov_deg`.
     pub fn new(n: usize, fov_deg: f64) -> Self {
-        let t = (fov_deg / 2.0).to_radians().tan();
+        let t = crate::Pinhole::new(fov_deg).tan_half_fov();
         let mut rays = Vec::with_capacity(n * n);
         for i in 0..n {
             let y = 1.0 - (2 * i + 1) as f64 / n as f64;
@@ -612,7 +612,7 @@ mod tests {
         ego: &EfferenceCopy,
         (i, j): (usize, usize),
     ) -> (Option<f32>, f64) {
-        let tan = (fov_deg / 2.0).to_radians().tan();
+        let tan = crate::Pinhole::new(fov_deg).tan_half_fov();
         let x = (2 * j + 1) as f64 / n as f64 - 1.0;
         let y = 1.0 - (2 * i + 1) as f64 / n as f64;
         let d = [1.0, -x * tan, y * tan];

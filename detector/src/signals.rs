@@ -13,7 +13,7 @@ pub struct Signals {
     pub aux: Vec<(&'static str, f64)>,
     /// Where the looming object is in the image, for models that localise it (`tracker`, and
     /// `hopfield` with `attention = "tracker"`); `None` for the others. The escape agent turns it into the object's azimuth, elevation and image
-    /// extent for the collision-course gate (`agents/src/strategy.rs`).
+    /// extent for the collision-course gate (`agents/src/decision/`).
     pub region: Option<ImageRegion>,
 }
 
@@ -41,8 +41,8 @@ impl ImageRegion {
     /// Angular width and height (degrees) of this region for a camera of full field of view
     /// `fov_deg` across the image (pinhole: image x = tan(azimuth) / tan(fov/2)).
     pub fn angular_size_deg(&self, fov_deg: f64) -> [f64; 2] {
-        let t = (fov_deg / 2.0).to_radians().tan();
-        let span = |[a, b]: [f64; 2]| ((b * t).atan() - (a * t).atan()).to_degrees();
+        let camera = crate::Pinhole::new(fov_deg);
+        let span = |[a, b]: [f64; 2]| (camera.angle_rad(b) - camera.angle_rad(a)).to_degrees();
         [span(self.x), span(self.y)]
     }
 }

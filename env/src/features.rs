@@ -43,7 +43,7 @@
 //! | `threat.inv_tau_ps` | urgency 1/τ = θ̇/θ (s⁻¹), 0 when not looming, clamped into [0, [`INV_TAU_LIMIT_PS`]] | [0, 20] |
 //! | `threat.bearing` | image x of its reference point (−1 left edge, +1 right edge) | [−1, 1] |
 //! | `threat.bearing_rate` | d bearing/dt (per s) / [`BEARING_RATE_SCALE_PS`], clamped | [−1, 1] |
-//! | `threat.miss_radii` | \|μ\| / [`MISS_RADII_LIMIT`], clamped, μ = 2β̇/θ̇ the miss at contact in object radii predicted from the percept (β the azimuth; the sphere model of the course gate, `loomlab_agents::strategy`); 1 when not looming | [0, 1] |
+//! | `threat.miss_radii` | \|μ\| / [`MISS_RADII_LIMIT`], clamped, μ = 2β̇/θ̇ the miss at contact in object radii predicted from the percept (β the azimuth; the sphere model of the course gate, `loomlab_agents::decision`); 1 when not looming | [0, 1] |
 //! | `threat.left_deg`, `threat.right_deg` | azimuths of its image edges / 90° (positive right), clamped | [−1, 1] |
 //! | `threat.bottom_deg`, `threat.top_deg` | elevations of its image edges / 90° (positive up), clamped | [−1, 1] |
 //! | `robot.*` | the normalized mode's 7 robot features | as above |

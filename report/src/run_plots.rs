@@ -198,7 +198,7 @@ pub fn write_trace(dir: &Path, run: &EpisodeRun) -> std::io::Result<()> {
     }
     text.push_str(",looming_side,ego_forward_mps,ego_yaw_rate_rps,ego_camera_yaw_rad,ego_camera_pitch_rad");
     for d in &tr.detectors {
-        if d.strategy.is_some() {
+        if d.decision.is_some() {
             let _ = write!(text, ",{0}_theta_hat_deg,{0}_tau_s,{0}_gate_open", d.label);
         }
         if d.regions.is_some() {
@@ -222,18 +222,18 @@ pub fn write_trace(dir: &Path, run: &EpisodeRun) -> std::io::Result<()> {
         for d in &tr.detectors {
             let _ = write!(text, ",{},{}", opt(Some(d.signal[k])), opt(Some(d.output[k])));
         }
-        let ego = tr.ego.get(k).copied().unwrap_or_default();
+        let motion = tr.self_motion.get(k).copied().unwrap_or_default();
         let _ = write!(
             text,
             ",{},{},{},{},{}",
             opt(tr.looming_side.get(k).copied().flatten().map(f64::from)),
-            ego.forward_mps,
-            ego.yaw_rate_rps,
-            ego.camera_yaw_rad,
-            ego.camera_pitch_rad
+            motion.forward_mps,
+            motion.yaw_rate_rps,
+            motion.camera_yaw_rad,
+            motion.camera_pitch_rad
         );
         for d in &tr.detectors {
-            if let Some(s) = &d.strategy {
+            if let Some(s) = &d.decision {
                 let _ = write!(
                     text,
                     ",{},{},{}",

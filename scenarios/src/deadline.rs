@@ -175,9 +175,9 @@ fn replay_from(
         cmd = if k < trigger_frame {
             cruise
         } else if k == trigger_frame {
-            agent.decide(out.t_s, side, f64::INFINITY, cruise).command
+            agent.act_on_value(out.t_s, side, f64::INFINITY, None, cruise).command
         } else {
-            agent.decide(out.t_s, None, f64::NAN, cruise).command
+            agent.act_on_value(out.t_s, None, f64::NAN, None, cruise).command
         };
     }
     Ok(Some(None))

@@ -23,6 +23,7 @@
 //! counts only if these conditions hold from the alarm on (the approach before the window may be
 //! a throw's arc or a turning vehicle, where θ does not follow the formula).
 
+use loomlab_detector::LineFit;
 use serde::{Deserialize, Serialize};
 
 use crate::metrics::DetectorEpisode;
@@ -60,12 +61,14 @@ impl LvFit {
         if pts.len() < MIN_FIT_EPISODES {
             return None;
         }
-        let n = pts.len() as f64;
-        let mx = pts.iter().map(|p| p.0).sum::<f64>() / n;
-        let my = pts.iter().map(|p| p.1).sum::<f64>() / n;
-        let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
-        let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-        let syy: f64 = pts.iter().map(|p| (p.1 - my).powi(2)).sum();
+        let LineFit {
+            mean_x: mx,
+            mean_y: my,
+            sxx,
+            sxy,
+            syy,
+            ..
+        } = LineFit::of(&pts)?;
         if sxx <= 1e-12 * (1.0 + mx * mx) {
             return None;
         }

@@ -14,7 +14,7 @@
 //!   Its perception is perfect throughout: it dodges away from the true image side (bearing) of the
 //!   object it triggers on, and its closed loop after the first alarm is simulated physics-only
 //!   with ground truth as its input (re-triggers included).
-//! - `ideal_tau` runs the escape controller's τ strategy ([`loomlab_agents::strategy`], the same
+//! - `ideal_tau` runs the escape controller's τ decider ([`loomlab_agents::decision`], the same
 //!   code a detector row runs on θ̂) on **each** object's true angular size, every object its own
 //!   estimator; the row's value is the largest urgency 1/τ̂ over the objects and it dodges away from
 //!   that object's true bearing. Alarm when τ̂ ≤ the controller's `tau_threshold_s` and θ ≥ its
@@ -23,7 +23,7 @@
 //!   and elevation, and dodging away from the side on which the gate predicts the object to
 //!   arrive. The gate's vertical test applies to objects on a straight course only: the vertical
 //!   course of a lobbed ball is curved by gravity, and the gate judges it laterally (see
-//!   [`loomlab_agents::strategy`]).
+//!   [`loomlab_agents::decision`]).
 //!
 //! Perfect perception has no noise to average, so `ideal_tau` and `ideal_course` estimate τ over
 //! the shortest window the estimator accepts (three frames, [`IDEAL_TAU_WINDOW_FRAMES`]) instead of
@@ -54,7 +54,7 @@
 //! urgency 1/τ̂ (s⁻¹, threshold `1 / tau_threshold_s`). Reference rows are excluded from
 //! regressions and from threshold calibration.
 
-use loomlab_agents::{Course, Ego, EscapeConfig, ImageExtent, Percept, Strategy, TriggerSignal};
+use loomlab_agents::{Course, Decider, DecisionRule, EscapeConfig, ImageExtent, Percept, SelfMotion, TriggerSignal};
 use loomlab_sim::{ObjectKind, ObjectTruth};
 
 /// Label of the never-alarming reference row.
@@ -63,14 +63,14 @@ pub const NULL: &str = "null";
 pub const ORACLE: &str = "oracle";
 /// Label of the reference row that thresholds the true angular size.
 pub const IDEAL_THETA: &str = "ideal_theta";
-/// Label of the reference row that runs the τ strategy on each object's true angular size.
+/// Label of the reference row that runs the τ decider on each object's true angular size.
 pub const IDEAL_TAU: &str = "ideal_tau";
-/// Label of the reference row that runs the τ strategy and the course gate on true θ and bearings.
+/// Label of the reference row that runs the τ decider and the course gate on true θ and bearings.
 pub const IDEAL_COURSE: &str = "ideal_course";
 /// Every reference label, in table order.
 pub const REFERENCE_LABELS: [&str; 5] = [NULL, ORACLE, IDEAL_THETA, IDEAL_TAU, IDEAL_COURSE];
 /// The τ window of the ideal rows in camera frame periods: the least-squares fit over the last
-/// three frames ([`loomlab_agents::strategy::MIN_SAMPLES`]; 2.5 periods hold exactly three).
+/// three frames ([`loomlab_agents::decision::MIN_SAMPLES`]; 2.5 periods hold exactly three).
 pub const IDEAL_TAU_WINDOW_FRAMES: f64 = 2.5;
 /// Alarm threshold of the indicator signals of `null` and `oracle`.
 pub const INDICATOR_THRESHOLD: f64 = 1.0;
@@ -109,13 +109,13 @@ pub enum IdealKind {
     Course,
 }
 
-/// An ideal observer: perfect perception of every object's angular size and bearing, one decision
-/// strategy per object (see the module docs).
+/// An ideal observer: perfect perception of every object's angular size and bearing, one decider
+/// per object (see the module docs).
 #[derive(Debug, Clone)]
 pub struct IdealObserver {
     kind: IdealKind,
     config: EscapeConfig,
-    per_object: Vec<Strategy>,
+    per_object: Vec<Decider>,
 }
 
 impl IdealObserver {
@@ -126,23 +126,26 @@ impl IdealObserver {
     pub fn new(kind: IdealKind, base: &EscapeConfig, theta_threshold_deg: f64, frame_period_s: f64) -> Self {
         let shortest_window_s = IDEAL_TAU_WINDOW_FRAMES * frame_period_s;
         let config = EscapeConfig {
-            tau_window_s: shortest_window_s,
-            // ideal_tau has no gate: its window only serves the side it dodges to (where the object
-            // will arrive), which must be known as soon as τ̂ is
-            course_window_s: if kind == IdealKind::Tau {
-                shortest_window_s
-            } else {
-                base.course_window_s
-            },
-            trigger: match kind {
-                IdealKind::Theta => TriggerSignal::AngularSizeDeg,
-                IdealKind::Tau | IdealKind::Course => TriggerSignal::Tau,
-            },
-            threshold: theta_threshold_deg,
-            course: if kind == IdealKind::Course {
-                Course::Image
-            } else {
-                Course::Off
+            decision: DecisionRule {
+                tau_window_s: shortest_window_s,
+                // ideal_tau has no gate: its window only serves the side it dodges to (where the
+                // object will arrive), which must be known as soon as τ̂ is
+                course_window_s: if kind == IdealKind::Tau {
+                    shortest_window_s
+                } else {
+                    base.decision.course_window_s
+                },
+                trigger: match kind {
+                    IdealKind::Theta => TriggerSignal::AngularSizeDeg,
+                    IdealKind::Tau | IdealKind::Course => TriggerSignal::Tau,
+                },
+                threshold: theta_threshold_deg,
+                course: if kind == IdealKind::Course {
+                    Course::Image
+                } else {
+                    Course::Off
+                },
+                ..base.decision
             },
             ..base.clone()
         };
@@ -159,8 +162,8 @@ impl IdealObserver {
     }
 
     /// This frame's decision value, the image side (−1 … 1) of the object it comes from and that
-    /// object's id, with `ego` the robot's own motion during the last camera period.
-    pub fn update(&mut self, t_s: f64, truth: &[ObjectTruth], ego: Ego) -> (f64, Option<f32>, Option<usize>) {
+    /// object's id, with `motion` the robot's own motion during the last camera period.
+    pub fn update(&mut self, t_s: f64, truth: &[ObjectTruth], motion: SelfMotion) -> (f64, Option<f32>, Option<usize>) {
         if self.kind == IdealKind::Theta {
             return ideal_percept(truth);
         }
@@ -170,7 +173,7 @@ impl IdealObserver {
             // the image shows an object's angular size only while it fits in the view
             let visible = o.in_view && f64::from(o.angular_size_deg) <= fov;
             if self.per_object.len() <= o.id {
-                self.per_object.resize_with(o.id + 1, || self.config.strategy());
+                self.per_object.resize_with(o.id + 1, || self.config.decider());
             }
             let percept = Percept {
                 value: if visible {
@@ -185,14 +188,11 @@ impl IdealObserver {
                     elevation_deg: o.elevation_extent_deg.map(f64::from),
                 }),
             };
-            let decision = self.per_object[o.id].update(t_s, percept, ego);
+            let decision = self.per_object[o.id].decide(t_s, percept, motion);
             if decision.value > best.0 {
-                // the τ rows escape from where the object will arrive, when the image says
-                let side = match self.kind {
-                    IdealKind::Course | IdealKind::Tau => decision.pass_side.or(Some(o.bearing)),
-                    IdealKind::Theta => Some(o.bearing),
-                };
-                best = (decision.value, side, Some(o.id));
+                // the τ rows escape from where the object will arrive, when the image says (their
+                // percept has the object's image extent)
+                best = (decision.value, decision.escape_side(Some(o.bearing), true), Some(o.id));
             }
         }
         best

@@ -1,7 +1,7 @@
-//! Replaying a decision strategy on the open-loop traces of a run (`loomlab run --traces`): the
-//! percepts a detector row's strategy saw — θ̂ before the strategy, the detector's image region,
+//! Replaying a row's decider on the open-loop traces of a run (`loomlab run --traces`): the
+//! percepts a detector row's decider saw — θ̂ before the decider, the detector's image region,
 //! the looming side and the robot's own motion, all in the trace CSV — go through a
-//! [`Strategy`](loomlab_agents::Strategy) again, with the same or other parameters, and the
+//! [`Decider`](loomlab_agents::Decider) again, with the same or other parameters, and the
 //! open-loop alarms are scored against the run's `episodes.csv` (threat, escape deadline). With
 //! the run's own parameters the replay reproduces the recorded decision values bit for bit
 //! (tested), so a difference is the parameters' doing. `scenarios/examples/replay_strategy.rs` is
@@ -10,7 +10,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use loomlab_agents::{Ego, EscapeConfig};
+use loomlab_agents::{EscapeConfig, SelfMotion};
 use loomlab_detector::ImageRegion;
 
 use crate::episodes_csv::read_episodes_csv;
@@ -110,8 +110,8 @@ pub struct Replay {
     pub differing: usize,
 }
 
-/// Replays the strategy of row `label` of the run in `dir` (its `episodes.csv` and `traces/`)
-/// with `config`'s strategy parameters (see the module docs).
+/// Replays the decider of row `label` of the run in `dir` (its `episodes.csv` and `traces/`)
+/// with `config`'s decision rule, body and camera (see the module docs).
 pub fn replay_run(dir: &Path, label: &str, config: &EscapeConfig) -> Result<Replay, String> {
     let episodes = read_episodes_csv(&dir.join("episodes.csv")).map_err(|e| e.to_string())?;
     let mut truth = BTreeMap::new();
@@ -166,7 +166,7 @@ pub fn replay_run(dir: &Path, label: &str, config: &EscapeConfig) -> Result<Repl
             ));
         }
         out.episodes += 1;
-        let mut strategy = config.strategy();
+        let mut decider = config.decider();
         let n = trace.rows.len();
         let col = |name: &str| trace.index(&column(name));
         let (t_col, about_col, theta_col, signal_col, track_col) = (
@@ -201,15 +201,15 @@ pub fn replay_run(dir: &Path, label: &str, config: &EscapeConfig) -> Result<Repl
             };
             let side = trace.get(k, side_col).map(|v| v as f32);
             let theta = trace.get(k, theta_col).unwrap_or(f64::NAN);
-            let ego = Ego {
+            let motion = SelfMotion {
                 forward_mps: trace.get(k, forward_col).unwrap_or(0.0),
                 yaw_rate_rps: trace.get(k, yaw_col).unwrap_or(0.0),
                 // absent from traces written before they were recorded: no shake known
                 camera_yaw_rad: trace.get(k, camera_yaw_col).unwrap_or(0.0),
                 camera_pitch_rad: trace.get(k, camera_pitch_col).unwrap_or(0.0),
             };
-            let value = strategy
-                .update(t, config.percept_of(theta, side, region.as_ref()), ego)
+            let value = decider
+                .decide_on_detector(t, theta, side, region.as_ref(), motion)
                 .value;
             // the trace leaves a non-finite value's cell empty
             let old = trace.get(k, signal_col);

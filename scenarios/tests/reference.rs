@@ -1,6 +1,6 @@
 //! The ideal reference rows on analytic ground truth.
 
-use loomlab_agents::{Ego, EscapeConfig};
+use loomlab_agents::{EscapeConfig, SelfMotion};
 use loomlab_scenarios::reference::{IdealKind, IdealObserver};
 use loomlab_sim::{ObjectKind, ObjectTruth};
 
@@ -42,13 +42,13 @@ fn ball(t_s: f64, launch_s: f64) -> ObjectTruth {
 #[test]
 fn ideal_tau_alarms_within_three_frames_of_a_late_launch_and_dodges_from_where_the_ball_will_pass() {
     let controller = EscapeConfig::default();
-    let threshold = 1.0 / controller.tau_threshold_s;
+    let threshold = 1.0 / controller.decision.tau_threshold_s;
     let launch_s = 0.5;
     let mut observer = IdealObserver::new(IdealKind::Tau, &controller, 10.0, 1.0 / HZ);
     let mut alarm = None;
     for k in 0..120 {
         let t = f64::from(k) / HZ;
-        let (value, side, _) = observer.update(t, &[ball(t, launch_s)], Ego::default());
+        let (value, side, _) = observer.update(t, &[ball(t, launch_s)], SelfMotion::default());
         if t < launch_s {
             assert!(value < threshold, "no alarm before the launch (t = {t}, value {value})");
         } else if value >= threshold {

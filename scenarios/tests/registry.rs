@@ -184,16 +184,8 @@ fn a_registered_detector_is_a_detector_everywhere() {
     );
     // one entry resolved on its own (detectors files, sweeps)
     let desc = loomlab_scenarios::schema::DetectorDesc {
-        id: "mean_change".into(),
-        label: None,
         threshold: Some(0.2),
-        trigger: None,
-        tau_threshold_s: None,
-        min_angular_size_deg: None,
-        course: None,
-        persistence_frames: None,
-        persistence_window_frames: None,
-        params: None,
+        ..loomlab_scenarios::schema::DetectorDesc::of_id("mean_change")
     };
     let world = ep.world.clone();
     assert_eq!(

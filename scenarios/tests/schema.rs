@@ -528,16 +528,8 @@ fn reference_labels_are_reserved_for_detectors() {
     );
     // and resolve_detector itself, for any camera
     let desc = |label: &str| DetectorDesc {
-        id: "hopfield".into(),
         label: Some(label.into()),
-        threshold: None,
-        trigger: None,
-        tau_threshold_s: None,
-        min_angular_size_deg: None,
-        course: None,
-        persistence_frames: None,
-        persistence_window_frames: None,
-        params: None,
+        ..DetectorDesc::of_id("hopfield")
     };
     let (key, reason) = resolve_detector(&desc("oracle"), default_camera(32)).unwrap_err();
     assert_eq!(key, "label");
@@ -558,18 +550,7 @@ fn detectors_are_built_for_the_camera_facts() {
         toml::from_str("camera = { n = 48, fov_deg = 90.0 }\ncamera_hz = 60.0\n").unwrap();
     let facts = camera_facts(&world);
     assert_eq!((facts.n, facts.fov_deg, facts.frame_rate_hz), (48, 90.0, 60.0));
-    let d = DetectorDesc {
-        id: "hopfield".into(),
-        label: None,
-        threshold: None,
-        trigger: None,
-        tau_threshold_s: None,
-        min_angular_size_deg: None,
-        course: None,
-        persistence_frames: None,
-        persistence_window_frames: None,
-        params: None,
-    };
+    let d = DetectorDesc::of_id("hopfield");
     let spec = resolve_detector(&d, facts).unwrap();
     let h = &spec.params.config::<HopfieldConfig>().unwrap();
     assert_eq!((h.n, h.fov_deg, h.frame_rate_hz), (48, 90.0, 60.0));
@@ -652,11 +633,11 @@ fn tau_and_course_strategies_need_theta_and_their_own_keys() {
         (d.threshold - 1.0 / 0.8).abs() < 1e-12,
         "the row's threshold is the urgency 1/τ"
     );
-    let c = d.controller(&ep.controller);
+    let c = d.controller(&ep.controller).decision;
     assert!((c.tau_threshold_s - 0.8).abs() < 1e-12);
     assert_eq!(c.min_angular_size_deg, 2.0);
     assert_eq!(c.course, loomlab_agents::Course::Image);
-    assert!(d.is_strategy());
+    assert!(d.is_stateful());
     assert_eq!(c.persistence_frames, 1);
     // persistence makes any row a strategy row, and reaches its controller
     let s = parse(&format!(
@@ -664,11 +645,17 @@ fn tau_and_course_strategies_need_theta_and_their_own_keys() {
     ))
     .unwrap();
     let ep = s.episode(0).unwrap();
-    assert!(ep.detectors[0].is_strategy());
-    assert_eq!(ep.detectors[0].controller(&ep.controller).persistence_frames, 5);
+    assert!(ep.detectors[0].is_stateful());
+    assert_eq!(
+        ep.detectors[0].controller(&ep.controller).decision.persistence_frames,
+        5
+    );
     // a persistence window reaches it too (absent: the consecutive rule, M = K)
     assert_eq!(
-        ep.detectors[0].controller(&ep.controller).persistence_window_frames,
+        ep.detectors[0]
+            .controller(&ep.controller)
+            .decision
+            .persistence_window_frames,
         Some(5)
     );
     let s = parse(&format!(
@@ -676,14 +663,14 @@ fn tau_and_course_strategies_need_theta_and_their_own_keys() {
     ))
     .unwrap();
     let ep = s.episode(0).unwrap();
-    let c = ep.detectors[0].controller(&ep.controller);
+    let c = ep.detectors[0].controller(&ep.controller).decision;
     assert_eq!((c.persistence_frames, c.persistence_window_frames), (8, Some(11)));
     let s = parse(&format!(
         "{BASE}\n[[detectors]]\nid = \"soc\"\npersistence_window_frames = 4\n"
     ))
     .unwrap();
     assert!(
-        s.episode(0).unwrap().detectors[0].is_strategy(),
+        s.episode(0).unwrap().detectors[0].is_stateful(),
         "1 of 4 frames is a strategy"
     );
     // `angular_size` is today's trigger
@@ -695,7 +682,7 @@ fn tau_and_course_strategies_need_theta_and_their_own_keys() {
         s.episode(0).unwrap().detectors[0].trigger,
         TriggerSignal::AngularSizeDeg
     );
-    assert!(!s.episode(0).unwrap().detectors[0].is_strategy());
+    assert!(!s.episode(0).unwrap().detectors[0].is_stateful());
     for (entry, key, needle) in [
         ("id = \"soc\"\ntrigger = \"tau\"", "trigger", "θ̂"),
         ("id = \"fu2020\"\ncourse = \"image\"", "course", "θ̂"),

@@ -204,7 +204,7 @@ pub fn angular_size_deg(z: f64, cfg: &HopfieldConfig) -> f64 {
 /// Visual angle in degrees of a disk of scale s (diameter s·n pixels) seen through the
 /// camera: 2·atan(s·tan(fov/2)).
 pub fn scale_to_deg(s: f64, cfg: &HopfieldConfig) -> f64 {
-    2.0 * (s * (0.5 * cfg.fov_deg).to_radians().tan()).atan().to_degrees()
+    2.0 * crate::Pinhole::new(cfg.fov_deg).angle_deg(s)
 }
 
 /// The winner readout's scale for one frame: the larger of the ON and OFF winners' template
@@ -444,8 +444,7 @@ impl Hopfield {
         if theta_deg <= 0.0 {
             return None;
         }
-        let tan_half_fov = (0.5 * self.config.fov_deg).to_radians().tan();
-        let half = (0.5 * theta_deg).to_radians().tan() / tan_half_fov;
+        let half = crate::Pinhole::new(self.config.fov_deg).image_coord(0.5 * theta_deg);
         let [x, y] = region.centroid;
         Some(crate::ImageRegion {
             x: [x - half, x + half],

@@ -75,7 +75,7 @@ impl EscapeEnv {
             signal_names.push(names);
             built.push(detector);
             let threshold = options.thresholds.get(&spec.label).copied().unwrap_or(spec.threshold);
-            let (controller, strategy) = slot_controller(spec, &first.controller, threshold);
+            let (controller, decider) = slot_controller(spec, &first.controller, threshold);
             detectors.push(DetectorSlot {
                 label: spec.label.clone(),
                 id: spec.id.clone(),
@@ -83,7 +83,7 @@ impl EscapeEnv {
                 trigger: spec.trigger,
                 threshold,
                 controller,
-                strategy,
+                decider,
                 trace: Vec::new(),
             });
         }

@@ -1,6 +1,6 @@
 //! What a step shows the agent: detectors and shadow controller, observation, info and the episode's scoring.
 
-use loomlab_agents::{CameraSense, ContinuousAction, DiscreteAction, Ego, VelocityCommand};
+use loomlab_agents::{CameraSense, ContinuousAction, DiscreteAction, SelfMotion, VelocityCommand};
 use loomlab_detector::Frame;
 use loomlab_scenarios::metrics::{GroundTruth, TraceSample, score_detector_episode};
 use loomlab_scenarios::reference::INDICATOR_THRESHOLD;
@@ -44,7 +44,7 @@ impl EscapeEnv {
         let angular_size_deg = reference.map(|t| f64::from(t.angular_size_deg));
         let cruise_now = r.spec.cruise.command_at(out.t_s);
         // the camera's pose and shake as the robot's odometry and inertial sensor know them (the
-        // detectors' efference copy and the strategies' ego motion, as in the scenario runner)
+        // detectors' efference copy and the deciders' self-motion, as in the scenario runner)
         let camera = CameraSense::of(&r.sim);
         let nd = self.detectors.len();
         let mut signals = Vec::with_capacity(nd);
@@ -64,15 +64,16 @@ impl EscapeEnv {
             let frame = Frame::from_f32(n, out.frame.clone())?;
             // the robot's own motion during the last period, as the agent's controller sees it
             let last = self.agent.controller().last_command().unwrap_or(cruise_now);
-            let ego = Ego::of(last, camera.shake_rad);
+            let motion = SelfMotion::of(last, camera.shake_rad);
             let step = self.agent.step_posed(out.t_s, &frame, cruise_now, Some(&camera))?;
             for (d, s) in self.detectors.iter_mut().zip(&step.signals) {
                 let raw = d.trigger.value(s).unwrap_or(f64::NAN);
-                // a stateful row's value is its strategy's decision value, as the agent computes it
-                let value = match &mut d.strategy {
-                    Some(strategy) => {
-                        let percept = d.controller.percept_of(raw, step.looming_side, s.region.as_ref());
-                        strategy.update(out.t_s, percept, ego).value
+                // a stateful row's value is its decider's, as the agent computes it
+                let value = match &mut d.decider {
+                    Some(decider) => {
+                        decider
+                            .decide_on_detector(out.t_s, raw, step.looming_side, s.region.as_ref(), motion)
+                            .value
                     }
                     None => raw,
                 };

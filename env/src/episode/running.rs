@@ -126,7 +126,7 @@ impl EscapeEnv {
             slot.trace.clear();
             slot.trigger = d.trigger;
             slot.threshold = self.options.thresholds.get(&d.label).copied().unwrap_or(d.threshold);
-            (slot.controller, slot.strategy) = slot_controller(d, &spec.controller, slot.threshold);
+            (slot.controller, slot.decider) = slot_controller(d, &spec.controller, slot.threshold);
         }
         self.agent.set_controller(self.detectors[0].controller.clone())?;
         self.agent.reset();

@@ -2,7 +2,7 @@
 
 #[cfg(doc)]
 use loomlab_agents::EscapeAgent;
-use loomlab_agents::{EscapeConfig, Strategy, TriggerSignal};
+use loomlab_agents::{Decider, EscapeConfig, TriggerSignal};
 use loomlab_detector::DetectorParams;
 use loomlab_scenarios::metrics::TraceSample;
 use loomlab_scenarios::schema::DetectorSpec;
@@ -14,22 +14,22 @@ pub(super) struct DetectorSlot {
     pub(super) params: DetectorParams,
     pub(super) trigger: TriggerSignal,
     pub(super) threshold: f64,
-    /// The row's escape-controller configuration (its decision strategy), threshold included.
+    /// The row's escape-controller configuration (its decision rule), threshold included.
     pub(super) controller: EscapeConfig,
-    /// The row's decision strategy, stepped on its θ̂ and the looming side (stateful rows only).
-    pub(super) strategy: Option<Strategy>,
+    /// The row's decider, stepped on its θ̂ and the looming side (stateful rows only).
+    pub(super) decider: Option<Decider>,
     pub(super) trace: Vec<TraceSample>,
 }
 
 /// The controller configuration of detector `d` at alarm threshold `threshold` (for a τ row, the
-/// urgency 1/τ in s⁻¹), and its stateful strategy if it has one.
+/// urgency 1/τ in s⁻¹), and its decider if its rule keeps state.
 pub(super) fn slot_controller(
     d: &DetectorSpec,
     base: &EscapeConfig,
     threshold: f64,
-) -> (EscapeConfig, Option<Strategy>) {
+) -> (EscapeConfig, Option<Decider>) {
     let d = DetectorSpec { threshold, ..d.clone() };
     let config = d.controller(base);
-    let strategy = d.is_strategy().then(|| config.strategy());
-    (config, strategy)
+    let decider = d.is_stateful().then(|| config.decider());
+    (config, decider)
 }

@@ -53,46 +53,47 @@
 //! Results are handed to a callback as episodes finish (for `episodes.csv` and the progress bar)
 //! and returned in suite order; the run is deterministic whatever the number of workers.
 
-mod ego;
 mod head_on;
+mod motion;
+mod open_loop;
 mod pool;
 mod reference;
 mod rows;
+mod scoring;
 mod tails;
 mod trace;
 
 pub use pool::{cpus, max_jobs};
 pub use reference::ideal_theta_threshold_deg;
-pub use trace::{ClosedLoop, DetectorTrace, EpisodeRun, EpisodeTrace, StrategyTrace};
+pub use trace::{ClosedLoop, DecisionTrace, DetectorTrace, EpisodeRun, EpisodeTrace};
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
-use loomlab_agents::{Ego, EgoSensor, EscapeConfig, EscapeController, LoomingSideEstimator, Strategy, TriggerSignal};
-use loomlab_detector::{Detector, Frame, ImageRegion, Signals};
-use loomlab_sim::{GpuContext, ObjectTruth, Sim, SimError};
+use loomlab_agents::EscapeController;
+use loomlab_sim::{GpuContext, SimError};
 use rayon::prelude::*;
 
-use crate::deadline::{escape_deadline_cancellable, replay_trigger};
+use crate::deadline::{EscapeDeadline, escape_deadline_cancellable};
 use crate::error::RunError;
-use crate::metrics::{
-    DetectorEpisode, EpisodeOutcome, GroundTruth, ThetaAccuracy, TraceSample, score_detector_episode,
-};
-use crate::schema::{DetectorSpec, EpisodeSpec};
-use crate::truth::TruthRecorder;
-use ego::open_loop_ego;
+use crate::metrics::{DetectorEpisode, EpisodeOutcome, GroundTruth};
+use crate::schema::EpisodeSpec;
+use crate::truth::EpisodeTruth;
 use head_on::HeadOnApproach;
+use open_loop::OpenLoop;
 use pool::RendererPool;
-use reference::{ideal_tail, reference_rows};
+use reference::reference_rows;
 use rows::{Row, Tail, covers_object};
+use scoring::EpisodeScoring;
 use tails::TailJob;
 
 // the module docs link to it; the closed-loop tails drive it
 #[cfg(doc)]
 use loomlab_agents::EscapeAgent;
-
-/// Open-loop steps whose views are rendered in one batch (one submission and readback).
-const OPEN_LOOP_BATCH: usize = 16;
+#[cfg(doc)]
+use loomlab_detector::Detector;
+#[cfg(doc)]
+use loomlab_sim::Sim;
 
 /// Runs episodes on a shared GPU context and a worker pool.
 pub struct Runner {
@@ -262,373 +263,83 @@ impl Runner {
             .collect())
     }
 
-    /// Runs one episode on the calling thread (see the module docs).
+    /// Runs one episode on the calling thread (see the module docs): the open loop, the ground
+    /// truth and escape deadline, the rows, their closed loops and scores, and the trace.
     pub fn run_episode(&self, ep: &EpisodeSpec) -> Result<EpisodeRun, RunError> {
         let c = Ctx { ep };
-        let n = ep.world.camera.n;
-        let nn = n as usize;
-        let total = ep.frames();
-        let nd = ep.detectors.len();
-
-        // ---- open-loop pass: render once, every detector on the same frames ----
-        // The cruise command does not depend on the frames, so physics runs ahead by up to
-        // OPEN_LOOP_BATCH steps, capturing each step's view, and the views are rendered in one
-        // batch (bit-identical to rendering each at its step), then handed to the detectors in
-        // order. Steps past the first collision are never rendered.
-        let mut renderer = self.renderers.take(&self.ctx, n).map_err(|e| c.sim(e))?;
-        let mut sim = Sim::new_physics_only(&ep.world, ep.seed).map_err(|e| c.sim(e))?;
-        let objects = sim.objects();
-        // Rows that run the same detector (the same id and parameters, e.g. `hopfield` and
-        // `hopfield_tau`, which differ only in their decision rule) share one instance here: a
-        // detector's signals depend on nothing but its frames and efference copies.
-        let runs_as = same_detector_as(&ep.detectors);
-        let mut detectors: Vec<Option<Box<dyn Detector>>> = Vec::with_capacity(nd);
-        for (i, d) in ep.detectors.iter().enumerate() {
-            detectors.push(if runs_as[i] == i {
-                Some(d.build(nn).map_err(|e| c.det(e))?)
-            } else {
-                None
-            });
-        }
-        let mut stepped: Vec<Signals> = vec![Signals::default(); nd];
-        let mut frames: Vec<Frame> = Vec::with_capacity(total);
-        let mut t_s = Vec::with_capacity(total);
-        let mut signal = vec![Vec::with_capacity(total); nd];
-        let mut output = vec![Vec::with_capacity(total); nd];
-        let mut regions: Vec<Vec<Option<ImageRegion>>> = vec![Vec::with_capacity(total); nd];
-        // Each detector instance's signals per frame: a closed-loop tail's agent replays them up
-        // to its alarm instead of stepping a detector through the prefix again.
-        let mut history: Vec<Vec<Signals>> = vec![Vec::new(); nd];
-        // Rows with a stateful strategy (τ, course gate): their decision value frame by frame,
-        // exactly as the escape agent computes it (the raw trigger signal is kept as `raw`).
-        let mut strategies: Vec<Option<(EscapeConfig, Strategy)>> = ep
-            .detectors
-            .iter()
-            .map(|spec| {
-                spec.is_strategy().then(|| {
-                    let config = spec.controller(&ep.controller);
-                    let strategy = config.strategy();
-                    (config, strategy)
-                })
-            })
-            .collect();
-        let mut decided: Vec<Vec<f64>> = vec![Vec::new(); nd];
-        let mut estimates: Vec<(Vec<Option<f64>>, Vec<bool>)> = vec![(Vec::new(), Vec::new()); nd];
-        let mut egos: Vec<Ego> = Vec::with_capacity(total);
-        // Per row, its first alarm frame and a copy of its detector right after that frame
-        // (`Detector::snapshot`; `None` when the detector cannot copy itself): its tail starts there.
-        let mut alarmed_at: Vec<Option<usize>> = vec![None; nd];
-        let mut snapshots: Vec<Option<Box<dyn Detector>>> = (0..nd).map(|_| None).collect();
-        let mut side = LoomingSideEstimator::default();
-        let mut sides: Vec<Option<f32>> = Vec::with_capacity(total);
-        let mut ego_sensor = EgoSensor::default();
-        let mut truth: Vec<Vec<ObjectTruth>> = Vec::with_capacity(total);
-        let mut recorder = TruthRecorder::new(&sim);
-        let open = (|| -> Result<(), RunError> {
-            let mut steps = 0;
-            let mut ahead = Vec::with_capacity(OPEN_LOOP_BATCH);
-            let mut pixels: Vec<Vec<f32>> = Vec::with_capacity(OPEN_LOOP_BATCH);
-            'pass: while steps < total {
-                if self.cancelled() {
-                    return Err(RunError::Interrupted);
-                }
-                ahead.clear();
-                while ahead.len() < OPEN_LOOP_BATCH && steps < total {
-                    let cmd = ep.cruise.command_at(sim.time());
-                    let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
-                    steps += 1;
-                    let collided = out.first_collision().is_some();
-                    ahead.push((cmd, out, sim.camera_pose(), sim.capture_view()));
-                    if collided {
-                        break;
-                    }
-                }
-                let descs: Vec<_> = ahead.iter().map(|a| a.3.desc()).collect();
-                pixels.resize_with(descs.len(), Vec::new);
-                renderer
-                    .render_batch(&descs, &mut pixels[..descs.len()])
-                    .map_err(|e| c.sim(e))?;
-                for ((cmd, mut out, camera_pose, _), px) in ahead.drain(..).zip(pixels.iter_mut()) {
-                    if self.cancelled() {
-                        return Err(RunError::Interrupted);
-                    }
-                    let frame = Frame::from_f32(nn, std::mem::take(px)).map_err(|e| c.det(e))?;
-                    // the efference copy: the command applied during this period and the camera's
-                    // motion and pose, as the escape agent passes it in the closed loop (the same
-                    // up to the first alarm)
-                    let ego = ego_sensor.sense(cmd, out.t_s, &camera_pose);
-                    for (i, (d, spec)) in detectors.iter_mut().zip(&ep.detectors).enumerate() {
-                        stepped[i] = match d {
-                            Some(d) => d.step_moving(&frame, &ego).map_err(|e| c.det(e))?,
-                            None => stepped[runs_as[i]].clone(),
-                        };
-                        let s = &stepped[i];
-                        signal[i].push(spec.trigger.value(s).unwrap_or(f64::NAN));
-                        output[i].push(s.output);
-                        regions[i].push(s.region);
-                        if runs_as[i] == i {
-                            history[i].push(s.clone());
-                        }
-                    }
-                    t_s.push(out.t_s);
-                    let k = t_s.len() - 1;
-                    sides.push(side.update(&frame));
-                    egos.push(open_loop_ego(ep, &t_s, k, Some(sim.camera())));
-                    for (i, spec) in ep.detectors.iter().enumerate() {
-                        let value = match &mut strategies[i] {
-                            Some((config, strategy)) => {
-                                let percept = config.percept_of(signal[i][k], sides[k], regions[i][k].as_ref());
-                                let decision = strategy.update(t_s[k], percept, egos[k]);
-                                decided[i].push(decision.value);
-                                estimates[i].0.push(decision.tau_s);
-                                estimates[i].1.push(decision.gate_open);
-                                decision.value
-                            }
-                            None => signal[i][k],
-                        };
-                        if alarmed_at[i].is_none() && value >= spec.threshold {
-                            alarmed_at[i] = Some(k);
-                            snapshots[i] = detectors[runs_as[i]].as_ref().and_then(|d| d.snapshot());
-                        }
-                    }
-                    frames.push(frame);
-                    let contact = recorder.record(&out).is_some();
-                    truth.push(std::mem::take(&mut out.truth));
-                    if contact {
-                        break 'pass;
-                    }
-                }
-            }
-            Ok(())
-        })();
-        self.renderers.give_back(renderer);
-        open?;
-        let mut frames_rendered = frames.len();
-
-        // ---- ground truth: threat, reference object, escape deadline, l/|v| ----
-        let episode_truth = recorder.finish();
+        let (mut pass, episode_truth) = self.open_loop(&c)?;
         let reference = episode_truth.reference;
-        let ref_truth = |k: usize| reference.and_then(|id| truth[k].get(id));
-        let ref_ttc: Vec<Option<f64>> = (0..t_s.len())
+        let ref_truth = |k: usize| reference.and_then(|id| pass.truth[k].get(id));
+        let ref_ttc: Vec<Option<f64>> = (0..pass.t_s.len())
             .map(|k| ref_truth(k).and_then(|o| o.ttc_s).map(f64::from))
             .collect();
-        let ref_theta: Vec<f64> = (0..t_s.len())
+        let ref_theta: Vec<f64> = (0..pass.t_s.len())
             .map(|k| ref_truth(k).map_or(f64::NAN, |o| f64::from(o.angular_size_deg)))
             .collect();
-        let mut raw_theta: Vec<Option<Vec<f64>>> = vec![None; nd];
-        for (i, strategy) in strategies.iter().enumerate() {
-            if strategy.is_some() {
-                raw_theta[i] = Some(std::mem::replace(&mut signal[i], std::mem::take(&mut decided[i])));
-            }
-        }
         let escape = EscapeController::new(ep.controller.clone()).map_err(|source| RunError::Controller {
             scenario: ep.scenario.clone(),
             episode: ep.index,
             source,
         })?;
-        let deadline_started = std::time::Instant::now();
-        let deadline = match &episode_truth.contact {
-            Some(contact) => Some(
-                escape_deadline_cancellable(ep, ep.seed, &escape, &sides, &t_s, contact.frame, &self.cancel)
-                    .map_err(|e| c.sim(e))?
-                    .ok_or(RunError::Interrupted)?,
-            ),
-            None => None,
-        };
-        let deadline_s = deadline_started.elapsed().as_secs_f64();
+        let (deadline, deadline_s) = self.escape_deadline(&c, &escape, &pass, &episode_truth)?;
+        let contact_frame = episode_truth.contact.as_ref().map(|c| c.frame);
+        let threat_object = episode_truth.contact.as_ref().map(|c| c.object_id);
         let approach = episode_truth
             .contact
             .as_ref()
-            .and_then(|contact| HeadOnApproach::measure(&truth, contact.object_id, contact.frame, ep.world.dt()));
+            .and_then(|contact| HeadOnApproach::measure(&pass.truth, contact.object_id, contact.frame, ep.world.dt()));
         let ground_truth = GroundTruth {
             threat: episode_truth.threat(),
             t_contact_s: episode_truth.t_contact_s(),
             t_deadline_s: deadline.as_ref().and_then(|d| d.t_s),
             collision: false,
         };
-        let contact_frame = episode_truth.contact.as_ref().map(|c| c.frame);
 
         // ---- scores and closed loops: the detectors, then the reference rows ----
-        let threat_object = episode_truth.contact.as_ref().map(|c| c.object_id);
-        let mut rows: Vec<Row> = ep
-            .detectors
-            .iter()
-            .enumerate()
-            .map(|(i, spec)| {
-                let fov_deg = spec.controller(&ep.controller).camera_fov_deg;
-                let covers = threat_object.and_then(|id| covers_object(&regions[i], &truth, id, fov_deg));
-                let idle = if spec.trigger.reads_angular_size() {
-                    0.0
-                } else {
-                    f64::NAN
-                };
-                let localises = regions[i].iter().any(Option::is_some);
-                Row {
-                    label: spec.label.clone(),
-                    trigger: spec.trigger,
-                    threshold: spec.threshold,
-                    about_threat: covers.as_ref().map(|covers| {
-                        covers
-                            .iter()
-                            .zip(&signal[i])
-                            .map(|(&c, &s)| if c { s } else { idle })
-                            .collect()
-                    }),
-                    about_mask: covers,
-                    signal: std::mem::take(&mut signal[i]),
-                    raw: raw_theta[i].take(),
-                    estimates: strategies[i].is_some().then(|| std::mem::take(&mut estimates[i])),
-                    regions: localises.then(|| std::mem::take(&mut regions[i])),
-                    output: std::mem::take(&mut output[i]),
-                    tail: Tail::Detector(spec),
-                }
-            })
-            .collect();
+        let mut rows = detector_rows(ep, &mut pass, threat_object);
         if self.references {
-            rows.extend(reference_rows(ep, &truth, &t_s, deadline.as_ref(), threat_object));
+            rows.extend(reference_rows(
+                ep,
+                &pass.truth,
+                &pass.t_s,
+                deadline.as_ref(),
+                threat_object,
+            ));
         }
         let first_alarms: Vec<Option<usize>> = rows
             .iter()
             .map(|row| row.signal.iter().position(|&s| s >= row.threshold))
             .collect();
-        // the detectors' post-alarm tails, stepped in lockstep (one render batch per frame)
-        let mut tail_jobs: Vec<TailJob<'_>> = Vec::new();
-        for (r, (row, &alarm)) in rows.iter().zip(&first_alarms).enumerate() {
-            if let (Tail::Detector(spec), Some(ka)) = (&row.tail, alarm)
-                && contact_frame.is_none_or(|kc| ka < kc)
-            {
-                // detector rows come first: row r is detector entry r
-                // the open-loop pass found the same first alarm (same values, same comparison)
-                debug_assert_eq!(alarmed_at[r], Some(ka));
-                let start = snapshots[r].take();
-                tail_jobs.push(TailJob {
-                    row: r,
-                    spec,
-                    alarm: ka,
-                    start,
-                    signals: &history[runs_as[r]],
-                });
-            }
-        }
-        let tail_rows: Vec<usize> = tail_jobs.iter().map(|j| j.row).collect();
-        let tail_runs = self.closed_loop_tails(&c, tail_jobs, &frames, &sides)?;
-        let mut tail_runs: Vec<Option<ClosedLoop>> = {
-            let mut by_row: Vec<Option<ClosedLoop>> = (0..rows.len()).map(|_| None).collect();
-            for (r, cl) in tail_rows.into_iter().zip(tail_runs) {
-                by_row[r] = Some(cl);
-            }
-            by_row
+        let mut tails = self.detector_tails(&c, &rows, &first_alarms, contact_frame, &mut pass)?;
+        let scoring = EpisodeScoring {
+            t_s: &pass.t_s,
+            ref_ttc: &ref_ttc,
+            ref_theta: &ref_theta,
+            ground_truth: &ground_truth,
+            episode_truth: &episode_truth,
+            deadline: deadline.as_ref(),
+            approach: approach.as_ref(),
+            contact_frame,
+            sides: &pass.sides,
         };
+        let mut frames_rendered = pass.frames.len();
         let mut scored: Vec<DetectorEpisode> = Vec::with_capacity(rows.len());
         let mut closed = Vec::with_capacity(rows.len());
         for (r, row) in rows.iter().enumerate() {
-            // a row that names its objects is scored on its alarms about the threat
-            let scored_signal = row.about_threat.as_ref().unwrap_or(&row.signal);
-            let samples: Vec<TraceSample> = (0..t_s.len())
-                .map(|k| TraceSample {
-                    t_s: t_s[k],
-                    signal: scored_signal[k],
-                    ttc_s: ref_ttc[k],
-                    angular_size_deg: Some(ref_theta[k]).filter(|v| v.is_finite()),
-                })
-                .collect();
-            let mut d = score_detector_episode(&row.label, row.threshold, &samples, &ground_truth, &ep.scoring)
-                .map_err(|source| RunError::Scoring {
-                    scenario: ep.scenario.clone(),
-                    episode: ep.index,
-                    source,
-                })?;
-            let first_alarm = first_alarms[r];
-            let first_alarm_about_threat = scored_signal.iter().position(|&s| s >= row.threshold);
-            let cl = match (first_alarm, contact_frame) {
-                (None, _) => ClosedLoop {
-                    label: row.label.clone(),
-                    simulated: false,
-                    triggers: 0,
-                    collision: episode_truth.impact(),
-                    frames_rendered: 0,
-                },
-                (Some(ka), Some(kc)) if ka >= kc => ClosedLoop {
-                    label: row.label.clone(),
-                    simulated: false,
-                    triggers: 1,
-                    collision: episode_truth.impact(),
-                    frames_rendered: 0,
-                },
-                (Some(ka), _) => match &row.tail {
-                    Tail::Replay => ClosedLoop {
-                        label: row.label.clone(),
-                        simulated: true,
-                        triggers: 1,
-                        collision: replay_trigger(ep, ep.seed, &escape, ka, sides[ka]).map_err(|e| c.sim(e))?,
-                        frames_rendered: 0,
-                    },
-                    Tail::Ideal(kind) => ideal_tail(&c, &row.label, *kind, &truth, ka)?,
-                    Tail::Detector(_) => tail_runs[r].take().ok_or(RunError::Interrupted)?,
-                },
-            };
+            let cl = scoring.closed_loop(&c, row, first_alarms[r], &escape, &pass.truth, tails[r].take())?;
             frames_rendered += cl.frames_rendered;
-            d.collision = cl.collision.is_some();
-            d.impact_speed_mps = cl.collision.map(|i| i.impact_speed_mps);
-            d.impulse_ns = cl.collision.and_then(|i| i.impulse_ns);
-            d.triggers = cl.triggers as u64;
-            d.theta_required_deg = deadline
-                .as_ref()
-                .and_then(|dl| dl.frame)
-                .and_then(|k| ref_theta.get(k).copied())
-                .filter(|v| v.is_finite());
-            if let Some(a) = &approach {
-                d.l_over_v_s = Some(a.l_over_v_s);
-                d.eye_ttc_at_alarm_s = first_alarm_about_threat.and_then(|k| a.eye_ttc_s(k));
-            }
-            let theta_hat = match (&row.tail, row.trigger) {
-                (Tail::Detector(_), TriggerSignal::AngularSizeDeg | TriggerSignal::Tau) => {
-                    Some(row.raw.as_ref().unwrap_or(&row.signal))
-                }
-                _ => None,
-            };
-            if ground_truth.threat
-                && let Some(theta_hat) = theta_hat
-            {
-                let pairs: Vec<(f64, f64)> = theta_hat.iter().copied().zip(ref_theta.iter().copied()).collect();
-                (
-                    d.theta_rel_err_median,
-                    d.theta_rel_err_p90,
-                    d.theta_at_first_estimate_deg,
-                ) = ThetaAccuracy::episode(&pairs);
-            }
-            scored.push(d);
+            scored.push(scoring.score(&c, row, &cl)?);
             closed.push(cl);
         }
-
         let trace = EpisodeTrace {
-            t_s,
-            reference_object: reference.map(|id| objects[id].1.clone()),
+            reference_object: reference.map(|id| pass.object_names[id].clone()),
             angular_size_deg: ref_theta,
             ttc_s: ref_ttc,
             t_deadline_s: ground_truth.t_deadline_s,
-            ego: egos,
-            looming_side: sides,
-            detectors: rows
-                .into_iter()
-                .map(|row| DetectorTrace {
-                    label: row.label,
-                    trigger: row.trigger,
-                    threshold: row.threshold,
-                    strategy: row
-                        .raw
-                        .zip(row.estimates)
-                        .map(|(theta_hat_deg, (tau_s, gate_open))| StrategyTrace {
-                            theta_hat_deg,
-                            tau_s,
-                            gate_open,
-                        }),
-                    regions: row.regions,
-                    about_threat: row.about_mask,
-                    signal: row.signal,
-                    output: row.output,
-                })
-                .collect(),
+            self_motion: pass.motion,
+            looming_side: pass.sides,
+            detectors: rows.into_iter().map(Row::into_trace).collect(),
+            t_s: pass.t_s,
         };
         Ok(EpisodeRun {
             outcome: EpisodeOutcome {
@@ -645,24 +356,119 @@ impl Runner {
             frames_rendered,
         })
     }
+
+    /// Step 2: the escape deadline of a threat ([`crate::deadline`]) and the wall time its search
+    /// took (s).
+    fn escape_deadline(
+        &self,
+        c: &Ctx<'_>,
+        escape: &EscapeController,
+        pass: &OpenLoop,
+        episode_truth: &EpisodeTruth,
+    ) -> Result<(Option<EscapeDeadline>, f64), RunError> {
+        let ep = c.ep;
+        let started = std::time::Instant::now();
+        let deadline = match &episode_truth.contact {
+            Some(contact) => Some(
+                escape_deadline_cancellable(ep, ep.seed, escape, &pass.sides, &pass.t_s, contact.frame, &self.cancel)
+                    .map_err(|e| c.sim(e))?
+                    .ok_or(RunError::Interrupted)?,
+            ),
+            None => None,
+        };
+        Ok((deadline, started.elapsed().as_secs_f64()))
+    }
+
+    /// The closed-loop tails of the detector rows that alarm before any contact, simulated in
+    /// lockstep ([`Self::closed_loop_tails`]); per row, `None` for the others.
+    fn detector_tails(
+        &self,
+        c: &Ctx<'_>,
+        rows: &[Row<'_>],
+        first_alarms: &[Option<usize>],
+        contact_frame: Option<usize>,
+        pass: &mut OpenLoop,
+    ) -> Result<Vec<Option<ClosedLoop>>, RunError> {
+        let mut jobs: Vec<TailJob<'_>> = Vec::new();
+        for (r, (row, &alarm)) in rows.iter().zip(first_alarms).enumerate() {
+            if let (Tail::Detector(spec), Some(ka)) = (&row.tail, alarm)
+                && contact_frame.is_none_or(|kc| ka < kc)
+            {
+                // detector rows come first: row r is detector entry r
+                // the open-loop pass found the same first alarm (same values, same comparison)
+                debug_assert_eq!(pass.detectors[r].alarmed_at, Some(ka));
+                jobs.push(TailJob {
+                    row: r,
+                    spec,
+                    alarm: ka,
+                    start: pass.detectors[r].snapshot.take(),
+                    signals: &pass.history[pass.runs_as[r]],
+                });
+            }
+        }
+        let tail_rows: Vec<usize> = jobs.iter().map(|j| j.row).collect();
+        let runs = self.closed_loop_tails(c, jobs, &pass.frames, &pass.sides)?;
+        let mut by_row: Vec<Option<ClosedLoop>> = (0..rows.len()).map(|_| None).collect();
+        for (r, cl) in tail_rows.into_iter().zip(runs) {
+            by_row[r] = Some(cl);
+        }
+        Ok(by_row)
+    }
 }
 
-/// For each detector entry, the first entry that runs the same detector (the same id and
-/// parameters; itself when none before it does).
-fn same_detector_as(specs: &[DetectorSpec]) -> Vec<usize> {
-    (0..specs.len())
-        .map(|i| {
-            (0..i)
-                .find(|&j| specs[j].id == specs[i].id && specs[j].params == specs[i].params)
-                .unwrap_or(i)
+/// The detector rows of an episode from its open-loop records (which they take over): a stateful
+/// row's signal is its decider's value, with θ̂ before it as `raw`; a detector that numbers its
+/// tracks gets its signal about the threat alone.
+fn detector_rows<'a>(ep: &'a EpisodeSpec, pass: &mut OpenLoop, threat_object: Option<usize>) -> Vec<Row<'a>> {
+    let pinhole = ep.controller.pinhole();
+    ep.detectors
+        .iter()
+        .zip(&mut pass.detectors)
+        .map(|(spec, record)| {
+            let (signal, raw, estimates) = match record.decided.take() {
+                Some(d) => (
+                    d.value,
+                    Some(std::mem::take(&mut record.signal)),
+                    Some((d.tau_s, d.gate_open)),
+                ),
+                None => (std::mem::take(&mut record.signal), None, None),
+            };
+            let covers = threat_object.and_then(|id| covers_object(&record.regions, &pass.truth, id, &pinhole));
+            let idle = if spec.trigger.reads_angular_size() {
+                0.0
+            } else {
+                f64::NAN
+            };
+            let localises = record.regions.iter().any(Option::is_some);
+            Row {
+                label: spec.label.clone(),
+                trigger: spec.trigger,
+                threshold: spec.threshold,
+                about_threat: covers.as_ref().map(|covers| {
+                    covers
+                        .iter()
+                        .zip(&signal)
+                        .map(|(&c, &s)| if c { s } else { idle })
+                        .collect()
+                }),
+                about_mask: covers,
+                signal,
+                raw,
+                estimates,
+                regions: localises.then(|| std::mem::take(&mut record.regions)),
+                output: std::mem::take(&mut record.output),
+                tail: Tail::Detector(spec),
+            }
         })
         .collect()
 }
 
 #[cfg(test)]
 mod tests {
+    use super::open_loop::same_detector_as;
     use super::*;
-    use loomlab_sim::ObjectKind;
+    use loomlab_detector::{ImageRegion, Pinhole};
+    use loomlab_sim::{ObjectKind, ObjectTruth};
 
     /// A ball of half-size 0.15 m on the optical axis whose centre is `distance(k)` away.
     fn ball(distance: f64) -> ObjectTruth {
@@ -745,9 +551,9 @@ threshold = 1.0
         };
         // frame 0: tracking the car (x 0.45..0.8 at a 60° view: 14.6°..24.8°); 1: the ball; 2: none
         let regions = [Some(region([0.45, 0.8])), Some(region([-0.05, 0.05])), None];
-        let about = covers_object(&regions, &truth, 0, 60.0).expect("a tracker");
+        let about = covers_object(&regions, &truth, 0, &Pinhole::new(60.0)).expect("a tracker");
         assert_eq!(about, vec![false, true, false]);
-        let about_car = covers_object(&regions, &truth, 1, 60.0).unwrap();
+        let about_car = covers_object(&regions, &truth, 1, &Pinhole::new(60.0)).unwrap();
         assert_eq!(about_car, vec![true, false, false]);
         // a detector without tracks: its alarms are all taken to be about the threat
         let untracked = [
@@ -758,7 +564,7 @@ threshold = 1.0
             None,
             None,
         ];
-        assert_eq!(covers_object(&untracked, &truth, 0, 60.0), None);
+        assert_eq!(covers_object(&untracked, &truth, 0, &Pinhole::new(60.0)), None);
     }
 
     #[test]

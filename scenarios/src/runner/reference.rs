@@ -1,10 +1,10 @@
 //! The reference rows of an episode and the closed loops of its ideal observers.
 
-use loomlab_agents::{Ego, EscapeAgent, EscapeConfig, TriggerSignal, VelocityCommand};
+use loomlab_agents::{DecisionRule, EscapeAgent, SelfMotion, TriggerSignal, VelocityCommand};
 use loomlab_sim::{ObjectTruth, Sim};
 
 use super::Ctx;
-use super::ego::open_loop_ego;
+use super::motion::open_loop_motion;
 use super::rows::{Row, Tail};
 use super::trace::ClosedLoop;
 use crate::deadline::EscapeDeadline;
@@ -36,10 +36,10 @@ pub(super) fn ideal_tail(
     })?;
     let camera = sim.camera().clone();
     let mut decide = |agent: &mut EscapeAgent, t: f64, truth: &[ObjectTruth], applied: VelocityCommand| {
-        let ego = Ego::of(applied, camera.shake_rotation(t));
-        let (value, side, object) = observer.update(t, truth, ego);
+        let motion = SelfMotion::of(applied, camera.shake_rotation(t));
+        let (value, side, object) = observer.update(t, truth, motion);
         agent
-            .decide_about(t, side, value, object, ep.cruise.command_at(t))
+            .act_on_value(t, side, value, object, ep.cruise.command_at(t))
             .command
     };
     let mut cmd = ep.cruise.command_at(0.0);
@@ -128,7 +128,7 @@ pub(super) fn reference_rows<'a>(
             let mut observer = observer();
             (0..frames)
                 .map(|k| {
-                    let ego = open_loop_ego(ep, t_s, k, camera.as_ref());
+                    let motion = open_loop_motion(ep, t_s, k, camera.as_ref());
                     let objects = match only {
                         Some(id) => truth[k]
                             .iter()
@@ -136,13 +136,13 @@ pub(super) fn reference_rows<'a>(
                             .map_or(&[][..], std::slice::from_ref),
                         None => &truth[k][..],
                     };
-                    observer.update(t_s[k], objects, ego).0
+                    observer.update(t_s[k], objects, motion).0
                 })
                 .collect()
         };
         let mut r = row(
             label,
-            config.trigger,
+            config.decision.trigger,
             config.alarm_threshold(),
             signal_of(None),
             Tail::Ideal(kind),
@@ -160,5 +160,5 @@ pub fn ideal_theta_threshold_deg(ep: &EpisodeSpec) -> f64 {
     ep.detectors
         .iter()
         .find(|d| d.label == "hopfield" && d.trigger == TriggerSignal::AngularSizeDeg)
-        .map_or(EscapeConfig::default().threshold, |d| d.threshold)
+        .map_or(DecisionRule::default().threshold, |d| d.threshold)
 }

@@ -1,27 +1,27 @@
 //! An episode's rows (detector or reference) and which of a tracker's alarms are about the threat.
 
 use loomlab_agents::TriggerSignal;
-use loomlab_detector::ImageRegion;
+use loomlab_detector::{ImageRegion, Pinhole};
 use loomlab_sim::ObjectTruth;
 
+use super::trace::{DecisionTrace, DetectorTrace};
 use crate::reference::IdealKind;
 use crate::schema::DetectorSpec;
 
 /// For a detector that numbers its tracks ([`ImageRegion::track`], `tracker`): per frame, whether
-/// its tracked region overlaps object `id`'s true image extent (`truth`, per frame; camera field
-/// of view `fov_deg`) — scoring only, which may read the ground truth. `None` for a detector
+/// its tracked region overlaps object `id`'s true image extent (`truth`, per frame; seen through
+/// `camera`) — scoring only, which may read the ground truth. `None` for a detector
 /// without tracks: its alarms are taken to be about the threat.
 pub(super) fn covers_object(
     regions: &[Option<ImageRegion>],
     truth: &[Vec<ObjectTruth>],
     id: usize,
-    fov_deg: f64,
+    camera: &Pinhole,
 ) -> Option<Vec<bool>> {
     if !regions.iter().flatten().any(|r| r.track.is_some()) {
         return None;
     }
-    let half = (fov_deg / 2.0).to_radians().tan();
-    let angle = |v: f64| (v * half).atan().to_degrees();
+    let angle = |v: f64| camera.angle_deg(v);
     let overlaps = |[a0, a1]: [f64; 2], [b0, b1]: [f32; 2]| a0 <= f64::from(b1) && f64::from(b0) <= a1;
     let covers = |k: usize| {
         let (Some(Some(r)), Some(o)) = (regions.get(k), truth.get(k).and_then(|t| t.iter().find(|o| o.id == id)))
@@ -50,9 +50,9 @@ pub(super) struct Row<'a> {
     pub(super) trigger: TriggerSignal,
     pub(super) threshold: f64,
     pub(super) signal: Vec<f64>,
-    /// θ̂ before the decision strategy, for rows whose signal is a strategy's decision value.
+    /// θ̂ before the decider, for rows whose signal is a decider's value.
     pub(super) raw: Option<Vec<f64>>,
-    /// The strategy's τ̂ and gate per frame, for the same rows.
+    /// The decider's τ̂ and gate per frame, for the same rows.
     pub(super) estimates: Option<(Vec<Option<f64>>, Vec<bool>)>,
     /// Per frame, whether the row's region covers the threat's true image (see `about_threat`).
     pub(super) about_mask: Option<Vec<bool>>,
@@ -66,4 +66,27 @@ pub(super) struct Row<'a> {
     pub(super) about_threat: Option<Vec<f64>>,
     pub(super) output: Vec<f64>,
     pub(super) tail: Tail<'a>,
+}
+
+impl Row<'_> {
+    /// The row's open-loop trace.
+    pub(super) fn into_trace(self) -> DetectorTrace {
+        DetectorTrace {
+            label: self.label,
+            trigger: self.trigger,
+            threshold: self.threshold,
+            decision: self
+                .raw
+                .zip(self.estimates)
+                .map(|(theta_hat_deg, (tau_s, gate_open))| DecisionTrace {
+                    theta_hat_deg,
+                    tau_s,
+                    gate_open,
+                }),
+            regions: self.regions,
+            about_threat: self.about_mask,
+            signal: self.signal,
+            output: self.output,
+        }
+    }
 }

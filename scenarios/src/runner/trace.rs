@@ -1,6 +1,6 @@
 //! What an episode produced: its open-loop traces, closed loops and scores.
 
-use loomlab_agents::{Ego, TriggerSignal};
+use loomlab_agents::{SelfMotion, TriggerSignal};
 use loomlab_detector::ImageRegion;
 
 use crate::deadline::EscapeDeadline;
@@ -20,9 +20,9 @@ pub struct DetectorTrace {
     pub signal: Vec<f64>,
     /// Primary output per frame.
     pub output: Vec<f64>,
-    /// For a row with a stateful decision strategy (τ trigger or course gate): what it decided on,
-    /// frame by frame.
-    pub strategy: Option<StrategyTrace>,
+    /// For a row with a stateful decider (τ trigger, course gate or persistence): what it decided
+    /// on, frame by frame.
+    pub decision: Option<DecisionTrace>,
     /// For a detector that localises the looming object (`tracker`): its image region per frame.
     pub regions: Option<Vec<Option<ImageRegion>>>,
     /// For such a detector in a threat episode: whether its region covers the threat's true image,
@@ -30,12 +30,12 @@ pub struct DetectorTrace {
     pub about_threat: Option<Vec<bool>>,
 }
 
-/// A decision strategy's inputs and estimates over an episode's open-loop pass.
+/// A decider's inputs and estimates over an episode's open-loop pass.
 #[derive(Debug, Clone, PartialEq)]
-pub struct StrategyTrace {
-    /// The detector's θ̂ (degrees; NaN where it gives none) before the strategy.
+pub struct DecisionTrace {
+    /// The detector's θ̂ (degrees; NaN where it gives none) before the decider.
     pub theta_hat_deg: Vec<f64>,
-    /// The strategy's time-to-contact estimate τ̂ (s), where it has one.
+    /// The decider's time-to-contact estimate τ̂ (s), where it has one.
     pub tau_s: Vec<Option<f64>>,
     /// Whether the collision-course gate was open.
     pub gate_open: Vec<bool>,
@@ -54,9 +54,9 @@ pub struct EpisodeTrace {
     pub ttc_s: Vec<Option<f64>>,
     /// The escape deadline of a threat (s; `None`: no threat, or unavoidable).
     pub t_deadline_s: Option<f64>,
-    /// What the detectors' decision strategies knew of the robot's own motion per frame (its
-    /// cruise command).
-    pub ego: Vec<Ego>,
+    /// What the detectors' deciders knew of the robot's own motion per frame (its cruise command
+    /// and the camera's sensed shake).
+    pub self_motion: Vec<SelfMotion>,
     /// The looming side per frame (x centroid of the temporal contrast, image x in [−1, 1]).
     pub looming_side: Vec<Option<f32>>,
     /// Per detector.

@@ -2,8 +2,8 @@
 
 use std::path::Path;
 
-use loomlab_agents::escape::MAX_PERSISTENCE_FRAMES;
-use loomlab_agents::{Course, EscapeConfig, TriggerSignal};
+use loomlab_agents::decision::MAX_PERSISTENCE_FRAMES;
+use loomlab_agents::{Course, DecisionRule, EscapeConfig, TriggerSignal};
 use loomlab_detector::{Detector, DetectorError, DetectorParams, Registration, Registry, Signal};
 use loomlab_sim::WorldDesc;
 use serde::Deserialize;
@@ -33,7 +33,7 @@ pub struct DetectorSpec {
     /// Which signal is compared with the threshold.
     pub trigger: TriggerSignal,
     /// Alarm threshold: an alarm is `signal >= threshold`, the signal being the decision value of
-    /// the row's strategy (for `trigger = "tau"` the urgency 1/τ̂, so this is `1 / tau_threshold_s`
+    /// the row's decider (for `trigger = "tau"` the urgency 1/τ̂, so this is `1 / tau_threshold_s`
     /// in s⁻¹).
     pub threshold: f64,
     /// `trigger = "tau"`: the smallest θ̂ for an alarm (degrees; `None`: the controller's).
@@ -56,28 +56,32 @@ impl DetectorSpec {
         self.params.build(n)
     }
 
-    /// The escape controller's configuration for this detector.
+    /// The escape controller's configuration for this detector: `base` with this row's decision
+    /// rule.
     pub fn controller(&self, base: &EscapeConfig) -> EscapeConfig {
         EscapeConfig {
-            trigger: self.trigger,
-            threshold: self.threshold,
-            tau_threshold_s: if self.trigger == TriggerSignal::Tau {
-                1.0 / self.threshold
-            } else {
-                base.tau_threshold_s
+            decision: DecisionRule {
+                trigger: self.trigger,
+                threshold: self.threshold,
+                tau_threshold_s: if self.trigger == TriggerSignal::Tau {
+                    1.0 / self.threshold
+                } else {
+                    base.decision.tau_threshold_s
+                },
+                min_angular_size_deg: self.min_angular_size_deg.unwrap_or(base.decision.min_angular_size_deg),
+                course: self.course,
+                persistence_frames: self.persistence_frames,
+                persistence_window_frames: Some(self.persistence_window_frames),
+                ..base.decision
             },
-            min_angular_size_deg: self.min_angular_size_deg.unwrap_or(base.min_angular_size_deg),
-            course: self.course,
-            persistence_frames: self.persistence_frames,
-            persistence_window_frames: Some(self.persistence_window_frames),
             ..base.clone()
         }
     }
 
-    /// Whether this row runs a stateful decision strategy (τ, the course gate or persistence): its
-    /// decision value is not the raw trigger signal.
-    pub fn is_strategy(&self) -> bool {
-        self.trigger == TriggerSignal::Tau || self.course != Course::Off || self.persistence_window_frames > 1
+    /// Whether this row's decision rule keeps state ([`DecisionRule::is_stateful`]: τ, the course
+    /// gate or persistence): its decision value is not the raw trigger signal.
+    pub fn is_stateful(&self) -> bool {
+        self.controller(&EscapeConfig::default()).decision.is_stateful()
     }
 }
 
@@ -187,7 +191,7 @@ pub fn resolve_detector_in(
                 "with trigger = \"tau\" the alarm threshold is tau_threshold_s (seconds)".into(),
             ));
         }
-        let tau = d.tau_threshold_s.unwrap_or(EscapeConfig::default().tau_threshold_s);
+        let tau = d.tau_threshold_s.unwrap_or(DecisionRule::default().tau_threshold_s);
         if !(tau.is_finite() && tau > 0.0) {
             return Err((
                 "tau_threshold_s".into(),
@@ -298,19 +302,9 @@ pub fn load_detector_entries(path: &Path) -> Result<Vec<DetectorDesc>, ScenarioE
     parse_detector_entries(&text, path)
 }
 
+/// The entry of detector `id` with every other key left out.
 pub(super) fn bare(id: &str) -> DetectorDesc {
-    DetectorDesc {
-        id: id.to_string(),
-        label: None,
-        threshold: None,
-        trigger: None,
-        tau_threshold_s: None,
-        min_angular_size_deg: None,
-        course: None,
-        persistence_frames: None,
-        persistence_window_frames: None,
-        params: None,
-    }
+    DetectorDesc::of_id(id)
 }
 
 /// The ids of the detectors in `registry` that give θ̂.

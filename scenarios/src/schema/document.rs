@@ -182,23 +182,23 @@ pub struct DetectorDesc {
     #[serde(default)]
     pub trigger: Option<TriggerSignal>,
     /// `trigger = "tau"`: alarm when the estimated time to contact is at most this (s; default
-    /// `EscapeConfig::default().tau_threshold_s`). Replaces `threshold` for τ rows.
+    /// `DecisionRule::default().tau_threshold_s`). Replaces `threshold` for τ rows.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tau_threshold_s: Option<f64>,
     /// `trigger = "tau"`: the smallest θ̂ (degrees) for an alarm (default
-    /// `EscapeConfig::default().min_angular_size_deg`).
+    /// `DecisionRule::default().min_angular_size_deg`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub min_angular_size_deg: Option<f64>,
     /// The collision-course gate: `"off"` (default) or `"image"` (needs θ̂).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub course: Option<Course>,
     /// Persistence: an alarm needs the decision value at or above the threshold on this many
-    /// consecutive frames (1–10 000; default 1: at once; `EscapeConfig::persistence_frames`).
+    /// consecutive frames (1–10 000; default 1: at once; `DecisionRule::persistence_frames`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub persistence_frames: Option<usize>,
     /// Persistence window: an alarm needs the decision value at or above the threshold on any
     /// `persistence_frames` of the last this many frames (`persistence_frames`–10 000; default
-    /// `persistence_frames`: consecutive frames; `EscapeConfig::persistence_window_frames`).
+    /// `persistence_frames`: consecutive frames; `DecisionRule::persistence_window_frames`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub persistence_window_frames: Option<usize>,
     /// Detector parameters: keys of the detector's config type (its
@@ -206,6 +206,24 @@ pub struct DetectorDesc {
     /// `frame_rate_hz`, which come from `world.camera`, or `SocConfig`).
     #[serde(default)]
     pub params: Option<Table>,
+}
+
+impl DetectorDesc {
+    /// The entry `id = "<id>"` with every other key left out (the registry's defaults).
+    pub fn of_id(id: &str) -> Self {
+        Self {
+            id: id.to_string(),
+            label: None,
+            threshold: None,
+            trigger: None,
+            tau_threshold_s: None,
+            min_angular_size_deg: None,
+            course: None,
+            persistence_frames: None,
+            persistence_window_frames: None,
+            params: None,
+        }
+    }
 }
 
 /// `[scoring]`.

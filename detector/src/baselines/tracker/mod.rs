@@ -256,7 +256,7 @@ impl Tracker {
 
     /// Focal length of n×n frames (pixels).
     fn focal_px(&self, n: usize) -> f64 {
-        n as f64 / 2.0 / (self.config.fov_deg / 2.0).to_radians().tan()
+        crate::Pinhole::new(self.config.fov_deg).focal_px(n)
     }
 
     /// `sample`'s centre moved from the current camera's view to that of the track's first

@@ -1,6 +1,6 @@
-//! The robot's own motion as the open-loop decision strategies and the ideal observers know it.
+//! The robot's own motion as the open-loop deciders and the ideal observers know it.
 
-use loomlab_agents::Ego;
+use loomlab_agents::SelfMotion;
 use loomlab_sim::Camera;
 
 use crate::schema::EpisodeSpec;
@@ -9,8 +9,8 @@ use crate::schema::EpisodeSpec;
 /// command at the previous frame's time (the escape agent's last command; at the first frame, the
 /// cruise command it is given), and the camera's shake rotation at that frame (the inertial sensor
 /// on the camera, [`loomlab_agents::CameraSense`]; none without a camera) — for the reference rows'
-/// ideal observers and the detector rows' decision strategies alike.
-pub(super) fn open_loop_ego(ep: &EpisodeSpec, t_s: &[f64], k: usize, camera: Option<&Camera>) -> Ego {
+/// ideal observers and the detector rows' deciders alike.
+pub(super) fn open_loop_motion(ep: &EpisodeSpec, t_s: &[f64], k: usize, camera: Option<&Camera>) -> SelfMotion {
     let command = ep.cruise.command_at(if k == 0 { t_s[0] } else { t_s[k - 1] });
-    Ego::of(command, camera.map_or([0.0; 3], |c| c.shake_rotation(t_s[k])))
+    SelfMotion::of(command, camera.map_or([0.0; 3], |c| c.shake_rotation(t_s[k])))
 }

@@ -1,0 +1,233 @@
+//! Stage 2, the collision-course gate (module docs, "`course = "image"`"): where the object will
+//! arrive relative to the robot's body, on which side it passes, whether it stops short, and
+//! whether the gate lets an alarm through.
+
+use super::fit::{Parabola, parabola, slope};
+use super::percept::SelfMotion;
+use super::rule::{BodyExtent, Course, DecisionRule};
+use super::window::{Sample, SampleWindow};
+
+/// The rate of change of the time to contact, dτ/dt, at or above which an approaching object
+/// decelerates hard enough to stop before it arrives (Lee 1976: −1 at constant speed, −0.5 for
+/// a deceleration that stops it just at contact): the gate closes for it.
+pub const STOPPING_TAU_RATE: f64 = -0.5;
+
+/// Relative tolerance within which an object's edges move as those of an object standing in the
+/// world (`d(tan a)/dt · τ = tan a`): the gate then scales the image by the robot's own speed.
+pub const STANDING_TOLERANCE: f64 = 0.1;
+
+/// Smallest predicted lateral miss (object radii) for which
+/// [`Decision::pass_side`](super::Decision::pass_side) is given.
+pub const PASS_SIDE_MIN_RADII: f64 = 0.5;
+
+/// Largest deviation (object radii, at the predicted contact) of the object's vertical course
+/// from a straight line for which the gate's vertical test applies; a more curved course (a
+/// ballistic lob) is judged laterally only.
+pub const STRAIGHT_COURSE_MAX_RADII: f64 = 0.5;
+
+/// What the gate found in one frame (the course fields of [`super::Decision`]).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct CourseAssessment {
+    pub(super) miss_radii: Option<f64>,
+    pub(super) vertical_miss_radii: Option<f64>,
+    pub(super) pass_side: Option<f32>,
+    pub(super) arrival_extent_m: Option<[f64; 4]>,
+    pub(super) tau_rate: Option<f64>,
+    pub(super) gate_open: bool,
+}
+
+/// The edges' predicted lateral `[left, right]` and vertical `[bottom, top]` offsets (m) when the
+/// object reaches the camera.
+type ArrivalEdges = ([f64; 2], [f64; 2]);
+
+/// The estimates over the gate's window (`course_window_s`) that the gate's tests read.
+struct CourseEstimates {
+    miss_radii: Option<f64>,
+    vertical_miss_radii: Option<f64>,
+    height_radii: Option<Parabola>,
+    straight: Option<bool>,
+    has_elevation: bool,
+    predicted_edges: Option<ArrivalEdges>,
+    tau_rate: Option<f64>,
+    speed: f64,
+}
+
+/// The course gate on the window at `t_s` (this frame's θ `theta_rad`, τ̂ `tau_s`).
+pub(super) fn assess(
+    window: &SampleWindow,
+    t_s: f64,
+    theta_rad: f64,
+    tau_s: Option<f64>,
+    motion: &SelfMotion,
+    rule: &DecisionRule,
+    body: &BodyExtent,
+) -> CourseAssessment {
+    let course_from = t_s - rule.course_window_s - 1e-9;
+    let course = || window.since(course_from);
+    let e = estimate(course, tau_s, motion, rule);
+    let pass_side = match e.predicted_edges {
+        Some(([l, r], _)) => {
+            let (centre, half) = ((l + r) / 2.0, (r - l).abs() / 2.0);
+            (centre.abs() >= PASS_SIDE_MIN_RADII * half).then_some(centre.signum() as f32)
+        }
+        None => e
+            .miss_radii
+            .filter(|mu| mu.abs() >= PASS_SIDE_MIN_RADII)
+            .map(|mu| mu.signum() as f32),
+    };
+    let gate_open = match (rule.course, tau_s) {
+        (Course::Off, _) => true,
+        (Course::Image, None) => false,
+        // elevations seen, but too few to tell a straight course from a lob yet: wait
+        (Course::Image, Some(_)) if e.has_elevation && e.straight.is_none() => false,
+        // braking to a stop before it arrives (a lob's distance shrinks unevenly: not judged)
+        (Course::Image, Some(_)) if e.tau_rate.is_some_and(|r| r >= STOPPING_TAU_RATE) && e.straight != Some(false) => {
+            false
+        }
+        (Course::Image, Some(tau)) => arrives_at_body(course, t_s, theta_rad, tau, &e, body),
+    };
+    CourseAssessment {
+        miss_radii: e.miss_radii,
+        vertical_miss_radii: e.vertical_miss_radii,
+        pass_side,
+        arrival_extent_m: e.predicted_edges.map(|([l, r], [b, t])| [l, r, b, t]),
+        tau_rate: e.tau_rate,
+        gate_open,
+    }
+}
+
+/// The bearing and expansion rates, the vertical course and the edges' arrival over the window.
+fn estimate<'a, I>(
+    course: impl Fn() -> I,
+    tau_s: Option<f64>,
+    motion: &SelfMotion,
+    rule: &DecisionRule,
+) -> CourseEstimates
+where
+    I: Iterator<Item = &'a Sample> + Clone,
+{
+    // μ from the bearing rates against the expansion rate.
+    let theta_fit = slope(course().filter(|s| s.has_theta()).map(|s| (s.t, s.theta_rad))).filter(|v| v.0 > 0.0);
+    let theta_dot = theta_fit.map(|v| v.0);
+    let az_dot = slope(course().filter_map(|s| s.azimuth_rad.map(|a| (s.t, a)))).map(|v| v.0 - motion.yaw_rate_rps);
+    let miss_radii = theta_dot.zip(az_dot).map(|(td, az)| 2.0 * az / td);
+    // the elevation in object radii, sin(e)/sin(θ/2), is linear in t on a straight course at
+    // constant speed and quadratic under gravity
+    let has_elevation = course().any(|s| s.elevation_rad.is_some());
+    let height_radii = parabola(
+        course()
+            .filter(|s| s.has_theta())
+            .filter_map(|s| s.elevation_rad.map(|e| (s.t, e.sin() / (s.theta_rad / 2.0).sin()))),
+    );
+    let straight = tau_s
+        .zip(height_radii)
+        .map(|(tau, h)| (h.c * tau * tau).abs() <= STRAIGHT_COURSE_MAX_RADII);
+    let el_dot = slope(course().filter_map(|s| s.elevation_rad.map(|e| (s.t, e)))).map(|v| v.0);
+    let vertical_miss_radii = match (theta_dot, el_dot, straight) {
+        (Some(td), Some(ed), Some(true)) => Some(2.0 * ed / td),
+        _ => None,
+    };
+    let speed = rule.course_closing_speed_mps.max(motion.forward_mps);
+    let predicted_edges = arrival_edges(&course, theta_fit, speed, motion);
+    // dτ/dt from ln θ = a + b·t + c·t²: τ = 1/(b + 2ct), so dτ/dt = −2c/b² at the window's mean
+    let ln_theta = || course().filter(|s| s.has_theta()).map(|s| (s.t, s.theta_rad.ln()));
+    let tau_rate = slope(ln_theta())
+        .filter(|v| v.0 > 0.0)
+        .zip(parabola(ln_theta()))
+        .map(|((b, _, _), ln_theta)| -2.0 * ln_theta.c / (b * b));
+    CourseEstimates {
+        miss_radii,
+        vertical_miss_radii,
+        height_radii,
+        straight,
+        has_elevation,
+        predicted_edges,
+        tau_rate,
+        speed,
+    }
+}
+
+/// The edges' predicted offsets when the object reaches the camera (m): at the window's mean
+/// time, x = d·τ·d(tan a)/dt with the distance d = v̂·τ and τ the optical time to contact — from
+/// the growth of the object's vertical extent (tan top − tan bottom ∝ height/depth of its nearest
+/// face: the time to contact of that face, whatever the object's shape), else θ/θ̇ (`theta_fit`).
+fn arrival_edges<'a, I>(
+    course: &impl Fn() -> I,
+    theta_fit: Option<(f64, f64, f64)>,
+    speed: f64,
+    motion: &SelfMotion,
+) -> Option<ArrivalEdges>
+where
+    I: Iterator<Item = &'a Sample> + Clone,
+{
+    let extent_tau = slope(course().filter_map(|s| s.edges_tan.map(|e| (s.t, e[3] - e[2]))))
+        .filter(|&(rate, _, mean)| rate > 0.0 && mean > 0.0)
+        .map(|(rate, _, mean)| mean / rate);
+    let tau_c = extent_tau.or(theta_fit.map(|(td, _, theta_mean)| theta_mean / td))?;
+    let rate = |i: usize| slope(course().filter_map(|s| s.edges_tan.map(|e| (s.t, e[i])))).map(|(b, _, m)| (b, m));
+    let edges = [rate(0)?, rate(1)?, rate(2)?, rate(3)?];
+    // an object that stands in the world, seen from a robot driving straight, has
+    // d(tan a)/dt = tan a / τ at every edge: then it closes at the robot's own speed
+    let standing = motion.forward_mps > 0.0
+        && motion.yaw_rate_rps == 0.0
+        && edges
+            .iter()
+            .all(|&(rate, mean)| (rate * tau_c - mean).abs() <= STANDING_TOLERANCE * mean.abs().max(0.05));
+    let closing = if standing { motion.forward_mps } else { speed };
+    let scale = closing * tau_c.powi(2);
+    let lateral = |(rate, mean): (f64, f64)| scale * (rate - motion.yaw_rate_rps * (1.0 + mean * mean));
+    Some((
+        [lateral(edges[0]), lateral(edges[1])],
+        [scale * edges[2].0, scale * edges[3].0],
+    ))
+}
+
+/// Whether an object with τ̂ `tau` will touch the body (the open gate's test).
+fn arrives_at_body<'a, I>(
+    course: impl Fn() -> I,
+    t_s: f64,
+    theta_rad: f64,
+    tau: f64,
+    e: &CourseEstimates,
+    body: &BodyExtent,
+) -> bool
+where
+    I: Iterator<Item = &'a Sample> + Clone,
+{
+    let overlaps = |[a, b]: [f64; 2], low: f64, high: f64| a.min(b) <= high && a.max(b) >= low;
+    let radius = (theta_rad / 2.0).min(std::f64::consts::FRAC_PI_2).sin() * tau.max(0.0) * e.speed;
+    let within_body_height = |centre_radii: f64| {
+        (centre_radii - 1.0) * radius <= body.above_camera_m && (centre_radii + 1.0) * radius >= -body.below_camera_m
+    };
+    // a curved course (a lob) is extrapolated along its parabola to the time its distance ahead,
+    // in object radii cos(e)·cos(a)/sin(θ/2), reaches zero (a lob's distance shrinks unevenly, so
+    // τ̂ overestimates its arrival time), or to τ̂ when that is sooner (a course that bends because
+    // the object was just launched)
+    let curved_course_ok = match (e.straight, e.height_radii) {
+        (Some(false), Some(h)) => {
+            let ahead = slope(course().filter(|s| s.has_theta()).filter_map(|s| {
+                let (a, e) = (s.azimuth_rad?, s.elevation_rad?);
+                Some((s.t, e.cos() * a.cos() / (s.theta_rad / 2.0).sin()))
+            }));
+            match ahead {
+                Some((rate, t_mean, mean)) if rate < 0.0 => {
+                    let arrival_s = (-(mean + rate * (t_s - t_mean)) / rate).min(tau);
+                    within_body_height(h.at(t_s + arrival_s.max(0.0)))
+                }
+                _ => false,
+            }
+        }
+        _ => true,
+    };
+    curved_course_ok
+        && match (e.predicted_edges, e.miss_radii) {
+            (Some((lateral, vertical)), _) => {
+                overlaps(lateral, -body.half_width_m, body.half_width_m)
+                    && (e.straight != Some(true) || overlaps(vertical, -body.below_camera_m, body.above_camera_m))
+            }
+            (None, Some(mu)) => {
+                (mu.abs() - 1.0) * radius <= body.half_width_m && e.vertical_miss_radii.is_none_or(within_body_height)
+            }
+            (None, None) => false,
+        }
+}

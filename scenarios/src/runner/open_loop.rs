@@ -1,0 +1,261 @@
+//! Step 1 of an episode, the open-loop pass: render once while the robot cruises, every detector
+//! on the same frames, each stateful row's decider on its detector's percepts; ground truth.
+
+use loomlab_agents::{Decider, EgoSensor, LoomingSideEstimator, SelfMotion};
+use loomlab_detector::{Detector, Frame, ImageRegion, Signals};
+use loomlab_sim::{ObjectTruth, Sim};
+
+use super::motion::open_loop_motion;
+use super::{Ctx, Runner};
+use crate::error::RunError;
+use crate::schema::DetectorSpec;
+use crate::truth::{EpisodeTruth, TruthRecorder};
+
+/// Open-loop steps whose views are rendered in one batch (one submission and readback).
+const OPEN_LOOP_BATCH: usize = 16;
+
+/// What a stateful row's decider decided per frame.
+#[derive(Debug, Default)]
+pub(super) struct Decided {
+    /// The decision value.
+    pub(super) value: Vec<f64>,
+    /// τ̂ (s), where estimated.
+    pub(super) tau_s: Vec<Option<f64>>,
+    /// Whether the course gate was open.
+    pub(super) gate_open: Vec<bool>,
+}
+
+/// One detector entry's open-loop record.
+pub(super) struct DetectorRecord {
+    /// The trigger signal per frame (θ̂ or the output; NaN where the detector gives none).
+    pub(super) signal: Vec<f64>,
+    /// The primary output per frame.
+    pub(super) output: Vec<f64>,
+    /// The image region per frame (`None` for detectors that do not localise the object).
+    pub(super) regions: Vec<Option<ImageRegion>>,
+    /// A stateful row's decider and its decisions (`None`: the decision value is the signal).
+    decider: Option<Decider>,
+    pub(super) decided: Option<Decided>,
+    /// Its first alarm frame.
+    pub(super) alarmed_at: Option<usize>,
+    /// A copy of its detector right after its first alarm frame ([`Detector::snapshot`]; `None`
+    /// when the detector cannot copy itself): its closed-loop tail starts there.
+    pub(super) snapshot: Option<Box<dyn Detector>>,
+}
+
+impl DetectorRecord {
+    fn new(spec: &DetectorSpec, ep: &crate::schema::EpisodeSpec, total: usize) -> Self {
+        let decider = spec.is_stateful().then(|| spec.controller(&ep.controller).decider());
+        Self {
+            signal: Vec::with_capacity(total),
+            output: Vec::with_capacity(total),
+            regions: Vec::with_capacity(total),
+            decided: decider.as_ref().map(|_| Decided::default()),
+            decider,
+            alarmed_at: None,
+            snapshot: None,
+        }
+    }
+
+    /// Frame `k`'s decision value (the decider's for a stateful row, else the signal).
+    fn decision_value(&mut self, k: usize, t_s: f64, looming_side: Option<f32>, motion: SelfMotion) -> f64 {
+        match (&mut self.decider, &mut self.decided) {
+            (Some(decider), Some(decided)) => {
+                let d = decider.decide_on_detector(t_s, self.signal[k], looming_side, self.regions[k].as_ref(), motion);
+                decided.value.push(d.value);
+                decided.tau_s.push(d.tau_s);
+                decided.gate_open.push(d.gate_open);
+                d.value
+            }
+            _ => self.signal[k],
+        }
+    }
+}
+
+/// The open-loop pass of an episode (see the module docs of [`super`]).
+pub(super) struct OpenLoop {
+    /// Frame times (s).
+    pub(super) t_s: Vec<f64>,
+    /// The rendered frames.
+    pub(super) frames: Vec<Frame>,
+    /// The looming side per frame (x centroid of the temporal contrast).
+    pub(super) sides: Vec<Option<f32>>,
+    /// What the deciders knew of the robot's own motion per frame.
+    pub(super) motion: Vec<SelfMotion>,
+    /// Every object's ground truth per frame.
+    pub(super) truth: Vec<Vec<ObjectTruth>>,
+    /// Per detector entry.
+    pub(super) detectors: Vec<DetectorRecord>,
+    /// Per detector entry, the first entry that runs the same detector ([`same_detector_as`]).
+    pub(super) runs_as: Vec<usize>,
+    /// Each detector instance's signals per frame (entries that run their own instance only): a
+    /// closed-loop tail's agent replays them up to its alarm.
+    pub(super) history: Vec<Vec<Signals>>,
+    /// The object names, by id.
+    pub(super) object_names: Vec<String>,
+}
+
+/// The detectors of the open-loop pass: one instance per distinct detector (see
+/// [`same_detector_as`]) and the signals each entry got on the current frame.
+struct Instances {
+    built: Vec<Option<Box<dyn Detector>>>,
+    stepped: Vec<Signals>,
+}
+
+impl Runner {
+    /// The open-loop pass (step 1 of an episode). The cruise command does not depend on the
+    /// frames, so physics runs ahead by up to [`OPEN_LOOP_BATCH`] steps, capturing each step's
+    /// view, and the views are rendered in one batch (bit-identical to rendering each at its
+    /// step), then handed to the detectors in order. Steps past the first collision are never
+    /// rendered.
+    /// Returns the pass and the episode's ground truth (its threat, contact and reference object).
+    pub(super) fn open_loop(&self, c: &Ctx<'_>) -> Result<(OpenLoop, EpisodeTruth), RunError> {
+        let ep = c.ep;
+        let n = ep.world.camera.n;
+        let total = ep.frames();
+        let mut renderer = self.renderers.take(&self.ctx, n).map_err(|e| c.sim(e))?;
+        let mut sim = Sim::new_physics_only(&ep.world, ep.seed).map_err(|e| c.sim(e))?;
+        let object_names = sim.objects().into_iter().map(|(_, name, _)| name).collect();
+        // Rows that run the same detector (the same id and parameters, e.g. `hopfield` and
+        // `hopfield_tau`, which differ only in their decision rule) share one instance here: a
+        // detector's signals depend on nothing but its frames and efference copies.
+        let runs_as = same_detector_as(&ep.detectors);
+        let mut instances = Instances {
+            built: Vec::with_capacity(ep.detectors.len()),
+            stepped: vec![Signals::default(); ep.detectors.len()],
+        };
+        for (i, d) in ep.detectors.iter().enumerate() {
+            let own = runs_as[i] == i;
+            instances.built.push(if own {
+                Some(d.build(n as usize).map_err(|e| c.det(e))?)
+            } else {
+                None
+            });
+        }
+        let mut pass = OpenLoop {
+            t_s: Vec::with_capacity(total),
+            frames: Vec::with_capacity(total),
+            sides: Vec::with_capacity(total),
+            motion: Vec::with_capacity(total),
+            truth: Vec::with_capacity(total),
+            detectors: ep.detectors.iter().map(|d| DetectorRecord::new(d, ep, total)).collect(),
+            history: vec![Vec::new(); ep.detectors.len()],
+            runs_as,
+            object_names,
+        };
+        let mut recorder = TruthRecorder::new(&sim);
+        let stepped = self.open_loop_steps(c, &mut sim, &mut renderer, &mut instances, &mut pass, &mut recorder);
+        self.renderers.give_back(renderer);
+        stepped?;
+        Ok((pass, recorder.finish()))
+    }
+
+    /// The open loop's frames: physics ahead in batches, rendered together, each frame given to
+    /// [`Self::open_loop_frame`], until the first contact or the episode's end.
+    fn open_loop_steps(
+        &self,
+        c: &Ctx<'_>,
+        sim: &mut Sim,
+        renderer: &mut loomlab_sim::Renderer,
+        instances: &mut Instances,
+        pass: &mut OpenLoop,
+        recorder: &mut TruthRecorder,
+    ) -> Result<(), RunError> {
+        let ep = c.ep;
+        let total = ep.frames();
+        let mut state = FrameState::default();
+        let mut steps = 0;
+        let mut ahead = Vec::with_capacity(OPEN_LOOP_BATCH);
+        let mut pixels: Vec<Vec<f32>> = Vec::with_capacity(OPEN_LOOP_BATCH);
+        while steps < total {
+            if self.cancelled() {
+                return Err(RunError::Interrupted);
+            }
+            ahead.clear();
+            while ahead.len() < OPEN_LOOP_BATCH && steps < total {
+                let cmd = ep.cruise.command_at(sim.time());
+                let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
+                steps += 1;
+                let collided = out.first_collision().is_some();
+                ahead.push((cmd, out, sim.camera_pose(), sim.capture_view()));
+                if collided {
+                    break;
+                }
+            }
+            let descs: Vec<_> = ahead.iter().map(|a| a.3.desc()).collect();
+            pixels.resize_with(descs.len(), Vec::new);
+            renderer
+                .render_batch(&descs, &mut pixels[..descs.len()])
+                .map_err(|e| c.sim(e))?;
+            for ((cmd, mut out, camera_pose, _), px) in ahead.drain(..).zip(pixels.iter_mut()) {
+                if self.cancelled() {
+                    return Err(RunError::Interrupted);
+                }
+                let frame = Frame::from_f32(ep.world.camera.n as usize, std::mem::take(px)).map_err(|e| c.det(e))?;
+                // the efference copy: the command applied during this period and the camera's
+                // motion and pose, as the escape agent passes it in the closed loop (the same up
+                // to the first alarm)
+                let efference = state.efference_sensor.sense(cmd, out.t_s, &camera_pose);
+                for (i, d) in instances.built.iter_mut().enumerate() {
+                    instances.stepped[i] = match d {
+                        Some(d) => d.step_moving(&frame, &efference).map_err(|e| c.det(e))?,
+                        None => instances.stepped[pass.runs_as[i]].clone(),
+                    };
+                }
+                pass.t_s.push(out.t_s);
+                pass.sides.push(state.side.update(&frame));
+                pass.motion
+                    .push(open_loop_motion(ep, &pass.t_s, pass.t_s.len() - 1, Some(sim.camera())));
+                open_loop_decisions(ep, instances, pass);
+                pass.frames.push(frame);
+                let contact = recorder.record(&out).is_some();
+                pass.truth.push(std::mem::take(&mut out.truth));
+                if contact {
+                    return Ok(());
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What the open loop carries from frame to frame besides its records.
+#[derive(Default)]
+struct FrameState {
+    side: LoomingSideEstimator,
+    efference_sensor: EgoSensor,
+}
+
+/// Records the latest frame's signals of every detector entry, runs the stateful rows' deciders
+/// on them and notes each entry's first alarm (with a copy of its detector).
+fn open_loop_decisions(ep: &crate::schema::EpisodeSpec, instances: &Instances, pass: &mut OpenLoop) {
+    let k = pass.t_s.len() - 1;
+    for (i, (record, spec)) in pass.detectors.iter_mut().zip(&ep.detectors).enumerate() {
+        let s = &instances.stepped[i];
+        record.signal.push(spec.trigger.value(s).unwrap_or(f64::NAN));
+        record.output.push(s.output);
+        record.regions.push(s.region);
+        if pass.runs_as[i] == i {
+            pass.history[i].push(s.clone());
+        }
+    }
+    for (i, (record, spec)) in pass.detectors.iter_mut().zip(&ep.detectors).enumerate() {
+        let value = record.decision_value(k, pass.t_s[k], pass.sides[k], pass.motion[k]);
+        if record.alarmed_at.is_none() && value >= spec.threshold {
+            record.alarmed_at = Some(k);
+            record.snapshot = instances.built[pass.runs_as[i]].as_ref().and_then(|d| d.snapshot());
+        }
+    }
+}
+
+/// For each detector entry, the first entry that runs the same detector (the same id and
+/// parameters; itself when none before it does).
+pub(super) fn same_detector_as(specs: &[DetectorSpec]) -> Vec<usize> {
+    (0..specs.len())
+        .map(|i| {
+            (0..i)
+                .find(|&j| specs[j].id == specs[i].id && specs[j].params == specs[i].params)
+                .unwrap_or(i)
+        })
+        .collect()
+}
