@@ -146,7 +146,7 @@ impl Manifest {
     /// Writes the manifest atomically.
     ///
     /// When a full disk refuses the temporary file, an existing manifest is rewritten in place
-    /// ([`rewrite_in_place`]): its state changes by a few bytes, which fit in the blocks the file
+    /// (`rewrite_in_place`): its state changes by a few bytes, which fit in the blocks the file
     /// already has, so a run that fails for want of space still records `interrupted`.
     pub fn write(&self, dir: &Path) -> anyhow::Result<()> {
         let text = serde_json::to_string_pretty(self)? + "\n";
