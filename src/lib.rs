@@ -1,6 +1,6 @@
 //! The `loomlab` command line as a library: `src/main.rs` parses arguments and dispatches here, and
 //! the Python package (`python -m loomlab run`, `loomlab.run_suite(out=...)`) runs the same
-//! `loomlab run` in-process with its Python detectors ([`cli::run::run_with`]).
+//! `loomlab run` in-process with its Python detectors ([`run::RunSession`]).
 
 /// `println!` that never panics: a closed stdout (`loomlab run … | head -1`) stops the printing,
 /// not the program (its files and run state are what matter; see docs/reference.md, "loomlab run").
@@ -22,3 +22,4 @@ macro_rules! errln {
 }
 
 pub mod cli;
+pub mod run;

@@ -615,7 +615,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyEscapeEnv>()?;
     m.add_class::<PyEscapeVectorEnv>()?;
     m.add_class::<sweep::SweepPlan>()?;
-    m.add_function(wrap_pyfunction!(sweep::run_suite, m)?)?;
+    m.add_class::<run::RunRequest>()?;
+    m.add_function(wrap_pyfunction!(run::run_suite, m)?)?;
     m.add_function(wrap_pyfunction!(run::run_cli, m)?)?;
     m.add_function(wrap_pyfunction!(detectors::_time_python_detector, m)?)?;
     m.add_function(wrap_pyfunction!(evaluation::evaluation_report, m)?)?;

@@ -1,22 +1,18 @@
-//! Glue of `loomlab.sweep` and `loomlab.run_suite`: planning, running and merging sweep shards
-//! ([`loomlab_scenarios::sweep`]) and running a whole suite in-process. Scheduling (Ray, resume,
-//! progress) lives in the pure-Python `loomlab/sweep.py`.
+//! Glue of `loomlab.sweep`: planning, running and merging sweep shards
+//! ([`loomlab_scenarios::sweep`]), and the runner kept per process (`loomlab.run_suite` without a
+//! run folder uses it too, see `run.rs`). Scheduling (Ray, resume, progress) lives in the
+//! pure-Python `loomlab/sweep.py`.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
-use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 
 use pyo3::prelude::*;
 
-use loomlab_scenarios::report::{Report, ReportMeta};
-use loomlab_scenarios::schema::{DetectorDesc, load_detector_entries};
 use loomlab_scenarios::sweep::{SweepDir, SweepError, format_ranking};
-use loomlab_scenarios::{EpisodeSpec, LoadOptions, RunError, Runner, load_suite};
+use loomlab_scenarios::{RunError, Runner};
 
-use crate::detectors::{PythonEntry, registry_with};
-use crate::errors::{self, Seed};
-use crate::run::interruptible;
+use crate::errors;
 
 /// Maps a sweep error to its Python exception.
 fn to_py(e: SweepError) -> PyErr {
@@ -168,90 +164,4 @@ impl SweepPlan {
             .map_err(|e| errors::SweepError::new_err(e.to_string()))?;
         Ok(table)
     }
-}
-
-/// Runs a suite in this process and returns its report as JSON text: what `loomlab run SUITE
-/// --seed --size --limit --detectors --detectors-file` writes to report.json. `entries` (JSON: a
-/// list of `[[detectors]]` entries as dicts) are run next to the detectors file's, `python` (the
-/// `loomlab.PythonDetector`s) next to every scenario's rows. Ctrl-C: no new episode starts, those
-/// in flight finish, then KeyboardInterrupt (nothing is kept: `loomlab.run_suite(out=...)` keeps a
-/// resumable run folder).
-#[pyfunction]
-#[allow(clippy::too_many_arguments)] // the Python keyword arguments
-#[pyo3(signature = (suite, seed = Seed(0), size = None, limit = None, detectors = None, detectors_file = None, jobs = None, entries = None, python = Vec::new()))]
-#[pyo3(
-    text_signature = "(suite, seed=0, size=None, limit=None, detectors=None, detectors_file=None, jobs=None, entries=None, python=[])"
-)]
-pub fn run_suite(
-    py: Python<'_>,
-    suite: PathBuf,
-    seed: Seed,
-    size: Option<u32>,
-    limit: Option<usize>,
-    detectors: Option<Vec<String>>,
-    detectors_file: Option<PathBuf>,
-    jobs: Option<usize>,
-    entries: Option<String>,
-    python: Vec<Bound<'_, PyAny>>,
-) -> PyResult<String> {
-    let Seed(seed) = seed;
-    let python = python.iter().map(PythonEntry::read).collect::<PyResult<Vec<_>>>()?;
-    let (registry, added_detectors) = registry_with(python)?;
-    let stop = Arc::new(AtomicBool::new(false));
-    let work = || -> Result<String, SweepError> {
-        let mut detector_entries = match &detectors_file {
-            Some(p) => Some(load_detector_entries(p)?),
-            None => None,
-        };
-        if let Some(json) = &entries {
-            let given: Vec<DetectorDesc> = serde_json::from_str(json).map_err(|e| {
-                loomlab_scenarios::ScenarioError::key(
-                    &suite,
-                    "detectors",
-                    format!("a detector entry (dict) is not valid: {e}; its keys are those of a [[detectors]] table"),
-                )
-            })?;
-            detector_entries.get_or_insert_with(Vec::new).extend(given);
-        }
-        if let Some(ids) = &detectors
-            && let Some(bad) = ids.iter().find(|id| registry.find(id).is_none())
-        {
-            return Err(loomlab_scenarios::ScenarioError::key(
-                &suite,
-                "detectors",
-                format!("unknown detector `{bad}`; known ids: {}", registry.ids().join(", ")),
-            )
-            .into());
-        }
-        let opts = LoadOptions {
-            seed,
-            size,
-            detectors: detectors.clone(),
-            detector_entries,
-            added_detectors: added_detectors.clone(),
-            registry: registry.clone(),
-        };
-        let s = load_suite(&suite, &opts)?;
-        let tiers = s.tiers();
-        let specs: Vec<EpisodeSpec> = s
-            .episodes()
-            .take(limit.unwrap_or(usize::MAX))
-            .collect::<Result<_, _>>()?;
-        let episodes: Vec<&EpisodeSpec> = specs.iter().collect();
-        let started = std::time::Instant::now();
-        let runs = runner(jobs)?.run_until(&episodes, &stop, |_, _| Ok(()))?;
-        let outcomes: Vec<_> = runs.into_iter().flatten().map(|r| r.outcome).collect();
-        let meta = ReportMeta {
-            suite: suite.display().to_string(),
-            seed,
-            wall_time_s: started.elapsed().as_secs_f64(),
-            lead_margin_s: episodes.first().map_or(0.0, |e| e.scoring.lead_margin_s),
-        };
-        Ok(Report::from_tiered_episodes(&meta, &outcomes, &tiers).to_json())
-    };
-    let (result, interrupt) = interruptible(py, &stop, work);
-    if let Some(e) = interrupt {
-        return Err(e);
-    }
-    result.map_err(to_py)
 }

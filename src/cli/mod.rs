@@ -6,17 +6,34 @@ pub mod efference;
 pub mod figures;
 pub mod render;
 pub mod run;
-pub mod run_dir;
-pub mod run_lock;
 pub mod table;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
+/// Reports a failed command on stderr and returns its exit code (see [`report_failure`]).
+pub fn report_error(e: &anyhow::Error) -> i32 {
+    report_failure(e, None)
+}
+
 /// Reports a failed command on stderr and returns its exit code: the chain of causes, each once (a
 /// message that already quotes its cause, like "cannot read F: No such file", is not followed by
-/// the cause again), then how to resume an interrupted run; 3 when an output could not be written
-/// (disk full, permissions), 2 for bad input.
-pub fn report_error(e: &anyhow::Error) -> i32 {
+/// the cause again), then how to resume an interrupted run (`resume`: its command); 3 when an
+/// output could not be written (disk full, permissions), 2 for bad input.
+pub fn report_failure(e: &anyhow::Error, resume: Option<&str>) -> i32 {
+    crate::errln!("error: {}", error_text(e));
+    if let Some(cmd) = resume {
+        crate::errln!("the finished episodes are saved; resume with:\n  {cmd}");
+    }
+    if e.downcast_ref::<crate::run::run_dir::CannotWrite>().is_some() {
+        3
+    } else {
+        2
+    }
+}
+
+/// The chain of causes of `e`, each once (a message that already quotes its cause is not followed
+/// by the cause again), joined by `: `.
+pub fn error_text(e: &anyhow::Error) -> String {
     let mut text = String::new();
     for cause in e.chain() {
         let c = cause.to_string();
@@ -27,15 +44,7 @@ pub fn report_error(e: &anyhow::Error) -> i32 {
             text += &c;
         }
     }
-    crate::errln!("error: {text}");
-    if let Some(cmd) = run_dir::RESUME_HINT.lock().unwrap_or_else(|e| e.into_inner()).take() {
-        crate::errln!("the finished episodes are saved; resume with:\n  {cmd}");
-    }
-    if e.downcast_ref::<run_dir::CannotWrite>().is_some() {
-        3
-    } else {
-        2
-    }
+    text
 }
 
 /// A progress bar on stderr (hidden automatically when stderr is not a terminal).

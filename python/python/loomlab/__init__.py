@@ -19,7 +19,6 @@ optional extra (``pip install 'loomlab[ray]'``) that importing this package neve
 
 from __future__ import annotations
 
-import operator as _operator
 import os as _os
 import tempfile as _tempfile
 from typing import Any, Dict, List, Optional, Sequence, Union
@@ -101,8 +100,10 @@ def run_suite(
     - :class:`PythonDetector` objects: run in every scenario next to the other rows.
 
     ``detectors`` may also be one str: an id or a comma list (``"soc,hopfield"``), as ``--detectors``.
-    ``limit`` and ``jobs`` are at least 1, and ``resume=True`` needs ``out``, as the CLI requires
-    (ValueError otherwise); a NaN or infinite value in a dict entry is a ScenarioError naming it.
+    The arguments travel as one typed request (``loomlab._native.RunRequest``) to the session
+    ``loomlab run`` runs, which refuses what the CLI refuses: ``limit`` and ``jobs`` below 1 and
+    ``resume=True`` without ``out`` (ValueError), a NaN or infinite value in a dict entry
+    (ScenarioError naming it).
 
     Without ``out`` nothing is written (Ctrl-C: the episodes in flight finish, then
     KeyboardInterrupt; a second Ctrl-C stops the process at once with exit code 130, as the CLI's).
@@ -128,125 +129,26 @@ def run_suite(
         elif isinstance(d, str):
             ids = (ids or []) + [d]
         elif isinstance(d, dict):
-            _check_entry(len(entries), d)
             entries.append(d)
         else:
             raise TypeError(
                 f"run_suite: detectors holds {d!r}; give ids (str), [[detectors]] entries (dict) or "
                 "loomlab.PythonDetector objects"
             )
-    limit = _at_least_one("limit", limit, "the number of episodes to run; None: all of them", "--limit")
-    jobs = _at_least_one("jobs", jobs, "episodes run in parallel; None: one per CPU", "--jobs")
-    if resume and out is None:
-        raise ValueError(
-            "run_suite: resume=True continues the run folder given as out=...; give out= (the folder of the "
-            "interrupted run)"
-        )
-    if out is not None:
-        return _run_to_folder(suite, seed, size, limit, ids, entries, python, detectors_file, jobs, out, resume)
-    text = _native.run_suite(
+    request = _native.RunRequest(
         _os.fspath(suite),
-        seed,
-        size,
-        limit,
-        ids,
-        None if detectors_file is None else _os.fspath(detectors_file),
-        jobs,
-        json.dumps(entries) if entries else None,
-        python,
+        out=None if out is None else _os.fspath(out),
+        seed=seed,
+        size=size,
+        limit=limit,
+        detectors=ids,
+        detectors_file=None if detectors_file is None else _os.fspath(detectors_file),
+        entries=entries,
+        jobs=jobs,
+        resume=resume,
     )
-    result: Dict[str, Any] = json.loads(text)
+    result: Dict[str, Any] = json.loads(_native.run_suite(request, python))
     return result
-
-
-def _at_least_one(name: str, value: Any, meaning: str, flag: str) -> Optional[int]:
-    """``value`` as an int >= 1 (``None`` stays ``None``), else ValueError (the CLI's ``flag`` refuses it too)."""
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, int):
-        try:
-            value = _operator.index(value)
-        except TypeError:
-            raise TypeError(f"run_suite: {name}={value!r} must be an int >= 1 ({meaning})") from None
-    if value < 1:
-        raise ValueError(
-            f"run_suite: {name}={value} must be at least 1 ({meaning}; `loomlab run {flag}` refuses it too)"
-        )
-    return int(value)
-
-
-def _check_entry(index: int, entry: Dict[str, Any]) -> None:
-    """Refuses a ``[[detectors]]`` dict holding a value that neither TOML nor JSON can carry (NaN,
-    ±inf): the error names the entry, the key and the value."""
-    import math
-
-    def walk(key: str, v: Any) -> None:
-        if isinstance(v, float) and not math.isfinite(v):
-            name = entry.get("label", entry.get("id", "?"))
-            raise ScenarioError(
-                f"run_suite: detectors entry {index} (`{name}`): {key} = {v}; numbers must be finite "
-                "(give a finite threshold, or leave the key out for the detector's default)"
-            )
-        if isinstance(v, dict):
-            for k, x in v.items():
-                walk(f"{key}.{k}", x)
-        elif isinstance(v, (list, tuple)):
-            for i, x in enumerate(v):
-                walk(f"{key}[{i}]", x)
-
-    for k, v in entry.items():
-        walk(str(k), v)
-
-
-def _run_to_folder(suite, seed, size, limit, ids, entries, python, detectors_file, jobs, out, resume) -> Dict[str, Any]:
-    import json
-
-    args = [_os.fspath(suite), "--out", _os.fspath(out), "--seed", str(int(seed)), "--quiet"]
-    for flag, value in (("--size", size), ("--limit", limit), ("--jobs", jobs)):
-        if value is not None:
-            args += [flag, str(int(value))]
-    if ids:
-        args += ["--detectors", ",".join(ids)]
-    with _tempfile.TemporaryDirectory() as tmp:
-        if entries:
-            # the dict entries after those of detectors_file (which holds only [[detectors]] tables)
-            listed = ""
-            if detectors_file is not None:
-                with open(detectors_file) as f:
-                    listed = f.read() + "\n"
-            detectors_file = _os.path.join(tmp, "detectors.toml")
-            with open(detectors_file, "w") as f:
-                f.write(listed + _toml_entries(entries))
-        if detectors_file is not None:
-            args += ["--detectors-file", _os.fspath(detectors_file)]
-        if resume:
-            args.append("--resume")
-        code = _native.run_cli(args, python, None)
-    if code == 130:
-        raise KeyboardInterrupt(f"run_suite: interrupted; the finished episodes are saved in {out} (resume=True)")
-    if code != 0:
-        raise LoomlabError(f"run_suite: `loomlab run {' '.join(args)}` exited with {code} (see above)")
-    with open(_os.path.join(_os.fspath(out), "report.json")) as f:
-        report: Dict[str, Any] = json.load(f)
-    return report
-
-
-def _toml_entries(entries: List[Dict[str, Any]]) -> str:
-    """``[[detectors]]`` tables of dict entries (JSON values are valid TOML inline values)."""
-    import json
-
-    def value(v: Any) -> str:
-        if isinstance(v, dict):
-            return "{ " + ", ".join(f"{json.dumps(str(k))} = {value(x)}" for k, x in v.items()) + " }"
-        if isinstance(v, (list, tuple)):
-            return "[" + ", ".join(value(x) for x in v) + "]"
-        if isinstance(v, bool):
-            return "true" if v else "false"
-        return json.dumps(v)
-
-    return "".join(
-        "[[detectors]]\n" + "".join(f"{json.dumps(str(k))} = {value(v)}\n" for k, v in e.items()) for e in entries
-    )
 
 
 def detector_ids() -> List[str]:

@@ -13,6 +13,7 @@ __all__ = [
     "EscapeEnv",
     "EscapeVectorEnv",
     "SweepPlan",
+    "RunRequest",
     "run_cli",
     "run_suite",
     "evaluation_report",
@@ -213,17 +214,28 @@ class SweepPlan:
     def write_shard(self, out: str, i: int, csv: str) -> None: ...
     def finish(self, out: str, wall_time_s: float, top: int = 10) -> str: ...
 
-def run_suite(
-    suite: str,
-    seed: int = 0,
-    size: Optional[int] = None,
-    limit: Optional[int] = None,
-    detectors: Optional[List[str]] = None,
-    detectors_file: Optional[str] = None,
-    jobs: Optional[int] = None,
-    entries: Optional[str] = None,
-    python: List[Any] = [],
-) -> str: ...
+@final
+class RunRequest:
+    """What ``loomlab.run_suite`` asks ``loomlab run`` to do (checked when run, as the CLI's flags are)."""
+
+    def __new__(
+        cls,
+        suite: str,
+        *,
+        out: Optional[str] = None,
+        seed: int = 0,
+        size: Optional[int] = None,
+        limit: Optional[int] = None,
+        detectors: Optional[List[str]] = None,
+        detectors_file: Optional[str] = None,
+        entries: List[Dict[str, Any]] = [],
+        jobs: Optional[int] = None,
+        resume: bool = False,
+    ) -> Self: ...
+    @property
+    def out(self) -> Optional[str]: ...
+
+def run_suite(request: RunRequest, python: List[Any]) -> str: ...
 def run_cli(args: List[str], detectors: List[Any], command: Optional[List[str]] = None) -> int: ...
 def _time_python_detector(detector: Any, n: int, frames: int) -> float: ...
 def evaluation_report(

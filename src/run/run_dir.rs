@@ -29,7 +29,7 @@ use std::io::Write as _;
 use std::os::unix::fs::OpenOptionsExt as _;
 use std::path::{Component, Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{LazyLock, Mutex};
+use std::sync::{Arc, LazyLock, Mutex};
 
 use anyhow::{Context, bail};
 use loomlab_scenarios::episodes_csv::{EpisodesCsvWriter, format_rows, header_line, parse_episodes_csv};
@@ -171,12 +171,37 @@ impl Manifest {
     }
 }
 
-/// The run in progress: its folder and manifest, shared with the interrupt handler (a second
-/// Ctrl-C records the state `interrupted` before exiting) and guarding every manifest write.
-static ACTIVE: Mutex<Option<(PathBuf, Manifest)>> = Mutex::new(None);
+/// The run in progress, shared between its [`RunDir`] and whoever stops it (the interrupt
+/// handler of [`super::Interrupt`]: a second Ctrl-C records the state `interrupted` before
+/// exiting): its folder and manifest as on disk, guarding every manifest write, and the resume
+/// command of a run that stopped on an error (for the caller to print after the error).
+#[derive(Debug, Clone, Default)]
+pub struct ActiveRun {
+    run: Arc<Mutex<Option<(PathBuf, Manifest)>>>,
+    resume_hint: Arc<Mutex<Option<String>>>,
+}
 
-/// The resume command of a run that stopped on an error (printed after the error by `main`).
-pub static RESUME_HINT: Mutex<Option<String>> = Mutex::new(None);
+impl ActiveRun {
+    /// Stops the run in progress at once (a second Ctrl-C): records the state `interrupted` (the
+    /// finished episodes are in episodes.csv), deletes a stale `report.partial.json`, and returns
+    /// the resume command.
+    pub fn abandon(&self) -> Option<String> {
+        let mut guard = self.run.lock().unwrap_or_else(|e| e.into_inner());
+        let (dir, m) = guard.as_mut()?;
+        if m.state != RunState::Running {
+            return None;
+        }
+        m.state = RunState::Interrupted;
+        let _ = m.write(dir);
+        let _ = remove_regular(dir, PARTIAL_REPORT);
+        Some(m.resume_command())
+    }
+
+    /// The resume command of a run that stopped on an error (once).
+    pub fn take_resume_hint(&self) -> Option<String> {
+        self.resume_hint.lock().unwrap_or_else(|e| e.into_inner()).take()
+    }
+}
 
 /// An output file or folder could not be written or read back (exit code 3: not bad input).
 #[derive(Debug)]
@@ -186,21 +211,6 @@ impl std::fmt::Display for CannotWrite {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(&self.0)
     }
-}
-
-/// Stops the run in progress at once (a second Ctrl-C): records the state `interrupted` (the
-/// finished episodes are in episodes.csv), deletes a stale `report.partial.json`, and returns
-/// the resume command.
-pub fn abandon_active_run() -> Option<String> {
-    let mut guard = ACTIVE.lock().unwrap_or_else(|e| e.into_inner());
-    let (dir, m) = guard.as_mut()?;
-    if m.state != RunState::Running {
-        return None;
-    }
-    m.state = RunState::Interrupted;
-    let _ = m.write(dir);
-    let _ = remove_regular(dir, PARTIAL_REPORT);
-    Some(m.resume_command())
 }
 
 /// What to do with a folder that holds an earlier run.
@@ -236,6 +246,8 @@ pub struct RunDir {
     written: Mutex<(BTreeSet<String>, std::fs::File)>,
     /// The folder's lock, held until the run is dropped (after its last write).
     _lock: RunLock,
+    /// The run as the interrupt handler sees it.
+    active: ActiveRun,
 }
 
 /// A prepared output folder: the episodes an earlier (interrupted) run finished, when resuming,
@@ -259,7 +271,7 @@ impl RunDir {
     /// deletes an earlier run's files (`--overwrite`) or reads its finished episodes (`--resume`).
     /// `labels(scenario, episode)` gives the row labels a finished episode has (its detectors and
     /// reference rows), or `None` for an episode that is not part of the run; a resumed episode
-    /// missing any of its rows runs again.
+    /// missing any of its rows runs again. `active` is where the interrupt handler finds the run.
     pub fn prepare(
         dir: &Path,
         mut manifest: Manifest,
@@ -267,6 +279,7 @@ impl RunDir {
         outputs: &Outputs<'_>,
         lock: Option<RunLock>,
         labels: impl Fn(&str, usize) -> Option<BTreeSet<String>>,
+        active: ActiveRun,
     ) -> anyhow::Result<Prepared> {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         let lock = match lock {
@@ -335,6 +348,7 @@ impl RunDir {
             manifest,
             written: Mutex::new((listed, file)),
             _lock: lock,
+            active,
         };
         // episodes.csv holds exactly the finished episodes: rewritten atomically, then appended to
         run_dir.record(EPISODES_CSV)?;
@@ -422,7 +436,7 @@ impl RunDir {
 
     /// Writes the manifest (under the lock the interrupt handler takes).
     fn write_manifest(&self) -> anyhow::Result<()> {
-        let mut guard = ACTIVE.lock().unwrap_or_else(|e| e.into_inner());
+        let mut guard = self.active.run.lock().unwrap_or_else(|e| e.into_inner());
         let written = self.manifest.write(&self.dir);
         let mut on_disk = self.manifest.clone();
         if written.is_err() {
@@ -436,16 +450,17 @@ impl RunDir {
 impl Drop for RunDir {
     /// A run left in the state `running` stopped on an error: record `interrupted` if the disk
     /// still takes it (every finished episode is in episodes.csv) and leave the resume command for
-    /// `main` to print (a run whose manifest still says `running` resumes as well). No temporary
-    /// file stays behind. The folder's lock is released after this.
+    /// the caller to print ([`ActiveRun::take_resume_hint`]; a run whose manifest still says
+    /// `running` resumes as well). No temporary file stays behind. The folder's lock is released
+    /// after this.
     fn drop(&mut self) {
-        let mut guard = ACTIVE.lock().unwrap_or_else(|e| e.into_inner());
+        let mut guard = self.active.run.lock().unwrap_or_else(|e| e.into_inner());
         if self.manifest.state == RunState::Running {
             self.manifest.state = RunState::Interrupted;
             if self.manifest.write(&self.dir).is_err() {
                 self.manifest.state = RunState::Running;
             }
-            *RESUME_HINT.lock().unwrap_or_else(|e| e.into_inner()) = Some(self.manifest.resume_command());
+            *self.active.resume_hint.lock().unwrap_or_else(|e| e.into_inner()) = Some(self.manifest.resume_command());
         }
         *guard = None;
         for rel in self.written() {
