@@ -111,13 +111,13 @@ lateral_mps = 0.3
 #[test]
 fn efference_copies_from_planar_poses_equal_the_runners() {
     use loomlab::cli::efference::{CameraMount, PlanarPose, efference_copies};
-    use loomlab_agents::{EgoSensor, VelocityCommand};
+    use loomlab_agents::{CameraMotionSensor, VelocityCommand};
     use loomlab_scenarios::{LoadOptions, parse_scenario};
 
     let s = parse_scenario(TURNING, Path::new("turning.toml"), None, &LoadOptions::default()).unwrap();
     let ep = s.episode(0).unwrap();
     let mut sim = loomlab_sim::Sim::new_physics_only(&ep.world, ep.seed).unwrap();
-    let mut sensor = EgoSensor::default();
+    let mut sensor = CameraMotionSensor::default();
     let (mut poses, mut runner) = (Vec::new(), Vec::new());
     let mut command = VelocityCommand::STOP;
     for k in 0..30 {
@@ -126,7 +126,7 @@ fn efference_copies_from_planar_poses_equal_the_runners() {
         } else {
             sim.step(&command.to_sim()).unwrap().t_s
         };
-        // what the runner hands a detector (agents::EgoSensor on the camera's pose)
+        // what the runner hands a detector (agents::CameraMotionSensor on the camera's pose)
         runner.push(sensor.sense(command, t, &sim.camera_pose()));
         let r = sim.robot_state();
         poses.push(PlanarPose {

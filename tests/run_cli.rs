@@ -1084,7 +1084,8 @@ params = { front_end = "adapted", readout = "winner" }
         ..Default::default()
     };
     for label in ["tracker_tau", "hopfield_tau"] {
-        let r = loomlab_scenarios::replay::replay_run(&out, label, &config).unwrap();
+        let r = loomlab_scenarios::replay::replay_run(&out, label, &config, &loomlab_agents::RobotFacts::default())
+            .unwrap();
         assert_eq!(r.episodes, 2, "{label}");
         assert!(r.frames > 200, "{label}: {r:?}");
         assert_eq!(r.differing, 0, "{label}: {r:?}");
@@ -1092,7 +1093,8 @@ params = { front_end = "adapted", readout = "winner" }
     }
     // the threat is evadable and the tracker sees it in time; a strategy that ignores θ̂ below 60°
     // decides otherwise and alarms too late
-    let r = loomlab_scenarios::replay::replay_run(&out, "tracker_tau", &config).unwrap();
+    let r = loomlab_scenarios::replay::replay_run(&out, "tracker_tau", &config, &loomlab_agents::RobotFacts::default())
+        .unwrap();
     assert_eq!((r.recorded.evadable, r.recorded.hits), (1, 1), "{r:?}");
     let late = loomlab_agents::EscapeConfig {
         decision: loomlab_agents::DecisionRule {
@@ -1101,9 +1103,11 @@ params = { front_end = "adapted", readout = "winner" }
         },
         ..config.clone()
     };
-    let r = loomlab_scenarios::replay::replay_run(&out, "tracker_tau", &late).unwrap();
+    let r = loomlab_scenarios::replay::replay_run(&out, "tracker_tau", &late, &loomlab_agents::RobotFacts::default())
+        .unwrap();
     assert!(r.differing > 0 && r.replayed.hits == 0 && r.recorded.hits == 1, "{r:?}");
     // a row without a stateful strategy cannot be replayed, and says why
-    let e = loomlab_scenarios::replay::replay_run(&out, "soc", &config).unwrap_err();
+    let e = loomlab_scenarios::replay::replay_run(&out, "soc", &config, &loomlab_agents::RobotFacts::default())
+        .unwrap_err();
     assert!(e.contains("no column soc_theta_hat_deg"), "{e}");
 }

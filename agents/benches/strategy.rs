@@ -19,7 +19,7 @@ fn strategy_update(c: &mut Criterion) {
         },
         ..EscapeConfig::default()
     };
-    let mut strategy = cfg.decider();
+    let mut strategy = cfg.decider(&loomlab_agents::RobotFacts::default());
     let mut k = 0u64;
     let mut group = c.benchmark_group("strategy");
     group.throughput(Throughput::Elements(1));
@@ -38,7 +38,7 @@ fn strategy_update(c: &mut Criterion) {
         })
     });
     // the ideal rows' percept: elevation and image extent too (every object, every frame)
-    let mut strategy = cfg.decider();
+    let mut strategy = cfg.decider(&loomlab_agents::RobotFacts::default());
     let mut k = 0u64;
     group.bench_function("tau_course_update_with_extent", |b| {
         b.iter(|| {

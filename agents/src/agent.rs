@@ -6,7 +6,7 @@
 //! 1. every detector of the agent steps on the frame ([`Detector::step_moving`], with the efference
 //!    copy of the period that ended with it: the command the agent returned for it and, when the
 //!    caller gives the camera's pose ([`EscapeAgent::step_posed`]), the camera's motion and pose
-//!    above the ground, from [`EgoSensor`]);
+//!    above the ground, from [`CameraMotionSensor`]);
 //! 2. the looming side is estimated from this frame and the previous one
 //!    ([`LoomingSideEstimator`], the x centroid of the temporal contrast) — or, when the driving
 //!    detector localises the object ([`Signals::region`]), it is the middle of its image extent;
@@ -30,8 +30,8 @@ use loomlab_detector::{Detector, DetectorError, EfferenceCopy, Frame, Signals};
 
 use crate::decision::Percept;
 use crate::{
-    AgentError, CameraSense, ControllerEvent, EgoSensor, EscapeConfig, EscapeController, LoomingSideEstimator,
-    VelocityCommand,
+    AgentError, CameraMotionSensor, ControllerEvent, EscapeConfig, EscapeController, LoomingSideEstimator, RobotFacts,
+    SensedCamera, VelocityCommand,
 };
 
 /// What one [`EscapeAgent::step`] produced.
@@ -62,7 +62,7 @@ pub struct EscapeAgent {
     /// command).
     applied: Option<VelocityCommand>,
     /// Turns the camera's poses into the detectors' efference copies.
-    efference_sensor: EgoSensor,
+    efference_sensor: CameraMotionSensor,
 }
 
 impl std::fmt::Debug for EscapeAgent {
@@ -75,15 +75,20 @@ impl std::fmt::Debug for EscapeAgent {
 }
 
 impl EscapeAgent {
-    /// An agent whose first detector drives the controller (`detectors` may be empty when the
-    /// agent is only driven through [`act_on_value`](Self::act_on_value)).
-    pub fn new(detectors: Vec<Box<dyn Detector>>, controller: EscapeConfig) -> Result<Self, AgentError> {
+    /// An agent whose first detector drives the controller of `controller` for the robot of
+    /// `facts` (`detectors` may be empty when the agent is only driven through
+    /// [`act_on_value`](Self::act_on_value)).
+    pub fn new(
+        detectors: Vec<Box<dyn Detector>>,
+        controller: EscapeConfig,
+        facts: RobotFacts,
+    ) -> Result<Self, AgentError> {
         Ok(Self {
             detectors,
             side: LoomingSideEstimator::default(),
-            controller: EscapeController::new(controller)?,
+            controller: EscapeController::new(controller, facts)?,
             applied: None,
-            efference_sensor: EgoSensor::default(),
+            efference_sensor: CameraMotionSensor::default(),
         })
     }
 
@@ -95,7 +100,7 @@ impl EscapeAgent {
             side: LoomingSideEstimator::default(),
             controller,
             applied: None,
-            efference_sensor: EgoSensor::default(),
+            efference_sensor: CameraMotionSensor::default(),
         }
     }
 
@@ -118,9 +123,10 @@ impl EscapeAgent {
         self.detectors[index] = detector;
     }
 
-    /// Replaces the controller configuration (validated) and resets the controller.
-    pub fn set_controller(&mut self, config: EscapeConfig) -> Result<(), AgentError> {
-        self.controller = EscapeController::new(config)?;
+    /// Replaces the controller configuration and the robot's facts (validated) and resets the
+    /// controller.
+    pub fn set_controller(&mut self, config: EscapeConfig, facts: RobotFacts) -> Result<(), AgentError> {
+        self.controller = EscapeController::new(config, facts)?;
         Ok(())
     }
 
@@ -143,14 +149,14 @@ impl EscapeAgent {
 
     /// [`Self::step`] with the camera's state at `t_s` (`camera`, as the robot's odometry and
     /// inertial sensor know it): the detectors' efference copy then also holds the camera's motion
-    /// since the previous step and its pose above the ground ([`EgoSensor`]), and the decision
+    /// since the previous step and its pose above the ground ([`CameraMotionSensor`]), and the decision
     /// decider removes the camera's shake from image directions ([`crate::SelfMotion`]).
     pub fn step_posed(
         &mut self,
         t_s: f64,
         frame: &Frame,
         cruise: VelocityCommand,
-        camera: Option<&CameraSense>,
+        camera: Option<&SensedCamera>,
     ) -> Result<AgentStep, DetectorError> {
         let efference = self.efference_copy(t_s, cruise, camera);
         let mut signals = Vec::with_capacity(self.detectors.len());
@@ -172,7 +178,7 @@ impl EscapeAgent {
         t_s: f64,
         frame: &Frame,
         cruise: VelocityCommand,
-        camera: Option<&CameraSense>,
+        camera: Option<&SensedCamera>,
         signals: Vec<Signals>,
         contrast_side: Option<f32>,
     ) -> AgentStep {
@@ -182,7 +188,7 @@ impl EscapeAgent {
     }
 
     /// The efference copy of the camera period that ends at `t_s` (advances the efference sensor).
-    fn efference_copy(&mut self, t_s: f64, cruise: VelocityCommand, camera: Option<&CameraSense>) -> EfferenceCopy {
+    fn efference_copy(&mut self, t_s: f64, cruise: VelocityCommand, camera: Option<&SensedCamera>) -> EfferenceCopy {
         let applied = self.applied.unwrap_or(cruise);
         match camera {
             Some(camera) => self.efference_sensor.sense(applied, t_s, &camera.pose),
@@ -196,7 +202,7 @@ impl EscapeAgent {
         &mut self,
         t_s: f64,
         cruise: VelocityCommand,
-        camera: Option<&CameraSense>,
+        camera: Option<&SensedCamera>,
         signals: Vec<Signals>,
         contrast_side: Option<f32>,
     ) -> AgentStep {

@@ -54,11 +54,11 @@ use serde::{Deserialize, Serialize};
 
 use loomlab_sim::RobotBase;
 
-use crate::decision::{BodyExtent, Decider, Decision, DecisionRule, Percept, SelfMotion};
 #[allow(unused_imports)] // for doc links
 use crate::decision::{Course, MAX_PERSISTENCE_FRAMES, TriggerSignal};
-use crate::{AgentError, VelocityCommand};
-use loomlab_detector::{Pinhole, Signals};
+use crate::decision::{Decider, Decision, DecisionRule, Percept, SelfMotion};
+use crate::{AgentError, RobotFacts, VelocityCommand};
+use loomlab_detector::Signals;
 
 /// The escape manoeuvre run after a trigger.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -145,26 +145,6 @@ pub struct EscapeConfig {
     pub default_side: DodgeSide,
     /// |image x| of the looming side at or below which it counts as central, in [0, 1).
     pub side_deadband: f32,
-    /// The robot's drive, which decides what a dodge is. Not a key of the `[controller]` table: the
-    /// scenario loader sets it from `world.robot.base`.
-    #[serde(skip)]
-    pub base: RobotBase,
-    /// Half-width of the robot's body (m), for the course gate. Set by the scenario loader from
-    /// `world.robot.body`.
-    #[serde(skip)]
-    pub body_half_width_m: f64,
-    /// How far the robot's body reaches above the camera (m), for the course gate's vertical
-    /// test. Set by the scenario loader from `world.robot.body` and `world.camera.position`.
-    #[serde(skip)]
-    pub body_above_camera_m: f64,
-    /// How far the robot's body reaches below the camera (m), for the course gate's vertical
-    /// test. Set by the scenario loader from `world.robot.body` and `world.camera.position`.
-    #[serde(skip)]
-    pub body_below_camera_m: f64,
-    /// Horizontal field of view of the camera (degrees), to turn the looming side's image x into
-    /// an azimuth. Set by the scenario loader from `world.camera.fov_deg`.
-    #[serde(skip)]
-    pub camera_fov_deg: f64,
 }
 
 impl Default for EscapeConfig {
@@ -183,11 +163,6 @@ impl Default for EscapeConfig {
             cooldown_s: 0.5,
             default_side: DodgeSide::Left,
             side_deadband: 0.05,
-            base: RobotBase::Holonomic,
-            body_half_width_m: 0.2,
-            body_above_camera_m: 0.05,
-            body_below_camera_m: 0.25,
-            camera_fov_deg: 60.0,
         }
     }
 }
@@ -318,22 +293,6 @@ impl EscapeConfig {
                 "must be a finite distance in metres > 0 (leave it out for no limit)",
             ));
         }
-        non_negative("escape.body_half_width_m", self.body_half_width_m)?;
-        for (key, v) in [
-            ("escape.body_above_camera_m", self.body_above_camera_m),
-            ("escape.body_below_camera_m", self.body_below_camera_m),
-        ] {
-            if !v.is_finite() {
-                return Err(invalid(key, v, "must be a finite number"));
-            }
-        }
-        if !(self.camera_fov_deg.is_finite() && self.camera_fov_deg > 0.0 && self.camera_fov_deg < 180.0) {
-            return Err(invalid(
-                "escape.camera_fov_deg",
-                self.camera_fov_deg,
-                "must lie in (0, 180)",
-            ));
-        }
         if !(self.side_deadband.is_finite() && (0.0..1.0).contains(&self.side_deadband)) {
             return Err(invalid(
                 "escape.side_deadband",
@@ -356,29 +315,16 @@ impl EscapeConfig {
         signal.is_some_and(|s| s >= self.alarm_threshold())
     }
 
-    /// The robot's body about its camera, for the course gate.
-    pub fn body(&self) -> BodyExtent {
-        BodyExtent {
-            half_width_m: self.body_half_width_m,
-            above_camera_m: self.body_above_camera_m,
-            below_camera_m: self.body_below_camera_m,
-        }
+    /// A fresh decider of this configuration's rule for the robot of `facts` ([`crate::decision`]).
+    pub fn decider(&self, facts: &RobotFacts) -> Decider {
+        Decider::new(self.decision, facts)
     }
 
-    /// The robot's camera (image coordinates ↔ angles).
-    pub fn pinhole(&self) -> Pinhole {
-        Pinhole::new(self.camera_fov_deg)
-    }
-
-    /// A fresh decider of this configuration ([`crate::decision`]).
-    pub fn decider(&self) -> Decider {
-        Decider::new(self.decision, self.body(), self.pinhole())
-    }
-
-    /// The command of the manoeuvre towards `side` given the cruise command.
-    pub fn manoeuvre_command(&self, side: DodgeSide, cruise: VelocityCommand) -> VelocityCommand {
+    /// The command of the manoeuvre towards `side` given the cruise command, on a robot with the
+    /// drive `base`.
+    pub fn manoeuvre_command(&self, side: DodgeSide, cruise: VelocityCommand, base: RobotBase) -> VelocityCommand {
         match self.manoeuvre {
-            Manoeuvre::DodgeLateral if !self.base.can_sidestep() => VelocityCommand {
+            Manoeuvre::DodgeLateral if !base.can_sidestep() => VelocityCommand {
                 forward_mps: cruise.forward_mps.max(self.dodge_speed_mps),
                 yaw_rate_rps: side.sign() * self.turn_rate_rps,
                 lateral_mps: 0.0,
@@ -437,6 +383,7 @@ enum Phase {
 #[derive(Debug, Clone)]
 pub struct EscapeController {
     config: EscapeConfig,
+    facts: RobotFacts,
     phase: Phase,
     triggers: usize,
     first_trigger_s: Option<f64>,
@@ -456,12 +403,14 @@ pub struct EscapeController {
 }
 
 impl EscapeController {
-    /// Build a controller; fails if the configuration is invalid.
-    pub fn new(config: EscapeConfig) -> Result<Self, AgentError> {
+    /// Build a controller of `config` for the robot of `facts`; fails if either is invalid.
+    pub fn new(config: EscapeConfig, facts: RobotFacts) -> Result<Self, AgentError> {
         config.validate()?;
+        facts.validate()?;
         Ok(Self {
-            decider: config.decider(),
+            decider: config.decider(&facts),
             config,
+            facts,
             phase: Phase::Armed,
             triggers: 0,
             first_trigger_s: None,
@@ -479,6 +428,11 @@ impl EscapeController {
     /// The configuration.
     pub fn config(&self) -> &EscapeConfig {
         &self.config
+    }
+
+    /// The robot's and its camera's facts the controller was built with.
+    pub fn facts(&self) -> &RobotFacts {
+        &self.facts
     }
 
     /// Return to the armed state before the first step (start a new episode).
@@ -508,7 +462,7 @@ impl EscapeController {
     /// `decision.value` is what [`Self::step`] then compares with the alarm threshold. The robot's
     /// own motion is the command this controller returned in its last step (`cruise` before the
     /// first) and its camera's rotation relative to its mount, `shake_rad` (`[yaw, pitch, roll]`,
-    /// rad, as [`crate::CameraSense::shake_rad`]; zeros for a rigid mount).
+    /// rad, as [`crate::SensedCamera::shake_rad`]; zeros for a rigid mount).
     pub fn perceive(&mut self, t_s: f64, percept: Percept, cruise: VelocityCommand, shake_rad: [f64; 3]) -> Decision {
         let motion = SelfMotion::of(self.last_command.unwrap_or(cruise), shake_rad);
         self.decider.decide(t_s, percept, motion)
@@ -647,7 +601,7 @@ impl EscapeController {
     /// The manoeuvre's command towards `side`, its sidestep held once the dodges have taken the
     /// robot `max_dodge_offset_m` to that side.
     fn dodge_command(&self, side: DodgeSide, cruise: VelocityCommand) -> VelocityCommand {
-        let mut command = self.config.manoeuvre_command(side, cruise);
+        let mut command = self.config.manoeuvre_command(side, cruise, self.facts.base);
         if let Some(limit) = self.config.max_dodge_offset_m
             && side.sign() * self.dodge_offset_m >= limit
         {

@@ -19,10 +19,11 @@ pub mod action;
 pub mod agent;
 pub mod command;
 pub mod decision;
-pub mod ego;
 pub mod error;
 pub mod escape;
+pub mod facts;
 pub mod looming_side;
+pub mod sensing;
 
 pub use action::{ActionConfig, ContinuousAction, DiscreteAction};
 pub use agent::{AgentStep, EscapeAgent};
@@ -30,7 +31,8 @@ pub use command::VelocityCommand;
 pub use decision::{
     BodyExtent, Course, Decider, Decision, DecisionRule, ImageExtent, Percept, SelfMotion, TriggerSignal,
 };
-pub use ego::{CameraSense, EgoSensor};
 pub use error::AgentError;
 pub use escape::{ControllerEvent, DodgeSide, EscapeConfig, EscapeController, Manoeuvre};
+pub use facts::RobotFacts;
 pub use looming_side::LoomingSideEstimator;
+pub use sensing::{CameraMotionSensor, SensedCamera};

@@ -1,7 +1,8 @@
 //! Escape controller: every manoeuvre, cooldown, threshold crossing, dodge side.
 
 use loomlab_agents::{
-    AgentError, ControllerEvent, DodgeSide, EscapeConfig, EscapeController, Manoeuvre, TriggerSignal, VelocityCommand,
+    AgentError, ControllerEvent, DodgeSide, EscapeConfig, EscapeController, Manoeuvre, RobotFacts, TriggerSignal,
+    VelocityCommand,
 };
 use loomlab_detector::Signals;
 
@@ -12,20 +13,23 @@ const CRUISE: VelocityCommand = VelocityCommand {
 };
 
 fn controller(manoeuvre: Manoeuvre) -> EscapeController {
-    EscapeController::new(EscapeConfig {
-        manoeuvre,
-        dodge_speed_mps: 1.5,
-        dodge_forward_scale: 0.5,
-        dodge_yaw_rate_rps: 0.0,
-        reverse_speed_mps: 0.8,
-        duration_s: 0.5,
-        cooldown_s: 0.25,
-        decision: loomlab_agents::DecisionRule {
-            threshold: 10.0,
-            ..loomlab_agents::DecisionRule::default()
+    EscapeController::new(
+        EscapeConfig {
+            manoeuvre,
+            dodge_speed_mps: 1.5,
+            dodge_forward_scale: 0.5,
+            dodge_yaw_rate_rps: 0.0,
+            reverse_speed_mps: 0.8,
+            duration_s: 0.5,
+            cooldown_s: 0.25,
+            decision: loomlab_agents::DecisionRule {
+                threshold: 10.0,
+                ..loomlab_agents::DecisionRule::default()
+            },
+            ..EscapeConfig::default()
         },
-        ..EscapeConfig::default()
-    })
+        RobotFacts::default(),
+    )
     .unwrap()
 }
 
@@ -74,14 +78,17 @@ fn trigger_signal_selects_the_right_field() {
     };
     let mut hop = controller(Manoeuvre::Stop);
     assert!(!hop.step_signals(0.0, &s, None, CRUISE).1.is_trigger(), "θ̂ = 3° < 10°");
-    let mut out = EscapeController::new(EscapeConfig {
-        decision: loomlab_agents::DecisionRule {
-            trigger: TriggerSignal::Output,
-            threshold: 40.0,
-            ..loomlab_agents::DecisionRule::default()
+    let mut out = EscapeController::new(
+        EscapeConfig {
+            decision: loomlab_agents::DecisionRule {
+                trigger: TriggerSignal::Output,
+                threshold: 40.0,
+                ..loomlab_agents::DecisionRule::default()
+            },
+            ..EscapeConfig::default()
         },
-        ..EscapeConfig::default()
-    })
+        RobotFacts::default(),
+    )
     .unwrap();
     assert!(
         out.step_signals(0.0, &s, None, CRUISE).1.is_trigger(),
@@ -123,10 +130,13 @@ fn dodge_lateral_moves_away_from_the_looming_side() {
 #[test]
 fn dodge_unknown_or_central_side_uses_default() {
     for side in [None, Some(0.0), Some(0.05), Some(-0.04), Some(f32::NAN)] {
-        let mut c = EscapeController::new(EscapeConfig {
-            default_side: DodgeSide::Right,
-            ..EscapeConfig::default()
-        })
+        let mut c = EscapeController::new(
+            EscapeConfig {
+                default_side: DodgeSide::Right,
+                ..EscapeConfig::default()
+            },
+            RobotFacts::default(),
+        )
         .unwrap();
         let (cmd, ev) = c.step(0.0, 20.0, side, CRUISE);
         assert_eq!(
@@ -142,10 +152,13 @@ fn dodge_unknown_or_central_side_uses_default() {
 
 #[test]
 fn dodge_yaw_turns_towards_the_dodge_side() {
-    let mut c = EscapeController::new(EscapeConfig {
-        dodge_yaw_rate_rps: 0.7,
-        ..EscapeConfig::default()
-    })
+    let mut c = EscapeController::new(
+        EscapeConfig {
+            dodge_yaw_rate_rps: 0.7,
+            ..EscapeConfig::default()
+        },
+        RobotFacts::default(),
+    )
     .unwrap();
     let (cmd, _) = c.step(0.0, 20.0, Some(-0.9), CRUISE);
     assert_eq!(cmd.yaw_rate_rps, -0.7, "dodging right turns right");
@@ -225,12 +238,15 @@ fn armed_again_after_cooldown_without_signal() {
 
 #[test]
 fn zero_cooldown_rearms_right_after_the_manoeuvre() {
-    let mut c = EscapeController::new(EscapeConfig {
-        manoeuvre: Manoeuvre::Stop,
-        duration_s: 0.5,
-        cooldown_s: 0.0,
-        ..EscapeConfig::default()
-    })
+    let mut c = EscapeController::new(
+        EscapeConfig {
+            manoeuvre: Manoeuvre::Stop,
+            duration_s: 0.5,
+            cooldown_s: 0.0,
+            ..EscapeConfig::default()
+        },
+        RobotFacts::default(),
+    )
     .unwrap();
     c.step(0.0, 20.0, None, CRUISE);
     assert!(c.step(0.5, 20.0, None, CRUISE).1.is_trigger());
@@ -289,10 +305,77 @@ fn invalid_config_is_rejected_with_key() {
         "escape.side_deadband",
     ];
     for (cfg, key) in bad.into_iter().zip(keys) {
-        match EscapeController::new(cfg) {
+        match EscapeController::new(cfg, RobotFacts::default()) {
             Err(e @ AgentError::InvalidConfig { .. }) => assert!(e.to_string().contains(key), "{e}"),
             other => panic!("expected InvalidConfig for {key}, got {other:?}"),
         }
+    }
+}
+
+#[test]
+fn the_robots_facts_are_given_at_construction_and_checked() {
+    use loomlab_detector::Pinhole;
+    use loomlab_sim::RobotBase;
+    let cruise = VelocityCommand::forward(1.0);
+    let diff = RobotFacts {
+        base: RobotBase::DiffDrive,
+        ..RobotFacts::default()
+    };
+    let mut c = EscapeController::new(EscapeConfig::default(), diff).unwrap();
+    assert_eq!(c.facts(), &diff);
+    let (cmd, event) = c.step(0.0, 20.0, Some(0.9), cruise);
+    assert!(event.is_trigger());
+    assert_eq!(
+        cmd,
+        EscapeConfig::default().manoeuvre_command(DodgeSide::Left, cruise, RobotBase::DiffDrive)
+    );
+    assert_eq!(
+        cmd.lateral_mps, 0.0,
+        "a differential drive turns instead of sidestepping"
+    );
+    let body = |half_width_m, above_camera_m| loomlab_agents::BodyExtent {
+        half_width_m,
+        above_camera_m,
+        below_camera_m: 0.25,
+    };
+    for (facts, key) in [
+        (
+            RobotFacts {
+                pinhole: Pinhole::new(180.0),
+                ..RobotFacts::default()
+            },
+            "world.camera.fov_deg",
+        ),
+        (
+            RobotFacts {
+                pinhole: Pinhole::new(f64::NAN),
+                ..RobotFacts::default()
+            },
+            "world.camera.fov_deg",
+        ),
+        (
+            RobotFacts {
+                body: body(-0.1, 0.05),
+                ..RobotFacts::default()
+            },
+            "world.robot.body",
+        ),
+        (
+            RobotFacts {
+                body: body(0.2, f64::INFINITY),
+                ..RobotFacts::default()
+            },
+            "world.robot.body",
+        ),
+    ] {
+        let e = EscapeController::new(EscapeConfig::default(), facts)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(key), "{e}");
+        let e = loomlab_agents::EscapeAgent::new(Vec::new(), EscapeConfig::default(), facts)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(key), "{e}");
     }
 }
 
@@ -379,14 +462,11 @@ mod looming_side {
 fn a_dodge_on_a_differential_drive_turns_away_and_drives_instead_of_sidestepping() {
     let cruise = VelocityCommand::forward(1.0);
     let holonomic = EscapeConfig::default();
-    let diff = EscapeConfig {
-        base: loomlab_sim::RobotBase::DiffDrive,
-        ..EscapeConfig::default()
-    };
+    let diff = EscapeConfig::default();
     for side in [DodgeSide::Left, DodgeSide::Right] {
-        let h = holonomic.manoeuvre_command(side, cruise);
+        let h = holonomic.manoeuvre_command(side, cruise, loomlab_sim::RobotBase::Holonomic);
         assert_eq!(h.lateral_mps, side.sign() * holonomic.dodge_speed_mps);
-        let d = diff.manoeuvre_command(side, cruise);
+        let d = diff.manoeuvre_command(side, cruise, loomlab_sim::RobotBase::DiffDrive);
         assert_eq!(d.lateral_mps, 0.0);
         assert_eq!(d.yaw_rate_rps, side.sign() * diff.turn_rate_rps);
         assert_eq!(d.forward_mps, diff.dodge_speed_mps.max(1.0));
@@ -396,6 +476,7 @@ fn a_dodge_on_a_differential_drive_turns_away_and_drives_instead_of_sidestepping
 /// Decision strategies on analytic inputs: a sphere of radius `r` moving at constant velocity
 /// relative to a camera that may itself drive forward.
 mod strategies {
+    use loomlab_agents::RobotFacts;
     use loomlab_agents::{
         Course, Decider, Decision, DodgeSide, EscapeConfig, EscapeController, ImageExtent, Percept, SelfMotion,
         TriggerSignal, VelocityCommand,
@@ -435,7 +516,7 @@ mod strategies {
             let closing = -(self.u[0] - self.camera_vx);
             (x.hypot(y) - self.r) / closing
         }
-        fn ego(&self) -> SelfMotion {
+        fn motion(&self) -> SelfMotion {
             SelfMotion {
                 yaw_rate_rps: 0.0,
                 forward_mps: self.camera_vx,
@@ -460,7 +541,7 @@ mod strategies {
     /// Runs the strategy over the approach until the sphere is within `stop_m` of the camera;
     /// returns (t, θ, decision) per frame.
     fn run(cfg: &EscapeConfig, a: &Approach, stop_m: f64) -> Vec<(f64, f64, loomlab_agents::Decision)> {
-        let mut s: Decider = cfg.decider();
+        let mut s: Decider = cfg.decider(&RobotFacts::default());
         let mut out = Vec::new();
         for k in 0..2000 {
             let t = k as f64 * DT;
@@ -469,7 +550,7 @@ mod strategies {
                 break;
             }
             let p = a.percept(t);
-            out.push((t, p.value, s.decide(t, p, a.ego())));
+            out.push((t, p.value, s.decide(t, p, a.motion())));
         }
         out
     }
@@ -510,7 +591,7 @@ mod strategies {
         // compensated Hopfield read-out in car_oncoming): no estimate followed by one, not an
         // expansion; ln θ̂ across the jump would give τ̂ ≈ 1 ms and an alarm
         let cfg = config(Course::Off);
-        let mut s = cfg.decider();
+        let mut s = cfg.decider(&RobotFacts::default());
         let mut theta: f64 = 1e-3;
         for k in 0..60 {
             theta /= 2.0;
@@ -543,7 +624,7 @@ mod strategies {
         // in one frame. Across the jump ln θ̂ would give τ̂ of a few frames and an alarm; after it
         // the window holds only the new hypothesis's frames
         let cfg = config(Course::Off);
-        let mut s = cfg.decider();
+        let mut s = cfg.decider(&RobotFacts::default());
         let theta = |k: usize| 5.0 * (k as f64 * DT / 3.0).exp();
         for k in 0..40 {
             let d = s.decide(
@@ -572,7 +653,7 @@ mod strategies {
             }
         }
         // a jump just below the ratio is growth: it is fitted (τ̂ of a few frames)
-        let mut s = cfg.decider();
+        let mut s = cfg.decider(&RobotFacts::default());
         let mut last = f64::NAN;
         for k in 0..45 {
             let value = if k < 40 { theta(k) } else { theta(k) * 1.25 };
@@ -622,7 +703,7 @@ mod strategies {
     #[test]
     fn course_gate_closed_for_a_pass_at_two_body_widths() {
         let cfg = config(Course::Image);
-        let w = cfg.body_half_width_m;
+        let w = RobotFacts::default().body.half_width_m;
         for (r, speed, camera_vx, side) in [(0.2, 8.0, 1.0, 1.0), (0.1, 10.0, 1.0, -1.0), (0.25, 6.0, 0.0, 1.0)] {
             // passes 2 body widths (4 half-widths) from the camera, beside it
             let a = Approach {
@@ -653,7 +734,7 @@ mod strategies {
     /// The approach's second axis taken as height: the object is seen straight ahead in azimuth,
     /// at the elevation of its centre.
     fn run_vertical(cfg: &EscapeConfig, a: &Approach) -> Vec<(f64, f64, loomlab_agents::Decision)> {
-        let mut s: Decider = cfg.decider();
+        let mut s: Decider = cfg.decider(&RobotFacts::default());
         let mut out = Vec::new();
         for k in 0..2000 {
             let t = k as f64 * DT;
@@ -667,7 +748,7 @@ mod strategies {
                 elevation_deg: Some(z.atan2(x).to_degrees()),
                 extent: None,
             };
-            out.push((t, p.value, s.decide(t, p, a.ego())));
+            out.push((t, p.value, s.decide(t, p, a.motion())));
         }
         out
     }
@@ -675,7 +756,7 @@ mod strategies {
     #[test]
     fn course_gate_closed_for_a_pass_overhead_and_open_for_a_hit_in_the_vertical() {
         let cfg = config(Course::Image);
-        let above = cfg.body_above_camera_m;
+        let above = RobotFacts::default().body.above_camera_m;
         for (r, speed) in [(0.2, 8.0), (0.1, 12.0)] {
             // the centre passes one radius plus 0.4 m over the top of the body
             let over = Approach {
@@ -769,7 +850,7 @@ mod strategies {
     /// Runs the gate on a box driving at `speed` along −x, its centre `lateral_m` to the side of
     /// the camera (positive left) and `height_m` above it; the camera stands.
     fn run_box(cfg: &EscapeConfig, lateral_m: f64, height_m: f64, h: [f64; 3], speed: f64) -> Vec<(f64, Decision)> {
-        let mut s: Decider = cfg.decider();
+        let mut s: Decider = cfg.decider(&RobotFacts::default());
         let mut out = Vec::new();
         for k in 0..2000 {
             let t = k as f64 * DT;
@@ -788,14 +869,14 @@ mod strategies {
     #[test]
     fn course_gate_judges_wide_and_tall_objects_by_their_image_edges() {
         let cfg = config(Course::Image);
-        let w = cfg.body_half_width_m;
+        let w = RobotFacts::default().body.half_width_m;
         // a car (4 × 1.8 × 1.4 m) in the next lane, its side 1 m beside the body: its angular size
         // (the diagonal) is much larger than its width, but its edges pass beside the body
         let car = [2.0, 0.9, 0.7];
         let passing_car = run_box(&cfg, w + 1.0 + car[1], 0.4, car, 6.0);
         assert!(passing_car.iter().all(|(_, d)| d.value < cfg.alarm_threshold()));
         // judged as a sphere of its angular size (no image extent, as for a detector row) it passes
-        let mut sphere = cfg.decider();
+        let mut sphere = cfg.decider(&RobotFacts::default());
         let sphere_alarms = (0..2000).any(|k| {
             let t = k as f64 * DT;
             let x = 20.0 - 6.0 * t;
@@ -842,7 +923,7 @@ mod strategies {
             25.0 - 6.0 * tb - 6.0 * after + if brake { 1.5 * after * after } else { 0.0 }
         };
         for brake in [true, false] {
-            let mut s = cfg.decider();
+            let mut s = cfg.decider(&RobotFacts::default());
             let mut alarm = false;
             let mut rate = None;
             for k in 0..480 {
@@ -883,7 +964,7 @@ mod strategies {
         // z = vz·t − g·t²/2 with vz = g (so z = 0 at t = 2 s); the camera pitches ±1.5° at 4 Hz
         let r = 0.2;
         let run = |aim_z: f64, shake: bool| {
-            let mut s = cfg.decider();
+            let mut s = cfg.decider(&RobotFacts::default());
             let mut first = None;
             for k in 0..240 {
                 let t = k as f64 * DT;
@@ -908,11 +989,11 @@ mod strategies {
                         elevation_deg: [el - half, el + half],
                     }),
                 };
-                let ego = SelfMotion {
+                let motion = SelfMotion {
                     camera_pitch_rad: pitch,
                     ..SelfMotion::default()
                 };
-                let d = s.decide(t, p, ego);
+                let d = s.decide(t, p, motion);
                 if d.value >= cfg.alarm_threshold() && first.is_none() {
                     first = Some(t);
                 }
@@ -969,7 +1050,7 @@ mod strategies {
     fn the_controller_runs_the_strategy_and_compares_the_urgency() {
         let cfg = config(Course::Off);
         assert_eq!(cfg.alarm_threshold(), 1.0);
-        let mut c = EscapeController::new(cfg).unwrap();
+        let mut c = EscapeController::new(cfg, RobotFacts::default()).unwrap();
         let a = Approach {
             r: 0.2,
             p0: [12.0, 0.0],
@@ -995,14 +1076,17 @@ mod strategies {
 
     #[test]
     fn invalid_strategy_combinations_are_rejected() {
-        let e = EscapeController::new(EscapeConfig {
-            decision: loomlab_agents::DecisionRule {
-                trigger: TriggerSignal::Output,
-                course: Course::Image,
-                ..loomlab_agents::DecisionRule::default()
+        let e = EscapeController::new(
+            EscapeConfig {
+                decision: loomlab_agents::DecisionRule {
+                    trigger: TriggerSignal::Output,
+                    course: Course::Image,
+                    ..loomlab_agents::DecisionRule::default()
+                },
+                ..EscapeConfig::default()
             },
-            ..EscapeConfig::default()
-        })
+            RobotFacts::default(),
+        )
         .unwrap_err()
         .to_string();
         assert!(e.contains("escape.course") && e.contains("θ̂"), "{e}");
@@ -1029,7 +1113,7 @@ mod strategies {
                 ..config(Course::Off)
             },
         ] {
-            assert!(EscapeController::new(cfg).is_err());
+            assert!(EscapeController::new(cfg, RobotFacts::default()).is_err());
         }
         let cfg: EscapeConfig =
             serde_json::from_str(r#"{"trigger":"angular_size","course":"image","tau_threshold_s":0.8}"#).unwrap();
@@ -1041,11 +1125,14 @@ mod strategies {
 
     /// A default controller whose manoeuvre lasts `duration_s` and its cooldown `cooldown_s`.
     fn timed_controller(duration_s: f64, cooldown_s: f64) -> EscapeController {
-        EscapeController::new(EscapeConfig {
-            duration_s,
-            cooldown_s,
-            ..EscapeConfig::default()
-        })
+        EscapeController::new(
+            EscapeConfig {
+                duration_s,
+                cooldown_s,
+                ..EscapeConfig::default()
+            },
+            RobotFacts::default(),
+        )
         .unwrap()
     }
 
@@ -1145,10 +1232,13 @@ fn repeated_dodges_to_one_side_stop_at_the_maximum_offset() {
     // limit the robot ends 1.5 m to the left; with max_dodge_offset_m = 1.0 it sidesteps until
     // 1.0 m and then holds its lateral position (forward motion continues)
     let limited_to = |limit: Option<f64>| {
-        EscapeController::new(EscapeConfig {
-            max_dodge_offset_m: limit,
-            ..controller(Manoeuvre::DodgeLateral).config().clone()
-        })
+        EscapeController::new(
+            EscapeConfig {
+                max_dodge_offset_m: limit,
+                ..controller(Manoeuvre::DodgeLateral).config().clone()
+            },
+            RobotFacts::default(),
+        )
         .unwrap()
     };
     let run = |limit: Option<f64>| {
@@ -1182,10 +1272,13 @@ fn repeated_dodges_to_one_side_stop_at_the_maximum_offset() {
     assert!(ev.is_escaping());
     assert!(cmd.lateral_mps < 0.0, "{cmd:?}");
     assert!(matches!(
-        EscapeController::new(EscapeConfig {
-            max_dodge_offset_m: Some(0.0),
-            ..EscapeConfig::default()
-        }),
+        EscapeController::new(
+            EscapeConfig {
+                max_dodge_offset_m: Some(0.0),
+                ..EscapeConfig::default()
+            },
+            RobotFacts::default()
+        ),
         Err(AgentError::InvalidConfig {
             key: "escape.max_dodge_offset_m",
             ..
@@ -1196,6 +1289,7 @@ fn repeated_dodges_to_one_side_stop_at_the_maximum_offset() {
 /// The escape agent with a detector that numbers its tracks (`tracker`): an alarm about another
 /// track is dodged afresh, during the manoeuvre started for the first.
 mod named_tracks {
+    use loomlab_agents::RobotFacts;
     use loomlab_agents::{ControllerEvent, DodgeSide, EscapeAgent, EscapeConfig, VelocityCommand};
     use loomlab_detector::{Detector, DetectorError, Frame, ImageRegion, Signals};
 
@@ -1245,7 +1339,12 @@ mod named_tracks {
             },
             ..EscapeConfig::default()
         };
-        let mut agent = EscapeAgent::new(vec![Box::new(Script(script.into_iter()))], config).unwrap();
+        let mut agent = EscapeAgent::new(
+            vec![Box::new(Script(script.into_iter()))],
+            config,
+            RobotFacts::default(),
+        )
+        .unwrap();
         let frame = Frame::from_f32(8, vec![0.5; 64]).unwrap();
         let cruise = VelocityCommand::forward(1.0);
         let events: Vec<ControllerEvent> = (0..5)
@@ -1278,6 +1377,7 @@ mod named_tracks {
 /// A detector that localises the object: the escape side comes from the collision-course gate's
 /// predicted arrival, not from where the object is now.
 mod arrival_side {
+    use loomlab_agents::RobotFacts;
     use loomlab_agents::{
         ControllerEvent, Course, DodgeSide, EscapeAgent, EscapeConfig, TriggerSignal, VelocityCommand,
     };
@@ -1328,7 +1428,7 @@ mod arrival_side {
             },
             ..EscapeConfig::default()
         };
-        let mut agent = EscapeAgent::new(vec![Box::new(Crossing(0))], config).unwrap();
+        let mut agent = EscapeAgent::new(vec![Box::new(Crossing(0))], config, RobotFacts::default()).unwrap();
         let frame = Frame::from_f32(8, vec![0.5; 64]).unwrap();
         let cruise = VelocityCommand::forward(0.0);
         let (k, side, looming) = (0..100)
@@ -1352,6 +1452,7 @@ mod arrival_side {
 /// to the alarm frame, then handed a copy of that detector taken there, continues exactly like the
 /// agent that stepped its detector all along.
 mod replay_on_signals {
+    use loomlab_agents::RobotFacts;
     use loomlab_agents::{
         ControllerEvent, EscapeAgent, EscapeConfig, LoomingSideEstimator, TriggerSignal, VelocityCommand,
     };
@@ -1385,7 +1486,7 @@ mod replay_on_signals {
         let cruise = VelocityCommand::forward(1.0);
         let dt = 1.0 / 120.0;
         let build = || DetectorSet::default().build("tracker", N).unwrap();
-        let mut stepping = EscapeAgent::new(vec![build()], config.clone()).unwrap();
+        let mut stepping = EscapeAgent::new(vec![build()], config.clone(), RobotFacts::default()).unwrap();
         let steps: Vec<_> = (0..80)
             .map(|k| stepping.step_posed(k as f64 * dt, &frame(k), cruise, None).unwrap())
             .collect();
@@ -1408,7 +1509,7 @@ mod replay_on_signals {
             );
         }
         let copy = open_loop.snapshot().expect("the tracker copies itself");
-        let mut replayed = EscapeAgent::new(vec![copy], config).unwrap();
+        let mut replayed = EscapeAgent::new(vec![copy], config, RobotFacts::default()).unwrap();
         for (k, step) in steps.iter().enumerate() {
             let got = if k <= alarm {
                 let signals = step.signals.clone();
@@ -1438,7 +1539,7 @@ fn persisted(trigger: TriggerSignal, k: usize, m: Option<usize>, raw: &[f64]) ->
         ..Default::default()
     };
     cfg.validate().unwrap();
-    let mut s = cfg.decider();
+    let mut s = cfg.decider(&RobotFacts::default());
     raw.iter()
         .enumerate()
         .map(|(i, &v)| {

@@ -11,6 +11,8 @@
 /// border) lies at the angle `a` from the optical axis with `v = tan(a) / tan(fov/2)`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pinhole {
+    /// The full field of view across the image (degrees).
+    fov_deg: f64,
     /// tan(fov/2): the image coordinate 1 (the border) lies at this tangent.
     tan_half_fov: f64,
 }
@@ -19,8 +21,14 @@ impl Pinhole {
     /// The camera of full field of view `fov_deg` (degrees, in (0, 180)).
     pub fn new(fov_deg: f64) -> Self {
         Self {
+            fov_deg,
             tan_half_fov: (fov_deg / 2.0).to_radians().tan(),
         }
+    }
+
+    /// The full field of view across the image (degrees), as given to [`Self::new`].
+    pub fn fov_deg(&self) -> f64 {
+        self.fov_deg
     }
 
     /// tan(fov/2) (dimensionless): the tangent of the angle at the image border.

@@ -13,7 +13,8 @@
 //! and the controller's defaults, as in the default suite's τ rows). Prints the row's open-loop
 //! hits (first alarm about the threat no later than its escape deadline) and false alarms, as
 //! recorded and as replayed, and on how many frames the decision values differ (none with the
-//! run's own parameters). The closed loop (evasion) needs a run.
+//! run's own parameters). The closed loop (evasion) needs a run. The robot's body and camera are
+//! the defaults (`loomlab_agents::RobotFacts::default`: a 60° camera, a 0.2 m half-width body).
 
 use std::path::Path;
 use std::process::ExitCode;
@@ -32,7 +33,7 @@ fn run(args: &[String]) -> Result<(), String> {
     config
         .validate()
         .map_err(|e| format!("the settings {settings:?}: {e}"))?;
-    let r = replay_run(Path::new(dir), label, &config)?;
+    let r = replay_run(Path::new(dir), label, &config, &loomlab_agents::RobotFacts::default())?;
     println!("{label}, {} episodes, open loop:", r.episodes);
     println!("  recorded: {}", r.recorded);
     println!("  replayed: {}", r.replayed);

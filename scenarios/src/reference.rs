@@ -54,7 +54,9 @@
 //! urgency 1/τ̂ (s⁻¹, threshold `1 / tau_threshold_s`). Reference rows are excluded from
 //! regressions and from threshold calibration.
 
-use loomlab_agents::{Course, Decider, DecisionRule, EscapeConfig, ImageExtent, Percept, SelfMotion, TriggerSignal};
+use loomlab_agents::{
+    Course, Decider, DecisionRule, EscapeConfig, ImageExtent, Percept, RobotFacts, SelfMotion, TriggerSignal,
+};
 use loomlab_sim::{ObjectKind, ObjectTruth};
 
 /// Label of the never-alarming reference row.
@@ -115,15 +117,22 @@ pub enum IdealKind {
 pub struct IdealObserver {
     kind: IdealKind,
     config: EscapeConfig,
+    facts: RobotFacts,
     per_object: Vec<Decider>,
 }
 
 impl IdealObserver {
-    /// An observer of `kind` with the controller `base` (its τ threshold, minimum angle, body and
-    /// camera; `threshold` is the angle of `ideal_theta`) on a camera with frame period
-    /// `frame_period_s`. The τ window is the shortest the estimator accepts
-    /// ([`IDEAL_TAU_WINDOW_FRAMES`] frame periods): see the module docs.
-    pub fn new(kind: IdealKind, base: &EscapeConfig, theta_threshold_deg: f64, frame_period_s: f64) -> Self {
+    /// An observer of `kind` with the controller `base` (its τ threshold and minimum angle;
+    /// `threshold` is the angle of `ideal_theta`) for the robot of `facts` (its body and camera)
+    /// on a camera with frame period `frame_period_s`. The τ window is the shortest the estimator
+    /// accepts ([`IDEAL_TAU_WINDOW_FRAMES`] frame periods): see the module docs.
+    pub fn new(
+        kind: IdealKind,
+        base: &EscapeConfig,
+        facts: RobotFacts,
+        theta_threshold_deg: f64,
+        frame_period_s: f64,
+    ) -> Self {
         let shortest_window_s = IDEAL_TAU_WINDOW_FRAMES * frame_period_s;
         let config = EscapeConfig {
             decision: DecisionRule {
@@ -152,6 +161,7 @@ impl IdealObserver {
         Self {
             kind,
             config,
+            facts,
             per_object: Vec::new(),
         }
     }
@@ -161,6 +171,11 @@ impl IdealObserver {
         &self.config
     }
 
+    /// The robot's and its camera's facts this observer decides for.
+    pub fn facts(&self) -> &RobotFacts {
+        &self.facts
+    }
+
     /// This frame's decision value, the image side (−1 … 1) of the object it comes from and that
     /// object's id, with `motion` the robot's own motion during the last camera period.
     pub fn update(&mut self, t_s: f64, truth: &[ObjectTruth], motion: SelfMotion) -> (f64, Option<f32>, Option<usize>) {
@@ -168,12 +183,13 @@ impl IdealObserver {
             return ideal_percept(truth);
         }
         let mut best: (f64, Option<f32>, Option<usize>) = (0.0, None, None);
-        let fov = self.config.camera_fov_deg;
+        let fov = self.facts.pinhole.fov_deg();
         for o in truth {
             // the image shows an object's angular size only while it fits in the view
             let visible = o.in_view && f64::from(o.angular_size_deg) <= fov;
             if self.per_object.len() <= o.id {
-                self.per_object.resize_with(o.id + 1, || self.config.decider());
+                self.per_object
+                    .resize_with(o.id + 1, || self.config.decider(&self.facts));
             }
             let percept = Percept {
                 value: if visible {

@@ -10,7 +10,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use loomlab_agents::{EscapeConfig, SelfMotion};
+use loomlab_agents::{EscapeConfig, RobotFacts, SelfMotion};
 use loomlab_detector::ImageRegion;
 
 use crate::episodes_csv::read_episodes_csv;
@@ -111,8 +111,9 @@ pub struct Replay {
 }
 
 /// Replays the decider of row `label` of the run in `dir` (its `episodes.csv` and `traces/`)
-/// with `config`'s decision rule, body and camera (see the module docs).
-pub fn replay_run(dir: &Path, label: &str, config: &EscapeConfig) -> Result<Replay, String> {
+/// with `config`'s decision rule for the robot of `facts` (its body and camera; see the module
+/// docs).
+pub fn replay_run(dir: &Path, label: &str, config: &EscapeConfig, facts: &RobotFacts) -> Result<Replay, String> {
     let episodes = read_episodes_csv(&dir.join("episodes.csv")).map_err(|e| e.to_string())?;
     let mut truth = BTreeMap::new();
     for ep in &episodes {
@@ -166,7 +167,7 @@ pub fn replay_run(dir: &Path, label: &str, config: &EscapeConfig) -> Result<Repl
             ));
         }
         out.episodes += 1;
-        let mut decider = config.decider();
+        let mut decider = config.decider(facts);
         let n = trace.rows.len();
         let col = |name: &str| trace.index(&column(name));
         let (t_col, about_col, theta_col, signal_col, track_col) = (

@@ -133,7 +133,7 @@ fn case(ep: EpisodeSpec, side: f32) -> Case {
     // frame k is the output of step k + 1, at time (k + 1)/hz
     let t_s: Vec<f64> = (0..=contact.frame).map(|k| (k + 1) as f64 / hz).collect();
     let sides = vec![Some(side); t_s.len()];
-    let controller = EscapeController::new(ep.controller.clone()).unwrap();
+    let controller = EscapeController::new(ep.controller.clone(), ep.facts).unwrap();
     let deadline = escape_deadline_exhaustive(&ep, ep.seed, &controller, &sides, &t_s, contact.frame).unwrap();
     // the backward search stops at the same deadline, after fewer replays
     let fast = escape_deadline(&ep, ep.seed, &controller, &sides, &t_s, contact.frame).unwrap();
@@ -345,7 +345,7 @@ fn both(ep: &EpisodeSpec, sides: impl Fn(usize) -> Option<f32>) -> (EscapeDeadli
     let hz = f64::from(ep.world.camera_hz);
     let t_s: Vec<f64> = (0..=contact.frame).map(|k| (k + 1) as f64 / hz).collect();
     let sides: Vec<Option<f32>> = (0..t_s.len()).map(sides).collect();
-    let controller = EscapeController::new(ep.controller.clone()).unwrap();
+    let controller = EscapeController::new(ep.controller.clone(), ep.facts).unwrap();
     let fast = escape_deadline(ep, ep.seed, &controller, &sides, &t_s, contact.frame).unwrap();
     let all = escape_deadline_exhaustive(ep, ep.seed, &controller, &sides, &t_s, contact.frame).unwrap();
     (fast, all)

@@ -1,6 +1,6 @@
 //! The efference copy reaches a detector identically in the runner's open-loop pass and in its
 //! closed-loop tail (which replays the cached frames through the escape agent up to the alarm):
-//! both build it with `loomlab_agents::EgoSensor` from the camera's pose. A detector defined here
+//! both build it with `loomlab_agents::CameraMotionSensor` from the camera's pose. A detector defined here
 //! records every copy it is handed.
 
 use std::path::Path;

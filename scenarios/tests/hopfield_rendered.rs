@@ -82,11 +82,11 @@ fn respond(ep: loomlab_scenarios::EpisodeSpec) -> Response {
     let mut rows = Vec::new();
     let mut largest_before_launch = 0.0f64;
     // the efference copy, as the runner gives it (only the compensated front end reads it)
-    let mut ego_sensor = loomlab_agents::EgoSensor::default();
+    let mut motion_sensor = loomlab_agents::CameraMotionSensor::default();
     for _ in 0..ep.frames() {
         let cmd = ep.cruise.command_at(sim.time());
         let out = sim.step(&cmd.to_sim()).unwrap();
-        let ego = ego_sensor.sense(cmd, out.t_s, &sim.camera_pose());
+        let ego = motion_sensor.sense(cmd, out.t_s, &sim.camera_pose());
         let theta = out.truth.iter().find(|o| o.name == "ball").unwrap().angular_size_deg as f64;
         let s = det
             .step_moving(&Frame::from_f32(n as usize, out.frame).unwrap(), &ego)

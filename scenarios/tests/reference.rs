@@ -44,7 +44,13 @@ fn ideal_tau_alarms_within_three_frames_of_a_late_launch_and_dodges_from_where_t
     let controller = EscapeConfig::default();
     let threshold = 1.0 / controller.decision.tau_threshold_s;
     let launch_s = 0.5;
-    let mut observer = IdealObserver::new(IdealKind::Tau, &controller, 10.0, 1.0 / HZ);
+    let mut observer = IdealObserver::new(
+        IdealKind::Tau,
+        &controller,
+        loomlab_agents::RobotFacts::default(),
+        10.0,
+        1.0 / HZ,
+    );
     let mut alarm = None;
     for k in 0..120 {
         let t = f64::from(k) / HZ;

@@ -839,3 +839,21 @@ fn a_loop_of_links_in_a_suite_is_named_as_such() {
         "{e}"
     );
 }
+
+#[test]
+fn the_robots_facts_come_from_the_world_once_per_episode() {
+    let text = format!(
+        "{BASE}\n[world.robot]\nbase = \"diff_drive\"\nbody = {{ kind = \"cylinder\", radius_m = 0.3, height_m = 0.5 }}\n"
+    );
+    let text = text.replace(
+        "camera = { n = 32 }",
+        "camera = { n = 32, fov_deg = 90.0, position = [0.0, 0.0, 0.1] }",
+    );
+    let ep = parse(&text).unwrap().episode(0).unwrap();
+    assert_eq!(ep.facts.base, loomlab_sim::RobotBase::DiffDrive);
+    assert_eq!(ep.facts.body.half_width_m, 0.30000001192092896);
+    assert!((ep.facts.body.above_camera_m - 0.15).abs() < 1e-6, "{:?}", ep.facts);
+    assert!((ep.facts.body.below_camera_m - 0.35).abs() < 1e-6, "{:?}", ep.facts);
+    assert_eq!(ep.facts.pinhole.fov_deg(), 90.0);
+    assert_eq!(ep.facts, loomlab_scenarios::schema::robot_facts(&ep.world));
+}

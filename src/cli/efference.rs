@@ -2,7 +2,7 @@
 //! (the `truth.csv` that `loomlab render` writes, or any CSV with time, x, y and yaw columns).
 //!
 //! Each video frame gets the efference copy of the camera period that ended with it, built by the
-//! same [`EgoSensor`] as in the scenario runner and the Gymnasium env, from the camera pose: the
+//! same [`CameraMotionSensor`] as in the scenario runner and the Gymnasium env, from the camera pose: the
 //! robot's planar pose and the camera's mount: how far ahead of the robot's origin it sits, its
 //! height above the ground and its pitch (`--camera-forward-m`, `--camera-height-m`,
 //! `--camera-pitch-deg`). Without a height the pose above the ground stays unknown and a
@@ -12,7 +12,7 @@ use std::io::{BufRead, BufReader};
 use std::path::Path;
 
 use anyhow::{Context, bail};
-use loomlab_agents::{EgoSensor, VelocityCommand};
+use loomlab_agents::{CameraMotionSensor, VelocityCommand};
 use loomlab_detector::EfferenceCopy;
 use loomlab_sim::glam::{DQuat, DVec3};
 use loomlab_sim::trajectory::Pose64;
@@ -173,7 +173,7 @@ impl<'a> Columns<'a> {
 
 /// The efference copy of each frame (the first knows the pose, not the motion).
 pub fn efference_copies(poses: &[PlanarPose], mount: CameraMount) -> Vec<EfferenceCopy> {
-    let mut sensor = EgoSensor::default();
+    let mut sensor = CameraMotionSensor::default();
     let height = mount.height_m.unwrap_or(0.0);
     let mut previous: Option<PlanarPose> = None;
     poses

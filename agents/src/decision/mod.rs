@@ -135,6 +135,8 @@ pub use tau::surface_factor;
 
 use loomlab_detector::{ImageRegion, Pinhole};
 
+use crate::RobotFacts;
+
 use persistence::Persistence;
 use window::SampleWindow;
 
@@ -199,14 +201,15 @@ pub struct Decider {
 }
 
 impl Decider {
-    /// A fresh decider of `rule` for a robot whose body extends `body` about its camera, seen
-    /// through `pinhole` (which turns a detector's image coordinates into angles).
-    pub fn new(rule: DecisionRule, body: BodyExtent, pinhole: Pinhole) -> Self {
+    /// A fresh decider of `rule` for the robot of `facts`: its body's extent about the camera (the
+    /// course gate) and its camera's pinhole (which turns a detector's image coordinates into
+    /// angles).
+    pub fn new(rule: DecisionRule, facts: &RobotFacts) -> Self {
         Self {
             persistence: Persistence::new(rule.persistence_frames, rule.persistence_window()),
             rule,
-            body,
-            pinhole,
+            body: facts.body,
+            pinhole: facts.pinhole,
             window: SampleWindow::default(),
         }
     }

@@ -71,7 +71,7 @@ impl Percept {
 /// rotation relative to its mount as the inertial sensor on the camera **sensed** it (camera
 /// shake). The detectors' counterpart, with the camera's sensed motion and pose, is
 /// [`loomlab_detector::EfferenceCopy`]; both come from a [`VelocityCommand`] and a
-/// [`crate::CameraSense`].
+/// [`crate::SensedCamera`].
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SelfMotion {
     /// Commanded yaw rate during the last camera period (rad/s, positive = turning left).
@@ -89,7 +89,7 @@ pub struct SelfMotion {
 impl SelfMotion {
     /// The robot's own motion during a camera period in which it applied `command`, its camera
     /// turned by `shake_rad` relative to its mount at the period's end (`[yaw, pitch, roll]`, as
-    /// [`crate::CameraSense::shake_rad`]; zeros for a rigid mount).
+    /// [`crate::SensedCamera::shake_rad`]; zeros for a rigid mount).
     pub fn of(command: VelocityCommand, shake_rad: [f64; 3]) -> Self {
         Self {
             yaw_rate_rps: command.yaw_rate_rps,

@@ -75,7 +75,7 @@ impl EscapeEnv {
             signal_names.push(names);
             built.push(detector);
             let threshold = options.thresholds.get(&spec.label).copied().unwrap_or(spec.threshold);
-            let (controller, decider) = slot_controller(spec, &first.controller, threshold);
+            let (controller, decider) = slot_controller(spec, &first.controller, &first.facts, threshold);
             detectors.push(DetectorSlot {
                 label: spec.label.clone(),
                 id: spec.id.clone(),
@@ -87,7 +87,7 @@ impl EscapeEnv {
                 trace: Vec::new(),
             });
         }
-        let agent = EscapeAgent::new(built, detectors[0].controller.clone())?;
+        let agent = EscapeAgent::new(built, detectors[0].controller.clone(), first.facts)?;
         Ok(Self {
             resample: scenario.has_random_ranges(),
             n,

@@ -1,6 +1,6 @@
 //! What a step shows the agent: detectors and shadow controller, observation, info and the episode's scoring.
 
-use loomlab_agents::{CameraSense, ContinuousAction, DiscreteAction, SelfMotion, VelocityCommand};
+use loomlab_agents::{ContinuousAction, DiscreteAction, SelfMotion, SensedCamera, VelocityCommand};
 use loomlab_detector::Frame;
 use loomlab_scenarios::metrics::{GroundTruth, TraceSample, score_detector_episode};
 use loomlab_scenarios::reference::INDICATOR_THRESHOLD;
@@ -45,7 +45,7 @@ impl EscapeEnv {
         let cruise_now = r.spec.cruise.command_at(out.t_s);
         // the camera's pose and shake as the robot's odometry and inertial sensor know them (the
         // detectors' efference copy and the deciders' self-motion, as in the scenario runner)
-        let camera = CameraSense::of(&r.sim);
+        let camera = SensedCamera::of(&r.sim);
         let nd = self.detectors.len();
         let mut signals = Vec::with_capacity(nd);
         let mut alarm = Vec::with_capacity(nd);

@@ -91,7 +91,7 @@ pub(super) type OpenLoop = (EpisodeTruth, Option<EscapeDeadline>);
 /// The open-loop truth and deadline of `spec` with simulator seed `sim_seed`, the views rendered
 /// on `renderer`.
 pub(super) fn open_loop(spec: &EpisodeSpec, sim_seed: u64, renderer: &mut Renderer) -> Result<OpenLoop, EnvError> {
-    let escape = EscapeController::new(spec.controller.clone())?;
+    let escape = EscapeController::new(spec.controller.clone(), spec.facts)?;
     Ok(open_loop_truth_and_deadline(spec, sim_seed, &escape, renderer)?)
 }
 

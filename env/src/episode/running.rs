@@ -126,9 +126,10 @@ impl EscapeEnv {
             slot.trace.clear();
             slot.trigger = d.trigger;
             slot.threshold = self.options.thresholds.get(&d.label).copied().unwrap_or(d.threshold);
-            (slot.controller, slot.decider) = slot_controller(d, &spec.controller, slot.threshold);
+            (slot.controller, slot.decider) = slot_controller(d, &spec.controller, &spec.facts, slot.threshold);
         }
-        self.agent.set_controller(self.detectors[0].controller.clone())?;
+        self.agent
+            .set_controller(self.detectors[0].controller.clone(), spec.facts)?;
         self.agent.reset();
         let first = sim.observe()?;
         let start = first.robot;

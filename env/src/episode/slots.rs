@@ -2,7 +2,7 @@
 
 #[cfg(doc)]
 use loomlab_agents::EscapeAgent;
-use loomlab_agents::{Decider, EscapeConfig, TriggerSignal};
+use loomlab_agents::{Decider, EscapeConfig, RobotFacts, TriggerSignal};
 use loomlab_detector::DetectorParams;
 use loomlab_scenarios::metrics::TraceSample;
 use loomlab_scenarios::schema::DetectorSpec;
@@ -22,14 +22,15 @@ pub(super) struct DetectorSlot {
 }
 
 /// The controller configuration of detector `d` at alarm threshold `threshold` (for a τ row, the
-/// urgency 1/τ in s⁻¹), and its decider if its rule keeps state.
+/// urgency 1/τ in s⁻¹), and its decider for the robot of `facts` if its rule keeps state.
 pub(super) fn slot_controller(
     d: &DetectorSpec,
     base: &EscapeConfig,
+    facts: &RobotFacts,
     threshold: f64,
 ) -> (EscapeConfig, Option<Decider>) {
     let d = DetectorSpec { threshold, ..d.clone() };
     let config = d.controller(base);
-    let decider = d.is_stateful().then(|| config.decider());
+    let decider = d.is_stateful().then(|| config.decider(facts));
     (config, decider)
 }

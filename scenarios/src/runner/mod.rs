@@ -276,7 +276,7 @@ impl Runner {
         let ref_theta: Vec<f64> = (0..pass.t_s.len())
             .map(|k| ref_truth(k).map_or(f64::NAN, |o| f64::from(o.angular_size_deg)))
             .collect();
-        let escape = EscapeController::new(ep.controller.clone()).map_err(|source| RunError::Controller {
+        let escape = EscapeController::new(ep.controller.clone(), ep.facts).map_err(|source| RunError::Controller {
             scenario: ep.scenario.clone(),
             episode: ep.index,
             source,
@@ -420,7 +420,7 @@ impl Runner {
 /// row's signal is its decider's value, with θ̂ before it as `raw`; a detector that numbers its
 /// tracks gets its signal about the threat alone.
 fn detector_rows<'a>(ep: &'a EpisodeSpec, pass: &mut OpenLoop, threat_object: Option<usize>) -> Vec<Row<'a>> {
-    let pinhole = ep.controller.pinhole();
+    let pinhole = ep.facts.pinhole;
     ep.detectors
         .iter()
         .zip(&mut pass.detectors)

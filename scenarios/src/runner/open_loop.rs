@@ -1,7 +1,7 @@
 //! Step 1 of an episode, the open-loop pass: render once while the robot cruises, every detector
 //! on the same frames, each stateful row's decider on its detector's percepts; ground truth.
 
-use loomlab_agents::{Decider, EgoSensor, LoomingSideEstimator, SelfMotion};
+use loomlab_agents::{CameraMotionSensor, Decider, LoomingSideEstimator, SelfMotion};
 use loomlab_detector::{Detector, Frame, ImageRegion, Signals};
 use loomlab_sim::{ObjectTruth, Sim};
 
@@ -45,7 +45,9 @@ pub(super) struct DetectorRecord {
 
 impl DetectorRecord {
     fn new(spec: &DetectorSpec, ep: &crate::schema::EpisodeSpec, total: usize) -> Self {
-        let decider = spec.is_stateful().then(|| spec.controller(&ep.controller).decider());
+        let decider = spec
+            .is_stateful()
+            .then(|| spec.controller(&ep.controller).decider(&ep.facts));
         Self {
             signal: Vec::with_capacity(total),
             output: Vec::with_capacity(total),
@@ -223,7 +225,7 @@ impl Runner {
 #[derive(Default)]
 struct FrameState {
     side: LoomingSideEstimator,
-    efference_sensor: EgoSensor,
+    efference_sensor: CameraMotionSensor,
 }
 
 /// Records the latest frame's signals of every detector entry, runs the stateful rows' deciders

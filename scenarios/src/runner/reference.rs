@@ -28,12 +28,19 @@ pub(super) fn ideal_tail(
     let ep = c.ep;
     let mut sim = Sim::new_physics_only(&ep.world, ep.seed).map_err(|e| c.sim(e))?;
     sim.set_ground_truth(false);
-    let mut observer = IdealObserver::new(kind, &ep.controller, ideal_theta_threshold_deg(ep), ep.frame_period_s());
-    let mut agent = EscapeAgent::new(Vec::new(), observer.config().clone()).map_err(|source| RunError::Controller {
-        scenario: ep.scenario.clone(),
-        episode: ep.index,
-        source,
-    })?;
+    let mut observer = IdealObserver::new(
+        kind,
+        &ep.controller,
+        ep.facts,
+        ideal_theta_threshold_deg(ep),
+        ep.frame_period_s(),
+    );
+    let mut agent =
+        EscapeAgent::new(Vec::new(), observer.config().clone(), ep.facts).map_err(|source| RunError::Controller {
+            scenario: ep.scenario.clone(),
+            episode: ep.index,
+            source,
+        })?;
     let camera = sim.camera().clone();
     let mut decide = |agent: &mut EscapeAgent, t: f64, truth: &[ObjectTruth], applied: VelocityCommand| {
         let motion = SelfMotion::of(applied, camera.shake_rotation(t));
@@ -121,7 +128,15 @@ pub(super) fn reference_rows<'a>(
         (IDEAL_TAU, IdealKind::Tau),
         (IDEAL_COURSE, IdealKind::Course),
     ] {
-        let observer = || IdealObserver::new(kind, &ep.controller, ideal_theta_threshold_deg(ep), ep.frame_period_s());
+        let observer = || {
+            IdealObserver::new(
+                kind,
+                &ep.controller,
+                ep.facts,
+                ideal_theta_threshold_deg(ep),
+                ep.frame_period_s(),
+            )
+        };
         let config = observer().config().clone();
         // the observer's decision value over the open loop: about every object, or about `only`
         let signal_of = |only: Option<usize>| -> Vec<f64> {

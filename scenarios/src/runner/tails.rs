@@ -1,6 +1,6 @@
 //! The closed-loop tails of detector rows that alarm before contact, rendered in lockstep.
 
-use loomlab_agents::{CameraSense, EscapeAgent, VelocityCommand};
+use loomlab_agents::{EscapeAgent, SensedCamera, VelocityCommand};
 use loomlab_detector::{Detector, Frame, Signals};
 use loomlab_sim::Sim;
 
@@ -54,18 +54,19 @@ impl Runner {
                 Some(snapshot) => snapshot,
                 None => spec.build(nn).map_err(|e| c.det(e))?,
             };
-            let mut agent = EscapeAgent::new(vec![detector], spec.controller(&ep.controller)).map_err(|source| {
-                RunError::Controller {
-                    scenario: ep.scenario.clone(),
-                    episode: ep.index,
-                    source,
-                }
-            })?;
+            let mut agent =
+                EscapeAgent::new(vec![detector], spec.controller(&ep.controller), ep.facts).map_err(|source| {
+                    RunError::Controller {
+                        scenario: ep.scenario.clone(),
+                        episode: ep.index,
+                        source,
+                    }
+                })?;
             // Replay up to and including the alarm frame: physics only, the agent on the cached frames.
             let mut cmd = ep.cruise.command_at(0.0);
             for (k, frame) in frames[..=ka].iter().enumerate() {
                 let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
-                let (cruise, camera) = (ep.cruise.command_at(out.t_s), CameraSense::of(&sim));
+                let (cruise, camera) = (ep.cruise.command_at(out.t_s), SensedCamera::of(&sim));
                 cmd = if from_snapshot {
                     let signals = vec![job.signals[k].clone()];
                     agent.step_posed_with_signals(out.t_s, frame, cruise, Some(&camera), signals, sides[k])
@@ -125,7 +126,7 @@ impl Runner {
                             out.t_s,
                             &frame,
                             ep.cruise.command_at(out.t_s),
-                            Some(&CameraSense::of(&run.sim)),
+                            Some(&SensedCamera::of(&run.sim)),
                         )
                         .map_err(|e| c.det(e))?
                         .command;

@@ -1,9 +1,11 @@
-//! One fully specified episode ([`EpisodeSpec`]) and the robot-body facts its controller gets.
+//! One fully specified episode ([`EpisodeSpec`]) and the robot's facts its controller gets
+//! ([`robot_facts`]).
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use loomlab_agents::EscapeConfig;
+use loomlab_agents::{BodyExtent, EscapeConfig, RobotFacts};
+use loomlab_detector::Pinhole;
 use loomlab_sim::WorldDesc;
 
 use super::detector::DetectorSpec;
@@ -31,6 +33,22 @@ pub fn body_extent_about_camera_m(world: &WorldDesc) -> (f64, f64) {
     (half_height - camera_z, half_height + camera_z)
 }
 
+/// The robot's and its camera's facts in `world`: its drive (`world.robot.base`), its body's
+/// extent about the camera ([`body_half_width_m`], [`body_extent_about_camera_m`]) and the
+/// camera's pinhole (`world.camera.fov_deg`).
+pub fn robot_facts(world: &WorldDesc) -> RobotFacts {
+    let (above_camera_m, below_camera_m) = body_extent_about_camera_m(world);
+    RobotFacts {
+        base: world.robot.base,
+        body: BodyExtent {
+            half_width_m: body_half_width_m(world),
+            above_camera_m,
+            below_camera_m,
+        },
+        pinhole: Pinhole::new(f64::from(world.camera.fov_deg)),
+    }
+}
+
 /// One episode, fully specified.
 #[derive(Debug, Clone)]
 pub struct EpisodeSpec {
@@ -52,8 +70,11 @@ pub struct EpisodeSpec {
     pub duration_s: f64,
     /// Detectors (all see the same frames).
     pub detectors: Vec<DetectorSpec>,
-    /// Escape controller (trigger and threshold are set per detector).
+    /// Escape controller (trigger and threshold are set per detector): the `[controller]` table.
     pub controller: EscapeConfig,
+    /// The robot's and its camera's facts the controller is built with ([`robot_facts`] of
+    /// `world`).
+    pub facts: RobotFacts,
     /// Scoring parameters.
     pub scoring: ScoringConfig,
 }

@@ -3,12 +3,11 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use loomlab_agents::EscapeConfig;
 use toml::{Table, Value};
 
 use super::SuiteDefaults;
 use super::document::ScenarioDoc;
-use super::episode::{EpisodeSpec, body_extent_about_camera_m, body_half_width_m, params_text};
+use super::episode::{EpisodeSpec, params_text, robot_facts};
 use super::load::{LoadOptions, typed};
 use super::resolve::resolve;
 use crate::error::ScenarioError;
@@ -99,7 +98,7 @@ impl Expansion {
         };
         let doc: ScenarioDoc = typed(Value::Table(t), "").map_err(&err)?;
         let (world, detectors) = resolve(&doc, &self.opts).map_err(&err)?;
-        let (above_camera, below_camera) = body_extent_about_camera_m(&world);
+        let facts = robot_facts(&world);
         let scoring = ScoringConfig {
             lead_margin_s: doc.scoring.lead_margin_s,
             ..ScoringConfig::default()
@@ -121,14 +120,8 @@ impl Expansion {
                     cruise: doc.robot.clone(),
                     duration_s: doc.episode.duration_s,
                     detectors: detectors.clone(),
-                    controller: EscapeConfig {
-                        base: world.robot.base,
-                        body_half_width_m: body_half_width_m(&world),
-                        body_above_camera_m: above_camera,
-                        body_below_camera_m: below_camera,
-                        camera_fov_deg: f64::from(world.camera.fov_deg),
-                        ..doc.controller.clone()
-                    },
+                    controller: doc.controller.clone(),
+                    facts,
                     scoring: scoring.clone(),
                 }
             })

@@ -49,7 +49,7 @@ pub use detector::{
     registration, resolve_detector, resolve_detector_in, trigger_of,
 };
 pub use document::{CruiseChange, CruiseDesc, DetectorDesc, EpisodeDesc, ScoringDesc};
-pub use episode::{EpisodeSpec, body_extent_about_camera_m, body_half_width_m};
+pub use episode::{EpisodeSpec, body_extent_about_camera_m, body_half_width_m, robot_facts};
 pub use expansion::Scenario;
 pub(crate) use load::typed;
 pub use load::{LoadOptions, MAX_FILE_NAME, SuiteDefaults, check_file_name, load_scenario, parse_scenario};

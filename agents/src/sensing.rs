@@ -1,10 +1,13 @@
-//! [`EgoSensor`]: the efference copy a detector gets, from the command the robot applied and the
-//! camera's pose as the robot's odometry and inertial sensor measure it.
+//! The robot's **sensed** self-motion: [`SensedCamera`], the camera's pose and shake as the
+//! robot's odometry and the inertial sensor on the camera measure them, and
+//! [`CameraMotionSensor`], which turns successive sensed poses into the camera's motion and joins
+//! it with the **commanded** motion (the [`VelocityCommand`] the robot applied) into the efference
+//! copy a detector gets ([`EfferenceCopy`], the detectors' contract).
 //!
 //! The runner's open-loop pass, its closed-loop tails, the escape-deadline replays and the
 //! Gymnasium env all build a detector's [`EfferenceCopy`] with this one type, so a detector sees
 //! the same self-knowledge wherever it runs; they take the camera's state from the simulator as one
-//! [`CameraSense`], whose shake also reaches the decider ([`crate::SelfMotion`]). Only the
+//! [`SensedCamera`], whose shake also reaches the decider ([`crate::SelfMotion`]). Only the
 //! robot's own camera enters it: never anything about other objects.
 
 use loomlab_detector::EfferenceCopy;
@@ -17,7 +20,7 @@ use crate::VelocityCommand;
 /// frame is taken: its world pose, and its rotation relative to its mount on the body (the
 /// camera's shake; zero for a rigidly mounted camera).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CameraSense {
+pub struct SensedCamera {
     /// The camera's world pose (x = optical axis, z = up; the shake included).
     pub pose: Pose64,
     /// The camera's rotation relative to its mount, `[yaw, pitch, roll]` (rad; yaw positive = left,
@@ -25,7 +28,7 @@ pub struct CameraSense {
     pub shake_rad: [f64; 3],
 }
 
-impl CameraSense {
+impl SensedCamera {
     /// The camera of `sim` now (where its last frame was taken from).
     pub fn of(sim: &loomlab_sim::Sim) -> Self {
         Self {
@@ -35,13 +38,14 @@ impl CameraSense {
     }
 }
 
-/// Turns successive camera poses into efference copies (see the module docs).
+/// Senses the camera's motion between frames from its successive poses and joins it with the
+/// commanded motion into efference copies (see the module docs).
 #[derive(Debug, Clone, Default)]
-pub struct EgoSensor {
+pub struct CameraMotionSensor {
     previous: Option<(f64, Pose64)>,
 }
 
-impl EgoSensor {
+impl CameraMotionSensor {
     /// Forgets the previous pose (a new episode: the next copy has no motion).
     pub fn reset(&mut self) {
         self.previous = None;
