@@ -119,16 +119,9 @@ pub(crate) fn registry_with(entries: Vec<PythonEntry>) -> PyResult<(Registry, Ve
             ))
         })?;
         descs.push(DetectorDesc {
-            id: e.label.clone(),
-            label: None,
             threshold: Some(e.threshold),
             trigger: Some(trigger_of(e.trigger)),
-            tau_threshold_s: None,
-            min_angular_size_deg: None,
-            course: None,
-            persistence_frames: None,
-            persistence_window_frames: None,
-            params: None,
+            ..DetectorDesc::of_id(&e.label)
         });
     }
     Ok((registry, descs))
