@@ -63,6 +63,7 @@ fn nan_signal_never_triggers() {
         angular_size_deg: None,
         aux: vec![],
         region: None,
+        objects: Vec::new(),
     };
     let (_, ev) = c.step_signals(0.1, &s, None, CRUISE);
     assert_eq!(ev, ControllerEvent::Cruise, "a missing angular size must not trigger");
@@ -75,6 +76,7 @@ fn trigger_signal_selects_the_right_field() {
         angular_size_deg: Some(3.0),
         aux: vec![],
         region: None,
+        objects: Vec::new(),
     };
     let mut hop = controller(Manoeuvre::Stop);
     assert!(!hop.step_signals(0.0, &s, None, CRUISE).1.is_trigger(), "θ̂ = 3° < 10°");
@@ -1313,6 +1315,7 @@ mod named_tracks {
                     y: [-0.1, 0.1],
                     track: Some(track),
                 }),
+                objects: Vec::new(),
             })
         }
     }
@@ -1414,6 +1417,7 @@ mod arrival_side {
                     y: [-half, half],
                     track: Some(1),
                 }),
+                objects: Vec::new(),
             })
         }
     }

@@ -40,4 +40,4 @@ pub use registry::{
     CameraFacts, ConfiguredDetector, DetectorConfig, DetectorParams, DetectorSet, Registration, Registry, Signal,
     detector_ids, parse_detector_list,
 };
-pub use signals::{Detector, EfferenceCopy, ImageRegion, Signals};
+pub use signals::{Detector, EfferenceCopy, ImageRegion, PerceivedObject, Signals};

@@ -15,6 +15,27 @@ pub struct Signals {
     /// `hopfield` with `attention = "tracker"`); `None` for the others. The escape agent turns it into the object's azimuth, elevation and image
     /// extent for the collision-course gate (`agents/src/decision/`).
     pub region: Option<ImageRegion>,
+    /// Every object the detector perceives in this frame, for detectors that perceive several at
+    /// once (`tracker`: its confirmed tracks); empty for the others, whose one percept is
+    /// [`Self::angular_size_deg`] and [`Self::region`] (or the looming side). When it is not
+    /// empty, [`Self::region`] and [`Self::angular_size_deg`] are those of its most urgent object.
+    /// The escape agent runs one decider per object and plans its manoeuvre about all of them.
+    pub objects: Vec<PerceivedObject>,
+}
+
+/// One object a detector perceives in a frame ([`Signals::objects`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PerceivedObject {
+    /// The detector's number for it (stable while the detector follows it; a lost and re-found
+    /// object gets a new number). Perception only, not the world's object id.
+    pub id: usize,
+    /// Its image region ([`ImageRegion::track`] is `Some(id)`).
+    pub region: ImageRegion,
+    /// Its angular size θ̂ (degrees).
+    pub angular_size_deg: f64,
+    /// Its time to contact τ̂ (s), when the detector estimates one itself (`None`: the escape
+    /// agent's decider estimates it from θ̂).
+    pub tau_s: Option<f64>,
 }
 
 /// The image region of a tracked object in normalised image coordinates: x ∈ [−1, 1] from the left

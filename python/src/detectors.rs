@@ -359,6 +359,7 @@ fn signals_of(answer: &Bound<'_, PyAny>) -> Result<(Signals, bool), String> {
             angular_size_deg: None,
             aux: Vec::new(),
             region: None,
+            objects: Vec::new(),
         };
         return Ok((signals, false));
     };

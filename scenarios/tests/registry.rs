@@ -74,6 +74,7 @@ impl Detector for MeanChange {
             angular_size_deg: None,
             aux: Vec::new(),
             region: None,
+            objects: Vec::new(),
         })
     }
 }

@@ -167,6 +167,7 @@ impl Cizek2019 {
             angular_size_deg: None,
             aux: vec![("z_hat", z_hat), ("t_s", t_s), ("t_l", t_l)],
             region: None,
+            objects: Vec::new(),
         }
     }
 }

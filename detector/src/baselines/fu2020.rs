@@ -475,6 +475,7 @@ impl Fu2020 {
                 ("collision", f64::from(u8::from(on.collision || off.collision))),
             ],
             region: None,
+            objects: Vec::new(),
         }
     }
 }

@@ -169,6 +169,7 @@ impl Keil2004 {
             angular_size_deg: None,
             aux: vec![("z_on", z_on), ("z_off", z_off)],
             region: None,
+            objects: Vec::new(),
         }
     }
 

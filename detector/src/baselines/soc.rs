@@ -88,6 +88,7 @@ impl Soc {
             angular_size_deg: None,
             aux: vec![("mean", mean)],
             region: None,
+            objects: Vec::new(),
         }
     }
 }

@@ -490,6 +490,7 @@ impl Detector for Hopfield {
             angular_size_deg: Some(s.angular_size_deg),
             aux: vec![("on", s.z_on), ("off", s.z_off)],
             region: self.attended_region(s.angular_size_deg),
+            objects: Vec::new(),
         })
     }
 }

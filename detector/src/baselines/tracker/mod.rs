@@ -308,6 +308,7 @@ impl Tracker {
                 angular_size_deg: Some(0.0),
                 aux: vec![("pixels", 0.0), ("x", f64::NAN), ("y", f64::NAN)],
                 region: None,
+                objects: Vec::new(),
             };
         };
         let nf = n as f64;
@@ -343,6 +344,7 @@ impl Tracker {
                 ("y", region.centroid[1]),
             ],
             region: Some(region),
+            objects: Vec::new(),
         }
     }
 }
