@@ -28,7 +28,7 @@
 
 use loomlab_detector::{Detector, DetectorError, EfferenceCopy, Frame, Signals};
 
-use crate::decision::Percept;
+use crate::decision::{Decider, Decision, Percept};
 use crate::{
     AgentError, CameraMotionSensor, ControllerEvent, EscapeConfig, EscapeController, LoomingSideEstimator, RobotFacts,
     SensedCamera, VelocityCommand,
@@ -63,6 +63,9 @@ pub struct EscapeAgent {
     applied: Option<VelocityCommand>,
     /// Turns the camera's poses into the detectors' efference copies.
     efference_sensor: CameraMotionSensor,
+    /// One decider per object the driving detector lists besides its most urgent one
+    /// ([`Signals::objects`]), by the detector's id for it.
+    object_deciders: Vec<(usize, Decider)>,
 }
 
 impl std::fmt::Debug for EscapeAgent {
@@ -89,6 +92,7 @@ impl EscapeAgent {
             controller: EscapeController::new(controller, facts)?,
             applied: None,
             efference_sensor: CameraMotionSensor::default(),
+            object_deciders: Vec::new(),
         })
     }
 
@@ -101,6 +105,7 @@ impl EscapeAgent {
             controller,
             applied: None,
             efference_sensor: CameraMotionSensor::default(),
+            object_deciders: Vec::new(),
         }
     }
 
@@ -113,6 +118,7 @@ impl EscapeAgent {
         self.controller.reset();
         self.applied = None;
         self.efference_sensor.reset();
+        self.object_deciders.clear();
     }
 
     /// Replaces the detector at `index` (e.g. rebuilt with other parameters).
@@ -214,9 +220,18 @@ impl EscapeAgent {
                 .perceive_signals(t_s, s, looming_side, cruise, shake_rad),
             None => self.controller.perceive(t_s, Percept::unknown(), cruise, shake_rad),
         };
-        let trigger_value = decision.value;
         let region = signals.first().and_then(|s| s.region);
         let object = region.and_then(|r| r.track);
+        self.controller.observe(t_s, object.unwrap_or(0), &decision, cruise);
+        // every other object the detector lists: its own decider; the alarm is raised by any
+        let others = signals
+            .first()
+            .map_or(f64::NAN, |s| self.decide_on_objects(t_s, s, object, cruise, shake_rad));
+        let trigger_value = if others > decision.value {
+            others
+        } else {
+            decision.value
+        };
         // a detector that localises the object escapes from the side on which the collision-course
         // gate predicts it to arrive (as `ideal_course` does), else from where it is now
         let looming_side = decision.escape_side(looming_side, region.is_some());
@@ -224,6 +239,50 @@ impl EscapeAgent {
         step.signals = signals;
         self.applied = Some(step.command);
         step
+    }
+
+    /// Run one decider per object in `signals.objects` other than `primary` (the driving
+    /// percept's), tell the controller each decision, and return the largest decision value
+    /// (NaN when there is none). Deciders of objects no longer listed are dropped.
+    fn decide_on_objects(
+        &mut self,
+        t_s: f64,
+        signals: &Signals,
+        primary: Option<usize>,
+        cruise: VelocityCommand,
+        shake_rad: [f64; 3],
+    ) -> f64 {
+        if signals.objects.is_empty() && self.object_deciders.is_empty() {
+            return f64::NAN;
+        }
+        self.object_deciders
+            .retain(|(id, _)| signals.objects.iter().any(|o| o.id == *id));
+        let motion = self.controller.self_motion(cruise, shake_rad);
+        let pinhole = self.controller.facts().pinhole;
+        let mut largest = f64::NAN;
+        for o in signals.objects.iter().filter(|o| Some(o.id) != primary) {
+            let index = match self.object_deciders.iter().position(|(id, _)| *id == o.id) {
+                Some(i) => i,
+                None => {
+                    let decider = self.controller.config().decider(self.controller.facts());
+                    self.object_deciders.push((o.id, decider));
+                    self.object_deciders.len() - 1
+                }
+            };
+            let percept = Percept::of_detector(o.angular_size_deg, None, Some(&o.region), &pinhole);
+            let decision: Decision = self.object_deciders[index].1.decide(t_s, percept, motion);
+            self.controller.observe(t_s, o.id, &decision, cruise);
+            if largest.is_nan() || decision.value > largest {
+                largest = decision.value;
+            }
+        }
+        largest
+    }
+
+    /// Tell the controller's planner what a decider outside this agent decided about object `id`
+    /// at `t_s` (the reference rows' ideal observers; call before [`Self::act_on_value`]).
+    pub fn observe(&mut self, t_s: f64, id: usize, decision: &Decision, cruise: VelocityCommand) {
+        self.controller.observe(t_s, id, decision, cruise);
     }
 
     /// The controller's step on a decision value that does not come from the agent's detectors

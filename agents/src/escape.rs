@@ -57,6 +57,7 @@ use loomlab_sim::RobotBase;
 #[allow(unused_imports)] // for doc links
 use crate::decision::{Course, MAX_PERSISTENCE_FRAMES, TriggerSignal};
 use crate::decision::{Decider, Decision, DecisionRule, Percept, SelfMotion};
+use crate::planner::{Candidate, Odometry, PlanContext, Planner};
 use crate::{AgentError, RobotFacts, VelocityCommand};
 use loomlab_detector::Signals;
 
@@ -64,12 +65,16 @@ use loomlab_detector::Signals;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Manoeuvre {
+    /// Choose among the others at the alarm and while it lasts: the one with the largest
+    /// predicted clearance from every perceived object ([`crate::planner`]); without any object's
+    /// forecast, a lateral dodge away from the alarming object.
+    #[default]
+    Plan,
     /// Get out of the looming object's way, towards the side away from it. On a holonomic base:
     /// sidestep at `dodge_speed_mps` (forward speed scaled by `dodge_forward_scale`, optional yaw
     /// away at `dodge_yaw_rate_rps`). On a differential drive, which cannot sidestep: turn away at
     /// `turn_rate_rps` while driving forward at `dodge_speed_mps` (or the cruise speed if faster), so
     /// the robot arcs out of the object's path.
-    #[default]
     DodgeLateral,
     /// Stand still.
     Stop,
@@ -139,6 +144,10 @@ pub struct EscapeConfig {
     pub reverse_speed_mps: f64,
     /// How long the manoeuvre lasts, in seconds (> 0).
     pub duration_s: f64,
+    /// With `manoeuvre = "plan"`: the predicted clearance (m, ≥ 0) from every object at or above
+    /// which a manoeuvre counts as safe; among safe ones the preferred is taken (the running one,
+    /// then the dodge away from the alarming object; [`crate::planner`]). Default 0.3.
+    pub clearance_margin_m: f64,
     /// Time after the manoeuvre during which no new trigger is accepted, in seconds (≥ 0).
     pub cooldown_s: f64,
     /// Side to dodge to when the looming side is unknown or central.
@@ -153,13 +162,14 @@ impl Default for EscapeConfig {
             decision: DecisionRule::default(),
             side_memory_s: 0.5,
             max_dodge_offset_m: None,
-            manoeuvre: Manoeuvre::DodgeLateral,
+            manoeuvre: Manoeuvre::Plan,
             dodge_speed_mps: 1.5,
             dodge_forward_scale: 1.0,
             dodge_yaw_rate_rps: 0.0,
             turn_rate_rps: 2.0,
             reverse_speed_mps: 1.0,
             duration_s: 0.6,
+            clearance_margin_m: 0.3,
             cooldown_s: 0.5,
             default_side: DodgeSide::Left,
             side_deadband: 0.05,
@@ -189,6 +199,7 @@ const KEYS: &[&str] = &[
     "turn_rate_rps",
     "reverse_speed_mps",
     "duration_s",
+    "clearance_margin_m",
     "cooldown_s",
     "default_side",
     "side_deadband",
@@ -233,6 +244,7 @@ impl<'de> serde::de::Visitor<'de> for EscapeConfigVisitor {
                 "turn_rate_rps" => c.turn_rate_rps = map.next_value()?,
                 "reverse_speed_mps" => c.reverse_speed_mps = map.next_value()?,
                 "duration_s" => c.duration_s = map.next_value()?,
+                "clearance_margin_m" => c.clearance_margin_m = map.next_value()?,
                 "cooldown_s" => c.cooldown_s = map.next_value()?,
                 "default_side" => c.default_side = map.next_value()?,
                 "side_deadband" => c.side_deadband = map.next_value()?,
@@ -283,6 +295,7 @@ impl EscapeConfig {
             ));
         }
         non_negative("escape.cooldown_s", self.cooldown_s)?;
+        non_negative("escape.clearance_margin_m", self.clearance_margin_m)?;
         non_negative("escape.side_memory_s", self.side_memory_s)?;
         if let Some(v) = self.max_dodge_offset_m
             && !(v.is_finite() && v > 0.0)
@@ -321,15 +334,33 @@ impl EscapeConfig {
     }
 
     /// The command of the manoeuvre towards `side` given the cruise command, on a robot with the
-    /// drive `base`.
+    /// drive `base` (`plan`: the lateral dodge, its fallback).
     pub fn manoeuvre_command(&self, side: DodgeSide, cruise: VelocityCommand, base: RobotBase) -> VelocityCommand {
-        match self.manoeuvre {
-            Manoeuvre::DodgeLateral if !base.can_sidestep() => VelocityCommand {
+        self.command(self.fixed_candidate(side), cruise, base)
+    }
+
+    /// The candidate this configuration's manoeuvre runs towards `side` (`plan`: the lateral dodge,
+    /// its fallback without forecasts).
+    pub fn fixed_candidate(&self, side: DodgeSide) -> Candidate {
+        Candidate {
+            manoeuvre: match self.manoeuvre {
+                Manoeuvre::Plan => Manoeuvre::DodgeLateral,
+                m => m,
+            },
+            side,
+        }
+    }
+
+    /// The command of `candidate` given the cruise command, on a robot with the drive `base`.
+    pub fn command(&self, candidate: Candidate, cruise: VelocityCommand, base: RobotBase) -> VelocityCommand {
+        let side = candidate.side;
+        match candidate.manoeuvre {
+            Manoeuvre::DodgeLateral | Manoeuvre::Plan if !base.can_sidestep() => VelocityCommand {
                 forward_mps: cruise.forward_mps.max(self.dodge_speed_mps),
                 yaw_rate_rps: side.sign() * self.turn_rate_rps,
                 lateral_mps: 0.0,
             },
-            Manoeuvre::DodgeLateral => VelocityCommand {
+            Manoeuvre::DodgeLateral | Manoeuvre::Plan => VelocityCommand {
                 forward_mps: cruise.forward_mps * self.dodge_forward_scale,
                 yaw_rate_rps: side.sign() * self.dodge_yaw_rate_rps,
                 lateral_mps: side.sign() * self.dodge_speed_mps,
@@ -375,7 +406,7 @@ impl ControllerEvent {
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Phase {
     Armed,
-    Manoeuvre { start_s: f64, side: DodgeSide },
+    Manoeuvre { start_s: f64, chosen: Candidate },
     Cooldown { until_s: f64 },
 }
 
@@ -400,6 +431,13 @@ pub struct EscapeController {
     last_step: Option<(f64, f64)>,
     /// How far the dodges have moved the robot sideways from its cruising path (m, + = left).
     dodge_offset_m: f64,
+    /// Every perceived object's forecast (`manoeuvre = "plan"`).
+    planner: Planner,
+    /// The robot's pose from its own commands, the time it holds for, and since when its motion
+    /// has been steady.
+    odometry: Odometry,
+    odometry_s: Option<f64>,
+    steady_since_s: f64,
 }
 
 impl EscapeController {
@@ -422,6 +460,10 @@ impl EscapeController {
             last_object: None,
             last_step: None,
             dodge_offset_m: 0.0,
+            planner: Planner::new(facts),
+            odometry: Odometry::default(),
+            odometry_s: None,
+            steady_since_s: f64::NEG_INFINITY,
         })
     }
 
@@ -449,6 +491,75 @@ impl EscapeController {
         self.last_object = None;
         self.last_step = None;
         self.dodge_offset_m = 0.0;
+        self.planner.reset();
+        self.odometry = Odometry::default();
+        self.odometry_s = None;
+        self.steady_since_s = f64::NEG_INFINITY;
+    }
+
+    /// Bring the odometry to `t_s` under the last command (`cruise` before the first).
+    fn advance_odometry(&mut self, t_s: f64, cruise: VelocityCommand) {
+        if !t_s.is_finite() {
+            return;
+        }
+        let command = self.last_command.unwrap_or(cruise);
+        match self.odometry_s {
+            None => {
+                // the episode starts cruising at the cruise speed
+                self.odometry.velocity = [command.forward_mps, command.lateral_mps, command.yaw_rate_rps];
+            }
+            Some(t0) if t_s > t0 => {
+                let before = self.odometry.velocity;
+                self.odometry.advance(&command, t_s - t0, &self.facts);
+                if before != self.odometry.velocity {
+                    self.steady_since_s = t_s;
+                }
+            }
+            Some(_) => return,
+        }
+        self.odometry_s = Some(t_s);
+    }
+
+    /// Tell the planner what the decider of object `id` decided at `t_s` (`manoeuvre = "plan"`;
+    /// call before [`Self::step`] at the same time, for every perceived object).
+    pub fn observe(&mut self, t_s: f64, id: usize, decision: &crate::Decision, cruise: VelocityCommand) {
+        if self.config.manoeuvre != Manoeuvre::Plan {
+            return;
+        }
+        self.advance_odometry(t_s, cruise);
+        if let Some(f) = &decision.forecast {
+            self.planner.observe(id, f, t_s, &self.odometry, self.steady_since_s);
+        }
+    }
+
+    /// The planner's choice at `t_s`: the candidate with the largest capped clearance, preferring
+    /// `running`, then the dodge to `side`, the other dodge, stopping, reversing.
+    fn plan(&self, t_s: f64, side: DodgeSide, cruise: VelocityCommand, running: Option<Candidate>) -> Option<Candidate> {
+        if self.config.manoeuvre != Manoeuvre::Plan || !self.planner.has_objects() {
+            return None;
+        }
+        let other = match side {
+            DodgeSide::Left => DodgeSide::Right,
+            DodgeSide::Right => DodgeSide::Left,
+        };
+        let preference = [
+            Candidate::dodge(side),
+            Candidate::dodge(other),
+            Candidate::ALL[2],
+            Candidate::ALL[3],
+        ];
+        let ctx = PlanContext {
+            t_s,
+            odometry: self.odometry,
+            cruise,
+            dodge_offset_m: self.dodge_offset_m,
+            config: &self.config,
+        };
+        if std::env::var_os("LOOMLAB_DEBUG_PLAN").is_some() {
+            let c: Vec<String> = preference.iter().map(|c| format!("{:?}/{:?}={:.3}", c.manoeuvre, c.side, self.planner.clearance(*c, &ctx))).collect();
+            eprintln!("plan t={t_s:.3} odo={:?} running={running:?} {} objects={}", self.odometry, c.join(" "), self.planner.debug());
+        }
+        self.planner.choose(&ctx, &preference, running)
     }
 
     /// Which object the next [`Self::step`]'s value comes from (`None`: unknown, e.g. a detector's
@@ -466,6 +577,12 @@ impl EscapeController {
     pub fn perceive(&mut self, t_s: f64, percept: Percept, cruise: VelocityCommand, shake_rad: [f64; 3]) -> Decision {
         let motion = SelfMotion::of(self.last_command.unwrap_or(cruise), shake_rad);
         self.decider.decide(t_s, percept, motion)
+    }
+
+    /// The robot's own motion as the decider sees it: the command this controller returned in its
+    /// last step (`cruise` before the first) and the camera's sensed shake.
+    pub fn self_motion(&self, cruise: VelocityCommand, shake_rad: [f64; 3]) -> SelfMotion {
+        SelfMotion::of(self.last_command.unwrap_or(cruise), shake_rad)
     }
 
     /// [`Self::perceive`] on a real detector's `signals`: its trigger signal, and its image region
@@ -526,6 +643,10 @@ impl EscapeController {
         looming_side: Option<f32>,
         cruise: VelocityCommand,
     ) -> (VelocityCommand, ControllerEvent) {
+        self.advance_odometry(t_s, cruise);
+        if t_s.is_finite() {
+            self.planner.forget_old(t_s);
+        }
         let cfg = &self.config;
         if t_s.is_finite() {
             if let Some((t0, lateral_mps)) = self.last_step
@@ -570,27 +691,44 @@ impl EscapeController {
                     _ => DodgeSide::away_from(looming_side, cfg.side_deadband, cfg.default_side),
                 };
                 self.last_object = self.object;
-                self.phase = Phase::Manoeuvre { start_s: t_s, side };
+                let chosen = self
+                    .plan(t_s, side, cruise, None)
+                    .unwrap_or_else(|| self.config.fixed_candidate(side));
+                self.phase = Phase::Manoeuvre { start_s: t_s, chosen };
                 self.triggers += 1;
                 self.first_trigger_s.get_or_insert(t_s);
-                self.last_side = Some(side);
-                let command = self.dodge_command(side, cruise);
+                self.last_side = Some(chosen.side).filter(|_| chosen.manoeuvre == Manoeuvre::DodgeLateral).or(Some(side));
+                let command = self.dodge_command(chosen, cruise);
                 self.record(t_s, command, cruise);
                 return (
                     command,
                     ControllerEvent::Triggered {
-                        side: self.reported_side(side),
+                        side: reported_side(chosen),
                     },
                 );
+            }
+            // while the alarm lasts, the planner may replace the running manoeuvre
+            if alarm
+                && let Phase::Manoeuvre { chosen, .. } = self.phase
+                && let Some(better) = self.plan(t_s, chosen.side, cruise, Some(chosen))
+                && !better.same_as(&chosen)
+            {
+                self.phase = Phase::Manoeuvre {
+                    start_s: t_s,
+                    chosen: better,
+                };
+                if better.manoeuvre == Manoeuvre::DodgeLateral {
+                    self.last_side = Some(better.side);
+                }
             }
         }
         let (command, event) = match self.phase {
             Phase::Armed => (cruise, ControllerEvent::Cruise),
             Phase::Cooldown { .. } => (cruise, ControllerEvent::Cooldown),
-            Phase::Manoeuvre { side, .. } => (
-                self.dodge_command(side, cruise),
+            Phase::Manoeuvre { chosen, .. } => (
+                self.dodge_command(chosen, cruise),
                 ControllerEvent::Manoeuvring {
-                    side: self.reported_side(side),
+                    side: reported_side(chosen),
                 },
             ),
         };
@@ -600,10 +738,10 @@ impl EscapeController {
 
     /// The manoeuvre's command towards `side`, its sidestep held once the dodges have taken the
     /// robot `max_dodge_offset_m` to that side.
-    fn dodge_command(&self, side: DodgeSide, cruise: VelocityCommand) -> VelocityCommand {
-        let mut command = self.config.manoeuvre_command(side, cruise, self.facts.base);
+    fn dodge_command(&self, chosen: Candidate, cruise: VelocityCommand) -> VelocityCommand {
+        let mut command = self.config.command(chosen, cruise, self.facts.base);
         if let Some(limit) = self.config.max_dodge_offset_m
-            && side.sign() * self.dodge_offset_m >= limit
+            && chosen.side.sign() * self.dodge_offset_m >= limit
         {
             command.lateral_mps = cruise.lateral_mps;
         }
@@ -618,8 +756,9 @@ impl EscapeController {
             self.last_step = Some((t_s, command.lateral_mps - cruise.lateral_mps));
         }
     }
+}
 
-    fn reported_side(&self, side: DodgeSide) -> Option<DodgeSide> {
-        (self.config.manoeuvre == Manoeuvre::DodgeLateral).then_some(side)
-    }
+/// The side a [`ControllerEvent`] reports for `chosen` (lateral dodges only).
+fn reported_side(chosen: Candidate) -> Option<DodgeSide> {
+    (chosen.manoeuvre == Manoeuvre::DodgeLateral).then_some(chosen.side)
 }

@@ -21,6 +21,11 @@ pub struct RobotFacts {
     pub body: BodyExtent,
     /// The robot's camera: image coordinates ↔ angles (default a 60° field of view).
     pub pinhole: Pinhole,
+    /// Largest change of the forward and lateral speeds (m/s², > 0; default 2.5; infinite for a
+    /// drive that follows its commands at once): the manoeuvre planner's model of the drive.
+    pub accel_mps2: f64,
+    /// Largest change of the yaw rate (rad/s², > 0; default 3.2; infinite as above).
+    pub yaw_accel_rps2: f64,
 }
 
 impl Default for RobotFacts {
@@ -29,6 +34,8 @@ impl Default for RobotFacts {
             base: RobotBase::Holonomic,
             body: BodyExtent::default(),
             pinhole: Pinhole::new(60.0),
+            accel_mps2: 2.5,
+            yaw_accel_rps2: 3.2,
         }
     }
 }
@@ -51,6 +58,22 @@ impl RobotFacts {
         ] {
             if !v.is_finite() {
                 return Err(invalid(key, v, "must be a finite number of metres"));
+            }
+        }
+        for (key, v) in [
+            ("world.robot.body (reach ahead of the camera)", self.body.ahead_of_camera_m),
+            ("world.robot.body (reach behind the camera)", self.body.behind_camera_m),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(invalid(key, v, "must be a finite number of metres >= 0"));
+            }
+        }
+        for (key, v) in [
+            ("world.robot.max_accel_mps2", self.accel_mps2),
+            ("world.robot.max_yaw_accel_rps2", self.yaw_accel_rps2),
+        ] {
+            if !(v > 0.0) {
+                return Err(invalid(key, v, "must be > 0 (infinite: the drive follows its commands at once)"));
             }
         }
         let fov = self.pinhole.fov_deg();

@@ -24,6 +24,7 @@ pub mod escape;
 pub mod facts;
 pub mod looming_side;
 pub mod sensing;
+pub mod planner;
 
 pub use action::{ActionConfig, ContinuousAction, DiscreteAction};
 pub use agent::{AgentStep, EscapeAgent};
@@ -35,4 +36,5 @@ pub use error::AgentError;
 pub use escape::{ControllerEvent, DodgeSide, EscapeConfig, EscapeController, Manoeuvre};
 pub use facts::RobotFacts;
 pub use looming_side::LoomingSideEstimator;
+pub use planner::{Candidate, Planner};
 pub use sensing::{CameraMotionSensor, SensedCamera};

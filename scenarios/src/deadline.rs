@@ -41,7 +41,7 @@
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use loomlab_agents::{EscapeAgent, EscapeController, VelocityCommand};
+use loomlab_agents::{Candidate, DodgeSide, EscapeAgent, EscapeController, Manoeuvre, VelocityCommand};
 use loomlab_sim::{Sim, SimError};
 
 use crate::schema::EpisodeSpec;
@@ -62,6 +62,8 @@ pub struct EscapeDeadline {
     pub searched: Range<usize>,
     /// Physics-only replays run.
     pub replays: usize,
+    /// The manoeuvre that evades from the deadline frame (the first of the set that does).
+    pub manoeuvre: Option<Candidate>,
 }
 
 impl EscapeDeadline {
@@ -86,6 +88,38 @@ impl EscapeDeadline {
     pub fn evades_at(&self, k: usize) -> bool {
         self.evading.iter().any(|r| r.contains(&k))
     }
+}
+
+/// The manoeuvres a replay tries at a trigger frame whose looming side is `side`: with
+/// `manoeuvre = "plan"` every candidate of the planner's set ([`Candidate::ALL`]), the dodge away
+/// from `side` first; else the controller's one manoeuvre towards that side. Each comes with the
+/// looming side that makes the controller run it.
+pub fn manoeuvre_set(controller: &EscapeController, side: Option<f32>) -> Vec<(Candidate, Option<f32>)> {
+    let config = controller.config();
+    let rule_side = DodgeSide::away_from(side, config.side_deadband, config.default_side);
+    let looming = |c: Candidate| match c.manoeuvre {
+        Manoeuvre::DodgeLateral => Some(-c.side.sign() as f32),
+        _ => side,
+    };
+    if config.manoeuvre != Manoeuvre::Plan {
+        return vec![(config.fixed_candidate(rule_side), side)];
+    }
+    let first = Candidate::dodge(rule_side);
+    std::iter::once(first)
+        .chain(Candidate::ALL.into_iter().filter(|c| !c.same_as(&first)))
+        .map(|c| (c, looming(c)))
+        .collect()
+}
+
+/// `controller` running `candidate` as its one manoeuvre (the controller itself when it already
+/// runs a fixed manoeuvre).
+pub fn controller_for(controller: &EscapeController, candidate: Candidate) -> EscapeController {
+    if controller.config().manoeuvre != Manoeuvre::Plan {
+        return controller.clone();
+    }
+    let mut config = controller.config().clone();
+    config.manoeuvre = candidate.manoeuvre;
+    EscapeController::new(config, *controller.facts()).expect("a valid controller with another manoeuvre stays valid")
 }
 
 /// Replays episode `ep` with simulator seed `seed` and the escape controller `controller`
@@ -288,6 +322,12 @@ fn search(
     };
     let mut replays = 0;
     let mut frame = None;
+    let mut manoeuvre = None;
+    // one controller per manoeuvre of the set, built once
+    let set: Vec<(Manoeuvre, EscapeController)> = Candidate::ALL
+        .iter()
+        .map(|c| (c.manoeuvre, controller_for(controller, *c)))
+        .collect();
     for k in (0..end).rev() {
         replays += 1;
         // the cruise prefix up to k from its latest checkpoint (a fork of it: the checkpoint may
@@ -296,18 +336,29 @@ fn search(
             // the cruise collided before frame k: no trigger at or after it evades
             continue;
         };
-        let start = Checkpoint {
-            frame: c.frame,
-            sim: c.sim.fork_physics_only(),
-            command: c.command,
-        };
-        match replay_from(ep, start, controller, k, side_at(k)?, cancel)? {
-            None => return Ok(None),
-            Some(Some(_)) => {}
-            Some(None) => {
-                frame = Some(k);
-                break;
+        let side = side_at(k)?;
+        for (i, (candidate, looming)) in manoeuvre_set(controller, side).into_iter().enumerate() {
+            if i > 0 {
+                replays += 1;
             }
+            let start = Checkpoint {
+                frame: c.frame,
+                sim: c.sim.fork_physics_only(),
+                command: c.command,
+            };
+            let runner = &set[set.iter().position(|(m, _)| *m == candidate.manoeuvre).unwrap_or(0)].1;
+            match replay_from(ep, start, runner, k, looming, cancel)? {
+                None => return Ok(None),
+                Some(Some(_)) => {}
+                Some(None) => {
+                    frame = Some(k);
+                    manoeuvre = Some(candidate);
+                    break;
+                }
+            }
+        }
+        if frame.is_some() {
+            break;
         }
     }
     Ok(Some(EscapeDeadline {
@@ -316,6 +367,7 @@ fn search(
         evading: frame.map(|k| k..k + 1).into_iter().collect(),
         searched: frame.unwrap_or(0)..end,
         replays,
+        manoeuvre,
     }))
 }
 
@@ -332,16 +384,25 @@ pub fn escape_deadline_exhaustive(
 ) -> Result<EscapeDeadline, SimError> {
     let end = contact_frame.min(sides.len()).min(t_s.len());
     let mut evading: Vec<Range<usize>> = Vec::new();
+    let mut replays = 0;
+    let mut manoeuvre = None;
     for (k, &side) in sides[..end].iter().enumerate() {
-        if replay_trigger(ep, seed, controller, k, side)?.is_some() {
-            continue;
+        let mut evades = None;
+        for (candidate, looming) in manoeuvre_set(controller, side) {
+            replays += 1;
+            let runner = controller_for(controller, candidate);
+            if replay_trigger(ep, seed, &runner, k, looming)?.is_none() {
+                evades = Some(candidate);
+                break;
+            }
         }
+        let Some(candidate) = evades else { continue };
+        manoeuvre = Some(candidate);
         match evading.last_mut() {
             Some(r) if r.end == k => r.end = k + 1,
             _ => evading.push(k..k + 1),
         }
     }
-    let replays = end;
     let frame = evading.last().map(|r| r.end - 1);
     Ok(EscapeDeadline {
         frame,
@@ -349,5 +410,6 @@ pub fn escape_deadline_exhaustive(
         evading,
         searched: 0..end,
         replays,
+        manoeuvre,
     })
 }

@@ -55,7 +55,7 @@
 //! regressions and from threshold calibration.
 
 use loomlab_agents::{
-    Course, Decider, DecisionRule, EscapeConfig, ImageExtent, Percept, RobotFacts, SelfMotion, TriggerSignal,
+    Course, Decider, Decision, DecisionRule, EscapeConfig, ImageExtent, Percept, RobotFacts, SelfMotion, TriggerSignal,
 };
 use loomlab_sim::{ObjectKind, ObjectTruth};
 
@@ -74,6 +74,9 @@ pub const REFERENCE_LABELS: [&str; 5] = [NULL, ORACLE, IDEAL_THETA, IDEAL_TAU, I
 /// The τ window of the ideal rows in camera frame periods: the least-squares fit over the last
 /// three frames ([`loomlab_agents::decision::MIN_SAMPLES`]; 2.5 periods hold exactly three).
 pub const IDEAL_TAU_WINDOW_FRAMES: f64 = 2.5;
+/// The course gate's window of the ideal rows in camera frame periods: the shortest that holds
+/// the four frames a parabola through the elevations needs (a straight course told from a lob).
+pub const IDEAL_COURSE_WINDOW_FRAMES: f64 = 4.5;
 /// Alarm threshold of the indicator signals of `null` and `oracle`.
 pub const INDICATOR_THRESHOLD: f64 = 1.0;
 
@@ -119,6 +122,8 @@ pub struct IdealObserver {
     config: EscapeConfig,
     facts: RobotFacts,
     per_object: Vec<Decider>,
+    /// This frame's decision about each visible object, by id (what the planner reads).
+    decisions: Vec<(usize, Decision)>,
 }
 
 impl IdealObserver {
@@ -139,11 +144,7 @@ impl IdealObserver {
                 tau_window_s: shortest_window_s,
                 // ideal_tau has no gate: its window only serves the side it dodges to (where the
                 // object will arrive), which must be known as soon as τ̂ is
-                course_window_s: if kind == IdealKind::Tau {
-                    shortest_window_s
-                } else {
-                    base.decision.course_window_s
-                },
+                course_window_s: IDEAL_COURSE_WINDOW_FRAMES * frame_period_s,
                 trigger: match kind {
                     IdealKind::Theta => TriggerSignal::AngularSizeDeg,
                     IdealKind::Tau | IdealKind::Course => TriggerSignal::Tau,
@@ -163,7 +164,14 @@ impl IdealObserver {
             config,
             facts,
             per_object: Vec::new(),
+            decisions: Vec::new(),
         }
+    }
+
+    /// The decisions of the last [`Self::update`] about every object in view, by object id (empty
+    /// for `ideal_theta`, which has no decider).
+    pub fn decisions(&self) -> &[(usize, Decision)] {
+        &self.decisions
     }
 
     /// The controller configuration of this row (its `alarm_threshold()` is the row's threshold).
@@ -179,6 +187,7 @@ impl IdealObserver {
     /// This frame's decision value, the image side (−1 … 1) of the object it comes from and that
     /// object's id, with `motion` the robot's own motion during the last camera period.
     pub fn update(&mut self, t_s: f64, truth: &[ObjectTruth], motion: SelfMotion) -> (f64, Option<f32>, Option<usize>) {
+        self.decisions.clear();
         if self.kind == IdealKind::Theta {
             return ideal_percept(truth);
         }
@@ -205,6 +214,9 @@ impl IdealObserver {
                 }),
             };
             let decision = self.per_object[o.id].decide(t_s, percept, motion);
+            if visible {
+                self.decisions.push((o.id, decision));
+            }
             if decision.value > best.0 {
                 // the τ rows escape from where the object will arrive, when the image says (their
                 // percept has the object's image extent)

@@ -25,9 +25,33 @@ pub const PASS_SIDE_MIN_RADII: f64 = 0.5;
 /// ballistic lob) is judged laterally only.
 pub const STRAIGHT_COURSE_MAX_RADII: f64 = 0.5;
 
+/// The object's course as the gate predicts it from the image over its window, in metres through
+/// the assumed closing speed: what the manoeuvre planner ([`crate::planner`]) extrapolates. Relative
+/// to the robot continuing the motion it had over the window; lateral offsets positive to the
+/// right of the camera, vertical ones positive up.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CourseForecast {
+    /// The window's mean time (s), at which [`Self::tau_s`] and [`Self::lateral_m`] hold.
+    pub t_s: f64,
+    /// Time to contact of the object's nearest face at [`Self::t_s`] (s, > 0).
+    pub tau_s: f64,
+    /// The closing speed the image offsets were scaled with (m/s): the assumed one, or the
+    /// robot's own forward speed for an object standing in the world.
+    pub closing_mps: f64,
+    /// Lateral offsets of the object's left and right edges at [`Self::t_s`] (m).
+    pub lateral_m: [f64; 2],
+    /// Lateral offsets of its left and right edges when it reaches the camera's depth (m).
+    pub arrival_lateral_m: [f64; 2],
+    /// Vertical offsets of its bottom and top edges when it reaches the camera's depth (m).
+    pub arrival_vertical_m: [f64; 2],
+    /// Whether its vertical course is straight (`Some(false)`: a lob; `None`: not yet known).
+    pub straight: Option<bool>,
+}
+
 /// What the gate found in one frame (the course fields of [`super::Decision`]).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct CourseAssessment {
+    pub(super) forecast: Option<CourseForecast>,
     pub(super) miss_radii: Option<f64>,
     pub(super) vertical_miss_radii: Option<f64>,
     pub(super) pass_side: Option<f32>,
@@ -40,6 +64,16 @@ pub(super) struct CourseAssessment {
 /// object reaches the camera.
 type ArrivalEdges = ([f64; 2], [f64; 2]);
 
+/// The arrival edges with the window's mean time, τ there, the closing speed and the lateral
+/// edges at the mean time (a [`CourseForecast`] but for `straight`).
+struct EdgeForecast {
+    edges: ArrivalEdges,
+    t_s: f64,
+    tau_s: f64,
+    closing_mps: f64,
+    lateral_m: [f64; 2],
+}
+
 /// The estimates over the gate's window (`course_window_s`) that the gate's tests read.
 struct CourseEstimates {
     miss_radii: Option<f64>,
@@ -48,6 +82,7 @@ struct CourseEstimates {
     straight: Option<bool>,
     has_elevation: bool,
     predicted_edges: Option<ArrivalEdges>,
+    edge_forecast: Option<EdgeForecast>,
     tau_rate: Option<f64>,
     speed: f64,
 }
@@ -87,6 +122,15 @@ pub(super) fn assess(
         (Course::Image, Some(tau)) => arrives_at_body(course, t_s, theta_rad, tau, &e, body),
     };
     CourseAssessment {
+        forecast: e.edge_forecast.as_ref().map(|f| CourseForecast {
+            t_s: f.t_s,
+            tau_s: f.tau_s,
+            closing_mps: f.closing_mps,
+            lateral_m: f.lateral_m,
+            arrival_lateral_m: f.edges.0,
+            arrival_vertical_m: f.edges.1,
+            straight: e.straight,
+        }),
         miss_radii: e.miss_radii,
         vertical_miss_radii: e.vertical_miss_radii,
         pass_side,
@@ -128,7 +172,8 @@ where
         _ => None,
     };
     let speed = rule.course_closing_speed_mps.max(motion.forward_mps);
-    let predicted_edges = arrival_edges(&course, theta_fit, speed, motion);
+    let edge_forecast = arrival_edges(&course, theta_fit, speed, motion);
+    let predicted_edges = edge_forecast.as_ref().map(|f| f.edges);
     // dτ/dt from ln θ = a + b·t + c·t²: τ = 1/(b + 2ct), so dτ/dt = −2c/b² at the window's mean
     let ln_theta = || course().filter(|s| s.has_theta()).map(|s| (s.t, s.theta_rad.ln()));
     let tau_rate = slope(ln_theta())
@@ -142,6 +187,7 @@ where
         straight,
         has_elevation,
         predicted_edges,
+        edge_forecast,
         tau_rate,
         speed,
     }
@@ -156,7 +202,7 @@ fn arrival_edges<'a, I>(
     theta_fit: Option<(f64, f64, f64)>,
     speed: f64,
     motion: &SelfMotion,
-) -> Option<ArrivalEdges>
+) -> Option<EdgeForecast>
 where
     I: Iterator<Item = &'a Sample> + Clone,
 {
@@ -176,10 +222,20 @@ where
     let closing = if standing { motion.forward_mps } else { speed };
     let scale = closing * tau_c.powi(2);
     let lateral = |(rate, mean): (f64, f64)| scale * (rate - motion.yaw_rate_rps * (1.0 + mean * mean));
-    Some((
-        [lateral(edges[0]), lateral(edges[1])],
-        [scale * edges[2].0, scale * edges[3].0],
-    ))
+    let (n, t_sum) = course()
+        .filter(|s| s.edges_tan.is_some())
+        .fold((0.0, 0.0), |(n, sum), s| (n + 1.0, sum + s.t));
+    let t_mean = t_sum / n;
+    Some(EdgeForecast {
+        edges: (
+            [lateral(edges[0]), lateral(edges[1])],
+            [scale * edges[2].0, scale * edges[3].0],
+        ),
+        t_s: t_mean,
+        tau_s: tau_c,
+        closing_mps: closing,
+        lateral_m: [closing * tau_c * edges[0].1, closing * tau_c * edges[1].1],
+    })
 }
 
 /// Whether an object with τ̂ `tau` will touch the body (the open gate's test).

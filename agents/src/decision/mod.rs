@@ -128,7 +128,7 @@ mod rule;
 mod tau;
 mod window;
 
-pub use course::{PASS_SIDE_MIN_RADII, STANDING_TOLERANCE, STOPPING_TAU_RATE, STRAIGHT_COURSE_MAX_RADII};
+pub use course::{CourseForecast, PASS_SIDE_MIN_RADII, STANDING_TOLERANCE, STOPPING_TAU_RATE, STRAIGHT_COURSE_MAX_RADII};
 pub use percept::{ImageExtent, Percept, SelfMotion};
 pub use rule::{BodyExtent, Course, DecisionRule, MAX_PERSISTENCE_FRAMES, TriggerSignal};
 pub use tau::surface_factor;
@@ -171,6 +171,9 @@ pub struct Decision {
     pub tau_rate: Option<f64>,
     /// Whether the course gate is open (always true with `course = "off"`).
     pub gate_open: bool,
+    /// The object's predicted course in metres, when the percept has an image extent over the
+    /// gate's window (what the manoeuvre planner reads).
+    pub forecast: Option<CourseForecast>,
 }
 
 impl Decision {
@@ -185,6 +188,7 @@ impl Decision {
             arrival_extent_m: None,
             tau_rate: None,
             gate_open,
+            forecast: None,
         }
     }
 }
@@ -288,6 +292,7 @@ impl Decider {
             arrival_extent_m: course.arrival_extent_m,
             tau_rate: course.tau_rate,
             gate_open: course.gate_open,
+            forecast: course.forecast,
         }
     }
 }

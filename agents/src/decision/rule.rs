@@ -198,6 +198,10 @@ pub struct BodyExtent {
     pub above_camera_m: f64,
     /// How far the body reaches below the camera (m; default 0.25).
     pub below_camera_m: f64,
+    /// How far the body reaches ahead of the camera (m, ≥ 0; default 0: a camera at the front).
+    pub ahead_of_camera_m: f64,
+    /// How far the body reaches behind the camera (m, ≥ 0; default 0.5).
+    pub behind_camera_m: f64,
 }
 
 impl Default for BodyExtent {
@@ -206,6 +210,8 @@ impl Default for BodyExtent {
             half_width_m: 0.2,
             above_camera_m: 0.05,
             below_camera_m: 0.25,
+            ahead_of_camera_m: 0.0,
+            behind_camera_m: 0.5,
         }
     }
 }

@@ -45,9 +45,11 @@ pub(super) fn ideal_tail(
     let mut decide = |agent: &mut EscapeAgent, t: f64, truth: &[ObjectTruth], applied: VelocityCommand| {
         let motion = SelfMotion::of(applied, camera.shake_rotation(t));
         let (value, side, object) = observer.update(t, truth, motion);
-        agent
-            .act_on_value(t, side, value, object, ep.cruise.command_at(t))
-            .command
+        let cruise = ep.cruise.command_at(t);
+        for (id, decision) in observer.decisions() {
+            agent.observe(t, *id, decision, cruise);
+        }
+        agent.act_on_value(t, side, value, object, cruise).command
     };
     let mut cmd = ep.cruise.command_at(0.0);
     let mut previous_t = None;

@@ -8,7 +8,7 @@ use super::head_on::HeadOnApproach;
 use super::reference::ideal_tail;
 use super::rows::{Row, Tail};
 use super::trace::ClosedLoop;
-use crate::deadline::{EscapeDeadline, replay_trigger};
+use crate::deadline::{EscapeDeadline, controller_for, manoeuvre_set, replay_trigger};
 use crate::error::RunError;
 use crate::metrics::{DetectorEpisode, GroundTruth, ThetaAccuracy, TraceSample, score_detector_episode};
 use crate::truth::EpisodeTruth;
@@ -61,13 +61,33 @@ impl EpisodeScoring<'_> {
                     label: row.label.clone(),
                     simulated: true,
                     triggers: 1,
-                    collision: replay_trigger(ep, ep.seed, escape, ka, self.sides[ka]).map_err(|e| c.sim(e))?,
+                    collision: self.oracle_replay(ep, escape, ka).map_err(|e| c.sim(e))?,
                     frames_rendered: 0,
                 },
                 Tail::Ideal(kind) => ideal_tail(c, &row.label, *kind, truth, ka)?,
                 Tail::Detector(_) => tail.ok_or(RunError::Interrupted)?,
             },
         })
+    }
+
+    /// The oracle's closed loop from its alarm at frame `ka` (the deadline frame): the manoeuvre of
+    /// the set that evades from there, else the controller's own rule.
+    fn oracle_replay(
+        &self,
+        ep: &crate::schema::EpisodeSpec,
+        escape: &EscapeController,
+        ka: usize,
+    ) -> Result<Option<crate::truth::Impact>, loomlab_sim::SimError> {
+        match self.deadline.and_then(|d| d.manoeuvre) {
+            Some(candidate) => {
+                let looming = manoeuvre_set(escape, self.sides[ka])
+                    .into_iter()
+                    .find(|(c, _)| c.same_as(&candidate))
+                    .and_then(|(_, side)| side);
+                replay_trigger(ep, ep.seed, &controller_for(escape, candidate), ka, looming)
+            }
+            None => replay_trigger(ep, ep.seed, escape, ka, self.sides[ka]),
+        }
     }
 
     /// The scores of `row` with closed loop `cl` (a row that names its objects is scored on its

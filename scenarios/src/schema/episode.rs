@@ -38,14 +38,34 @@ pub fn body_extent_about_camera_m(world: &WorldDesc) -> (f64, f64) {
 /// camera's pinhole (`world.camera.fov_deg`).
 pub fn robot_facts(world: &WorldDesc) -> RobotFacts {
     let (above_camera_m, below_camera_m) = body_extent_about_camera_m(world);
+    let half_length = match &world.robot.body {
+        loomlab_sim::ShapeDesc::Box { size } => f64::from(size[0]) / 2.0,
+        loomlab_sim::ShapeDesc::Cylinder { radius_m, .. } | loomlab_sim::ShapeDesc::Sphere { radius_m } => {
+            f64::from(*radius_m)
+        }
+    };
+    let camera_x = f64::from(world.camera.position[0]);
+    let robot = &world.robot;
+    // with analytic physics the robot follows its commands at once
+    let (accel_mps2, yaw_accel_rps2) = match world.physics {
+        loomlab_sim::PhysicsMode::Dynamic => (
+            f64::from(robot.max_accel_mps2.min(robot.max_decel_mps2)),
+            f64::from(robot.max_yaw_accel_rps2),
+        ),
+        loomlab_sim::PhysicsMode::Analytic => (f64::INFINITY, f64::INFINITY),
+    };
     RobotFacts {
-        base: world.robot.base,
+        base: robot.base,
         body: BodyExtent {
             half_width_m: body_half_width_m(world),
             above_camera_m,
             below_camera_m,
+            ahead_of_camera_m: (half_length - camera_x).max(0.0),
+            behind_camera_m: (half_length + camera_x).max(0.0),
         },
         pinhole: Pinhole::new(f64::from(world.camera.fov_deg)),
+        accel_mps2,
+        yaw_accel_rps2,
     }
 }
 
