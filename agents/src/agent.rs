@@ -28,7 +28,7 @@
 
 use loomlab_detector::{Detector, DetectorError, EfferenceCopy, Frame, Signals};
 
-use crate::decision::{Decider, Decision, Percept};
+use crate::decision::{Decision, Percept};
 use crate::{
     AgentError, CameraMotionSensor, ControllerEvent, EscapeConfig, EscapeController, LoomingSideEstimator, RobotFacts,
     SensedCamera, VelocityCommand,
@@ -63,9 +63,6 @@ pub struct EscapeAgent {
     applied: Option<VelocityCommand>,
     /// Turns the camera's poses into the detectors' efference copies.
     efference_sensor: CameraMotionSensor,
-    /// One decider per object the driving detector lists besides its most urgent one
-    /// ([`Signals::objects`]), by the detector's id for it.
-    object_deciders: Vec<(usize, Decider)>,
 }
 
 impl std::fmt::Debug for EscapeAgent {
@@ -92,7 +89,6 @@ impl EscapeAgent {
             controller: EscapeController::new(controller, facts)?,
             applied: None,
             efference_sensor: CameraMotionSensor::default(),
-            object_deciders: Vec::new(),
         })
     }
 
@@ -105,7 +101,6 @@ impl EscapeAgent {
             controller,
             applied: None,
             efference_sensor: CameraMotionSensor::default(),
-            object_deciders: Vec::new(),
         }
     }
 
@@ -118,7 +113,6 @@ impl EscapeAgent {
         self.controller.reset();
         self.applied = None;
         self.efference_sensor.reset();
-        self.object_deciders.clear();
     }
 
     /// Replaces the detector at `index` (e.g. rebuilt with other parameters).
@@ -224,9 +218,10 @@ impl EscapeAgent {
         let object = region.and_then(|r| r.track);
         self.controller.observe(t_s, object.unwrap_or(0), &decision, cruise);
         // every other object the detector lists: its own decider; the alarm is raised by any
-        let others = signals
-            .first()
-            .map_or(f64::NAN, |s| self.decide_on_objects(t_s, s, object, cruise, shake_rad));
+        let others = signals.first().map_or(f64::NAN, |s| {
+            self.controller
+                .perceive_objects(t_s, &s.objects, object, cruise, shake_rad)
+        });
         let trigger_value = if others > decision.value {
             others
         } else {
@@ -239,44 +234,6 @@ impl EscapeAgent {
         step.signals = signals;
         self.applied = Some(step.command);
         step
-    }
-
-    /// Run one decider per object in `signals.objects` other than `primary` (the driving
-    /// percept's), tell the controller each decision, and return the largest decision value
-    /// (NaN when there is none). Deciders of objects no longer listed are dropped.
-    fn decide_on_objects(
-        &mut self,
-        t_s: f64,
-        signals: &Signals,
-        primary: Option<usize>,
-        cruise: VelocityCommand,
-        shake_rad: [f64; 3],
-    ) -> f64 {
-        if signals.objects.is_empty() && self.object_deciders.is_empty() {
-            return f64::NAN;
-        }
-        self.object_deciders
-            .retain(|(id, _)| signals.objects.iter().any(|o| o.id == *id));
-        let motion = self.controller.self_motion(cruise, shake_rad);
-        let pinhole = self.controller.facts().pinhole;
-        let mut largest = f64::NAN;
-        for o in signals.objects.iter().filter(|o| Some(o.id) != primary) {
-            let index = match self.object_deciders.iter().position(|(id, _)| *id == o.id) {
-                Some(i) => i,
-                None => {
-                    let decider = self.controller.config().decider(self.controller.facts());
-                    self.object_deciders.push((o.id, decider));
-                    self.object_deciders.len() - 1
-                }
-            };
-            let percept = Percept::of_detector(o.angular_size_deg, None, Some(&o.region), &pinhole);
-            let decision: Decision = self.object_deciders[index].1.decide(t_s, percept, motion);
-            self.controller.observe(t_s, o.id, &decision, cruise);
-            if largest.is_nan() || decision.value > largest {
-                largest = decision.value;
-            }
-        }
-        largest
     }
 
     /// Tell the controller's planner what a decider outside this agent decided about object `id`

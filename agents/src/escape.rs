@@ -59,7 +59,7 @@ use crate::decision::{Course, MAX_PERSISTENCE_FRAMES, TriggerSignal};
 use crate::decision::{Decider, Decision, DecisionRule, Percept, SelfMotion};
 use crate::planner::{Candidate, Odometry, PlanContext, Planner};
 use crate::{AgentError, RobotFacts, VelocityCommand};
-use loomlab_detector::Signals;
+use loomlab_detector::{PerceivedObject, Signals};
 
 /// The escape manoeuvre run after a trigger.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -433,6 +433,8 @@ pub struct EscapeController {
     dodge_offset_m: f64,
     /// Every perceived object's forecast (`manoeuvre = "plan"`).
     planner: Planner,
+    /// One decider per object a detector lists besides its driving percept, by the detector's id.
+    object_deciders: Vec<(usize, Decider)>,
     /// The robot's pose from its own commands, the time it holds for, and since when its motion
     /// has been steady.
     odometry: Odometry,
@@ -461,6 +463,7 @@ impl EscapeController {
             last_step: None,
             dodge_offset_m: 0.0,
             planner: Planner::new(facts),
+            object_deciders: Vec::new(),
             odometry: Odometry::default(),
             odometry_s: None,
             steady_since_s: f64::NEG_INFINITY,
@@ -492,6 +495,7 @@ impl EscapeController {
         self.last_step = None;
         self.dodge_offset_m = 0.0;
         self.planner.reset();
+        self.object_deciders.clear();
         self.odometry = Odometry::default();
         self.odometry_s = None;
         self.steady_since_s = f64::NEG_INFINITY;
@@ -599,6 +603,43 @@ impl EscapeController {
         let motion = SelfMotion::of(self.last_command.unwrap_or(cruise), shake_rad);
         self.decider
             .decide_on_detector(t_s, value, looming_side, signals.region.as_ref(), motion)
+    }
+
+    /// Run one decider per object in `objects` other than `primary` (the driving percept's: a
+    /// detector's [`Signals::objects`](loomlab_detector::Signals::objects)), tell the planner each
+    /// decision, and return the largest decision value (NaN when there is none): an alarm is
+    /// raised by any object. Deciders of objects no longer listed are dropped.
+    pub fn perceive_objects(
+        &mut self,
+        t_s: f64,
+        objects: &[PerceivedObject],
+        primary: Option<usize>,
+        cruise: VelocityCommand,
+        shake_rad: [f64; 3],
+    ) -> f64 {
+        if objects.is_empty() && self.object_deciders.is_empty() {
+            return f64::NAN;
+        }
+        self.object_deciders
+            .retain(|(id, _)| objects.iter().any(|o| o.id == *id));
+        let motion = self.self_motion(cruise, shake_rad);
+        let mut largest = f64::NAN;
+        for o in objects.iter().filter(|o| Some(o.id) != primary) {
+            let index = match self.object_deciders.iter().position(|(id, _)| *id == o.id) {
+                Some(i) => i,
+                None => {
+                    self.object_deciders.push((o.id, self.config.decider(&self.facts)));
+                    self.object_deciders.len() - 1
+                }
+            };
+            let percept = Percept::of_detector(o.angular_size_deg, None, Some(&o.region), &self.facts.pinhole);
+            let decision = self.object_deciders[index].1.decide(t_s, percept, motion);
+            self.observe(t_s, o.id, &decision, cruise);
+            if largest.is_nan() || decision.value > largest {
+                largest = decision.value;
+            }
+        }
+        largest
     }
 
     /// Number of triggers since the last reset.

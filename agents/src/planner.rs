@@ -53,6 +53,10 @@ pub const PLAN_STEP_S: f64 = 1.0 / 120.0;
 pub const MAX_HORIZON_S: f64 = 3.0;
 /// How long a forecast that is no longer refreshed is extrapolated (s).
 pub const FORECAST_MEMORY_S: f64 = 3.0;
+/// The closing speeds, as factors of the forecast's, under which a candidate must clear an object
+/// that does not stand in the world: the image gives no scale, so the forecast's metres hold for
+/// the assumed closing speed only (module docs, "Prediction").
+pub const SCALE_HYPOTHESES: [f64; 3] = [0.5, 1.0, 1.6];
 /// How much larger (m) another candidate's capped clearance must be to replace the running one.
 pub const SWITCH_MARGIN_M: f64 = 0.05;
 
@@ -161,16 +165,16 @@ struct Remembered {
 impl Remembered {
     /// The object's footprint at time `t_s` in the odometry frame: centre and half-extents along
     /// the origin's axes (forward, left), or `None` when it passes above or below the body.
-    fn footprint(&self, t_s: f64) -> ([f64; 2], [f64; 2]) {
+    fn footprint(&self, t_s: f64, scale: f64) -> ([f64; 2], [f64; 2]) {
         let f = &self.forecast;
         let s = t_s - f.t_s;
         let progress = s / f.tau_s;
-        let edge = |i: usize| f.lateral_m[i] + (f.arrival_lateral_m[i] - f.lateral_m[i]) * progress;
+        let edge = |i: usize| scale * (f.lateral_m[i] + (f.arrival_lateral_m[i] - f.lateral_m[i]) * progress);
         // image lateral is positive right; the odometry frame's y is positive left
         let (right, left) = (-edge(0).min(edge(1)), -edge(0).max(edge(1)));
         let half_width = ((right - left).abs() / 2.0).max(0.02);
         let half_depth = half_width.clamp(0.02, 2.5);
-        let nearest = f.closing_mps * (f.tau_s - s);
+        let nearest = scale * f.closing_mps * (f.tau_s - s);
         let [vf, vl, _] = self.origin.velocity;
         let centre = self
             .origin
@@ -189,7 +193,8 @@ impl Remembered {
     fn passed_s(&self, facts: &RobotFacts) -> f64 {
         let f = &self.forecast;
         let depth = (f.arrival_lateral_m[1] - f.arrival_lateral_m[0]).abs().clamp(0.04, 5.0);
-        f.t_s + f.tau_s + (facts.body.behind_camera_m + depth) / f.closing_mps.max(0.1)
+        let slowest = if f.standing { 1.0 } else { SCALE_HYPOTHESES[0] };
+        f.t_s + f.tau_s + (facts.body.behind_camera_m + depth) / (slowest * f.closing_mps).max(0.1)
     }
 }
 
@@ -326,11 +331,19 @@ impl Planner {
             offset += (before + pose.velocity[1]) / 2.0 * PLAN_STEP_S - ctx.cruise.lateral_mps * PLAN_STEP_S;
             t += PLAN_STEP_S;
             for o in self.objects.iter().filter(|o| !o.passes_over_or_under(facts)) {
-                let (centre, half) = o.footprint(t);
-                let rel = pose.to_body(centre);
-                let gap_forward = (rel[0] - half[0] - body.ahead_of_camera_m).max(-body.behind_camera_m - (rel[0] + half[0]));
-                let gap_lateral = rel[1].abs() - half[1] - body.half_width_m;
-                clearance = clearance.min(gap_forward.max(gap_lateral));
+                let scales = if o.forecast.standing {
+                    &[1.0][..]
+                } else {
+                    &SCALE_HYPOTHESES[..]
+                };
+                for &scale in scales {
+                    let (centre, half) = o.footprint(t, scale);
+                    let rel = pose.to_body(centre);
+                    let gap_forward =
+                        (rel[0] - half[0] - body.ahead_of_camera_m).max(-body.behind_camera_m - (rel[0] + half[0]));
+                    let gap_lateral = rel[1].abs() - half[1] - body.half_width_m;
+                    clearance = clearance.min(gap_forward.max(gap_lateral));
+                }
             }
         }
         clearance

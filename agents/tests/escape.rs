@@ -339,6 +339,7 @@ fn the_robots_facts_are_given_at_construction_and_checked() {
         half_width_m,
         above_camera_m,
         below_camera_m: 0.25,
+        ..loomlab_agents::BodyExtent::default()
     };
     for (facts, key) in [
         (

@@ -3,3 +3,4 @@
 mod action;
 mod decision_call_path;
 mod escape;
+mod planner;

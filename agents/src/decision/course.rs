@@ -46,6 +46,9 @@ pub struct CourseForecast {
     pub arrival_vertical_m: [f64; 2],
     /// Whether its vertical course is straight (`Some(false)`: a lob; `None`: not yet known).
     pub straight: Option<bool>,
+    /// Whether its edges move as those of an object standing in the world: then the closing speed
+    /// is the robot's own and the metres are exact; else they scale with the assumed speed.
+    pub standing: bool,
 }
 
 /// What the gate found in one frame (the course fields of [`super::Decision`]).
@@ -72,6 +75,7 @@ struct EdgeForecast {
     tau_s: f64,
     closing_mps: f64,
     lateral_m: [f64; 2],
+    standing: bool,
 }
 
 /// The estimates over the gate's window (`course_window_s`) that the gate's tests read.
@@ -130,6 +134,7 @@ pub(super) fn assess(
             arrival_lateral_m: f.edges.0,
             arrival_vertical_m: f.edges.1,
             straight: e.straight,
+            standing: f.standing,
         }),
         miss_radii: e.miss_radii,
         vertical_miss_radii: e.vertical_miss_radii,
@@ -235,6 +240,7 @@ where
         tau_s: tau_c,
         closing_mps: closing,
         lateral_m: [closing * tau_c * edges[0].1, closing * tau_c * edges[1].1],
+        standing,
     })
 }
 

@@ -1,0 +1,179 @@
+//! The manoeuvre planner on analytic scenes: objects whose courses are given as the collision-course
+//! gate forecasts them, and a robot cruising at 1 m/s.
+
+use loomlab_agents::decision::CourseForecast;
+use loomlab_agents::planner::{Odometry, PlanContext};
+use loomlab_agents::{Candidate, DodgeSide, EscapeConfig, Manoeuvre, Planner, RobotFacts, VelocityCommand};
+
+const CRUISE: VelocityCommand = VelocityCommand {
+    forward_mps: 1.0,
+    yaw_rate_rps: 0.0,
+    lateral_mps: 0.0,
+};
+
+/// An object `depth_m` ahead now, its centre `lateral_m` to the right of the camera, closing at
+/// `closing_mps` and arriving `arrival_lateral_m` to the right, `half_width_m` wide each side.
+fn forecast(depth_m: f64, lateral_m: f64, arrival_lateral_m: f64, half_width_m: f64, closing_mps: f64) -> CourseForecast {
+    CourseForecast {
+        t_s: 0.0,
+        tau_s: depth_m / closing_mps,
+        closing_mps,
+        lateral_m: [lateral_m - half_width_m, lateral_m + half_width_m],
+        arrival_lateral_m: [arrival_lateral_m - half_width_m, arrival_lateral_m + half_width_m],
+        arrival_vertical_m: [-0.1, 0.1],
+        straight: Some(true),
+        // the tests' standing objects close at the robot's 1 m/s
+        standing: closing_mps == 1.0,
+    }
+}
+
+fn cruising() -> Odometry {
+    Odometry {
+        velocity: [1.0, 0.0, 0.0],
+        ..Odometry::default()
+    }
+}
+
+fn planner_with(objects: &[CourseForecast]) -> Planner {
+    let mut planner = Planner::new(RobotFacts::default());
+    for (id, f) in objects.iter().enumerate() {
+        planner.observe(id, f, 0.0, &cruising(), f64::NEG_INFINITY);
+    }
+    planner
+}
+
+fn ctx(config: &EscapeConfig) -> PlanContext<'_> {
+    PlanContext {
+        t_s: 0.0,
+        odometry: cruising(),
+        cruise: CRUISE,
+        dodge_offset_m: 0.0,
+        config,
+    }
+}
+
+fn preference(first: DodgeSide) -> [Candidate; 4] {
+    let other = if first == DodgeSide::Left {
+        DodgeSide::Right
+    } else {
+        DodgeSide::Left
+    };
+    [Candidate::dodge(first), Candidate::dodge(other), Candidate::ALL[2], Candidate::ALL[3]]
+}
+
+fn clearances(planner: &Planner, config: &EscapeConfig) -> Vec<(Candidate, f64)> {
+    Candidate::ALL.iter().map(|c| (*c, planner.clearance(*c, &ctx(config)))).collect()
+}
+
+#[test]
+fn a_lone_ball_on_course_is_dodged_to_the_preferred_side_and_the_dodge_clears_it() {
+    let config = EscapeConfig::default();
+    let planner = planner_with(&[forecast(8.0, 0.0, 0.0, 0.1, 10.0)]);
+    let chosen = planner.choose(&ctx(&config), &preference(DodgeSide::Right), None).unwrap();
+    assert_eq!(chosen, Candidate::dodge(DodgeSide::Right));
+    let c = clearances(&planner, &config);
+    assert!(c[0].1 > 0.3 && c[1].1 > 0.3, "{c:?}");
+    // standing still does not help against a ball that flies into the robot
+    assert!(c[2].1 < 0.0, "{c:?}");
+}
+
+#[test]
+fn two_balls_from_both_sides_with_one_safe_gap() {
+    // ball A on course (arrives at the camera), ball B arriving 0.8 m to the left: the dodge to
+    // the left runs into B, the dodge to the right clears both, whatever the preference says
+    let config = EscapeConfig::default();
+    let planner = planner_with(&[
+        forecast(8.0, 0.5, 0.0, 0.1, 10.0),
+        forecast(9.0, -2.0, -0.8, 0.1, 10.0),
+    ]);
+    for first in [DodgeSide::Left, DodgeSide::Right] {
+        let chosen = planner.choose(&ctx(&config), &preference(first), None).unwrap();
+        assert_eq!(chosen, Candidate::dodge(DodgeSide::Right), "preferring {first:?}");
+    }
+    let c = clearances(&planner, &config);
+    assert!(c[0].1 < 0.1, "left into B: {c:?}");
+    assert!(c[1].1 > config.clearance_margin_m, "right clears both: {c:?}");
+}
+
+#[test]
+fn a_threat_with_a_car_passing_beside_is_dodged_away_from_the_car() {
+    // a ball on course and, in the next lane to the right, a car (1.8 m wide) coming the other
+    // way at 8 m/s: its near side passes 0.9 m right of the camera, so the dodge to the right
+    // (0.9 m in 0.6 s) would drive into it
+    let config = EscapeConfig::default();
+    let car = forecast(14.0, 1.8, 1.8, 0.9, 9.0);
+    let planner = planner_with(&[forecast(10.0, 0.0, 0.0, 0.1, 10.0), car]);
+    let chosen = planner.choose(&ctx(&config), &preference(DodgeSide::Right), None).unwrap();
+    assert_eq!(chosen, Candidate::dodge(DodgeSide::Left));
+    let c = clearances(&planner, &config);
+    assert!(c[1].1 < 0.0, "the dodge to the right hits the car: {c:?}");
+}
+
+#[test]
+fn a_wall_beside_the_dodge_limits_it_and_the_other_side_is_taken() {
+    // the corridor allows 0.3 m to the left (`max_dodge_offset_m`, as a robot that knows its
+    // lane sets it): a dodge to the left stops after 0.3 m, too little for a ball that arrives
+    // 0.25 m to the right... of the camera's left, so the right is taken
+    let config = EscapeConfig {
+        max_dodge_offset_m: Some(0.3),
+        ..EscapeConfig::default()
+    };
+    let planner = planner_with(&[forecast(8.0, -0.3, -0.15, 0.2, 10.0)]);
+    let chosen = planner.choose(&ctx(&config), &preference(DodgeSide::Left), None).unwrap();
+    assert_eq!(chosen, Candidate::dodge(DodgeSide::Right));
+    // and a pole standing 1 m to the left ahead (closing at the robot's own speed) blocks the
+    // left as well when nothing limits the offset
+    let config = EscapeConfig::default();
+    let planner = planner_with(&[
+        forecast(6.0, 0.0, 0.0, 0.1, 10.0),
+        forecast(1.2, -0.7, -0.7, 0.1, 1.0),
+    ]);
+    let chosen = planner.choose(&ctx(&config), &preference(DodgeSide::Left), None).unwrap();
+    assert_eq!(chosen, Candidate::dodge(DodgeSide::Right));
+}
+
+#[test]
+fn when_both_dodges_run_into_a_ball_the_robot_holds_back() {
+    // balls arriving 0.8 m to each side: a 0.9 m dodge to either side runs into one, staying on
+    // the path (stopping or reversing) lets both pass
+    let config = EscapeConfig::default();
+    let planner = planner_with(&[
+        forecast(9.0, -1.6, -0.8, 0.15, 10.0),
+        forecast(9.0, 1.6, 0.8, 0.15, 10.0),
+    ]);
+    let chosen = planner.choose(&ctx(&config), &preference(DodgeSide::Left), None).unwrap();
+    assert!(
+        matches!(chosen.manoeuvre, Manoeuvre::Stop | Manoeuvre::Reverse),
+        "{chosen:?}: {:?}",
+        clearances(&planner, &config)
+    );
+}
+
+#[test]
+fn the_running_manoeuvre_is_kept_unless_another_is_clearly_better() {
+    let config = EscapeConfig::default();
+    let planner = planner_with(&[forecast(8.0, 0.0, 0.0, 0.1, 10.0)]);
+    let running = Candidate::dodge(DodgeSide::Left);
+    assert_eq!(
+        planner.choose(&ctx(&config), &preference(DodgeSide::Right), Some(running)),
+        Some(running)
+    );
+    // nothing remembered: the planner gives no choice (the fixed rule decides)
+    let empty = Planner::new(RobotFacts::default());
+    assert_eq!(empty.choose(&ctx(&config), &preference(DodgeSide::Right), None), None);
+}
+
+#[test]
+fn a_forecast_made_while_the_robot_changed_its_motion_is_not_taken() {
+    let mut planner = Planner::new(RobotFacts::default());
+    // window from t = 0.0 to 0.2 (mean 0.1), but the motion changed at 0.05
+    let mut f = forecast(8.0, 0.0, 0.0, 0.1, 10.0);
+    f.t_s = 0.1;
+    planner.observe(1, &f, 0.2, &cruising(), 0.05);
+    assert!(!planner.has_objects());
+    planner.observe(1, &f, 0.2, &cruising(), 0.0);
+    assert!(planner.has_objects());
+    // forgotten once it has passed
+    planner.forget_old(5.0);
+    assert!(!planner.has_objects());
+}
