@@ -94,7 +94,8 @@
 //!    in units of the track's size. An assigned region is joined by the free regions touching it
 //!    (and, for a moving camera, overlapping the predicted box), a standing camera's cleaned of
 //!    the background it uncovered without changing the model (which follows the primary track
-//!    only), and measured and fitted as in step 4 (a moving camera's other tracks are measured on
+//!    only; a region that is all uncovered background — where an object was, or stood when the
+//!    model started — is no measurement and starts no track), and measured and fitted as in step 4 (a moving camera's other tracks are measured on
 //!    the difference's regions, not by the object's appearance). A track is **born** tentative on
 //!    each region left free that does not overlap a tracked box grown by its margin, heaviest
 //!    first, while fewer than [`MAX_TRACKS`] tracks are held; it is **confirmed** once it has
@@ -594,6 +595,7 @@ impl Detector for Tracker {
         self.follow_others(frame.data(), n, standing, claimed);
         if standing {
             self.update_background(frame.data(), n);
+            self.update_others_background(frame.data(), n);
         }
         Ok(self.signals(n))
     }

@@ -21,6 +21,15 @@ pub const MAX_TRACKS: usize = 8;
 /// crossing in the image stay merged for longer than a gap in one object's region lasts.
 pub const MERGED_HOLD_FACTOR: usize = 4;
 
+/// What the other tracks' step reads of this frame.
+struct Scene<'a> {
+    frame: &'a [f32],
+    n: usize,
+    standing: bool,
+    /// The other tracks' background model (`Others::background`; empty for a moving camera).
+    background: &'a [f32],
+}
+
 /// One track beside the primary one: its region, its fit (the primary track's kind, with its own
 /// samples and frame count) and its life.
 #[derive(Debug, Clone)]
@@ -60,14 +69,22 @@ pub(super) struct Others {
     free: Vec<bool>,
     /// Per track: the region assigned to it this frame.
     assigned: Vec<Option<Blob>>,
-    /// The background model's values around a region ([`Tracker::clean_standing`]).
+    /// The background model's values around a region ([`Tracker::measure_standing`]).
     ring: Vec<f32>,
+    /// A standing camera's background model for these tracks (n·n; empty for a moving camera):
+    /// the primary track's model while there are no other tracks, then followed like it but
+    /// frozen in every track's box ([`Tracker::update_others_background`]), so that an object
+    /// tracked here does not fade into it (the primary track's model is frozen in its box only).
+    background: Vec<f32>,
+    /// Per pixel: whether it lies in a track's grown box (the model's update, scratch).
+    frozen: Vec<bool>,
 }
 
 impl Others {
     /// Forgets every track (a reset).
     pub(super) fn clear(&mut self) {
         self.tracks.clear();
+        self.background.clear();
     }
 
     /// Composes each track's camera rotation with the camera's `rotation` in this frame.
@@ -152,7 +169,14 @@ impl Tracker {
     /// is then measured and fitted, held or ended, and the regions left over start new tracks.
     pub(super) fn follow_others(&mut self, frame: &[f32], n: usize, standing: bool, claimed: Option<[usize; 4]>) {
         let mut others = std::mem::take(&mut self.others);
-        let Others { tracks, pairs, free, assigned, ring } = &mut others;
+        let Others { tracks, pairs, free, assigned, ring, background, .. } = &mut others;
+        if !standing {
+            background.clear();
+        } else if background.len() != n * n {
+            background.clear();
+            background.extend_from_slice(&self.background);
+        }
+        let scene = Scene { frame, n, standing, background };
         free.clear();
         free.extend(self.blobs.iter().map(|b| !claimed.is_some_and(|c| b.overlaps(c, 0))));
         pairs.clear();
@@ -196,28 +220,26 @@ impl Tracker {
         }
         for k in 0..tracks.len() {
             let region = assigned[k].take();
-            self.step_other(&mut tracks[k], region, frame, n, standing, ring);
+            self.step_other(&mut tracks[k], region, &scene, ring);
         }
         self.end_others(tracks);
         let mut next_id = self.tracks;
-        self.start_others(&mut next_id, tracks, free, frame, n, standing, ring);
+        self.start_others(&mut next_id, tracks, free, &scene, ring);
         self.tracks = next_id;
         self.others = others;
     }
 
     /// Track `t`'s measurement of `region` (None: it holds on its fit) and its fit in this frame.
-    fn step_other(
-        &self,
-        t: &mut Track,
-        region: Option<Blob>,
-        frame: &[f32],
-        n: usize,
-        standing: bool,
-        ring: &mut Vec<f32>,
-    ) {
-        match region {
-            Some(b) => {
-                let (b, sample) = self.measure_other(b, t.clock, frame, n, standing, ring);
+    fn step_other(&self, t: &mut Track, region: Option<Blob>, scene: &Scene, ring: &mut Vec<f32>) {
+        let n = scene.n;
+        // a standing camera's object is measured in the window of its region and its predicted box
+        let window = region.map(|b| {
+            let predicted = pixel_box(std::array::from_fn(|q| t.edges[q] + t.motion[q]), n);
+            if scene.standing { super::region::box_union(b.bbox, predicted) } else { b.bbox }
+        });
+        // a standing camera's region that is all uncovered background is no measurement
+        match region.zip(window).and_then(|(b, w)| self.measure_other(b, w, t.clock, scene, ring)) {
+            Some((b, sample)) => {
                 // a track switching between the object's image and the difference's boxes starts
                 // its fit afresh (the primary track's rule)
                 if t.samples.back().is_some_and(|s| s.current != sample.current) {
@@ -244,64 +266,93 @@ impl Tracker {
         t.clock += 1;
     }
 
-    /// A region `b` of another track measured at frame `clock` of its fit: a standing camera's
-    /// region first cleaned of the background it uncovered ([`Self::clean_standing`]).
+    /// A region `b` of another track measured at frame `clock` of its fit: a moving camera's as
+    /// it is, a standing camera's object found in `window` ([`Self::measure_standing`]; None when
+    /// nothing of it is left: where an object was, or stood when the model started).
     fn measure_other(
         &self,
         b: Blob,
+        window: [usize; 4],
         clock: usize,
-        frame: &[f32],
-        n: usize,
-        standing: bool,
+        scene: &Scene,
         ring: &mut Vec<f32>,
-    ) -> (Blob, BoxSample) {
-        if !standing {
-            return (b, self.measure_at(&b, n, clock, |p| self.mask[p] != 0.0));
+    ) -> Option<(Blob, BoxSample)> {
+        if !scene.standing {
+            return Some((b, self.measure_at(&b, scene.n, clock, |p| self.mask[p] != 0.0)));
         }
-        match self.clean_standing(frame, n, &b, ring) {
-            Some((cleaned, around)) => {
-                let object = |p: usize| {
-                    let model = frame[p] - self.residual[p];
-                    self.mask[p] != 0.0 && (frame[p] - around).abs() > (model - around).abs()
-                };
-                (cleaned, self.measure_at(&cleaned, n, clock, object))
-            }
-            None => (b, self.measure_at(&b, n, clock, |p| self.mask[p] != 0.0)),
-        }
+        self.measure_standing(window, clock, scene, ring)
     }
 
-    /// A standing camera's region `blob` of another track without the background it uncovered:
-    /// the primary track's rule (`Tracker::refine_standing`: a changed pixel shows the object when
-    /// the frame differs more than the model from the median `b` of the model around the region)
-    /// without changing the model or the mask, which are the primary track's. The cleaned region
-    /// and `b`; None when no pixel is left or the region has no surround.
-    fn clean_standing(&self, frame: &[f32], n: usize, blob: &Blob, ring: &mut Vec<f32>) -> Option<(Blob, f32)> {
+    /// A standing camera's object of another track in `window` (grown by `link_px`), against the
+    /// other tracks' background model `bg` (`Others::background`) and cleaned of the background it
+    /// uncovered (the primary track's rule, `Tracker::refine_standing`, without changing a model):
+    /// with `b` the median of the model just outside the window, a pixel is the object's when it
+    /// differs from the model by more than the threshold and the frame differs more than the
+    /// model from `b`. None when fewer than `standing_min_pixels` pixels are.
+    fn measure_standing(&self, window: [usize; 4], clock: usize, scene: &Scene, ring: &mut Vec<f32>) -> Option<(Blob, BoxSample)> {
+        let (n, frame, bg) = (scene.n, scene.frame, scene.background);
         let l = self.config.link_px;
-        let [i0, i1, j0, j1] = blob.bbox;
+        let [i0, i1, j0, j1] = window;
         let (i0, i1, j0, j1) = (i0.saturating_sub(l), (i1 + l).min(n - 1), j0.saturating_sub(l), (j1 + l).min(n - 1));
-        ring_of(&self.background, n, [i0, i1, j0, j1], ring);
+        ring_of(bg, n, [i0, i1, j0, j1], ring);
         if ring.is_empty() {
             return None;
         }
         let mid = ring.len() / 2;
         let b = *ring.select_nth_unstable_by(mid, f32::total_cmp).1;
+        let thr = self.config.threshold as f32;
+        let object = |p: usize| (frame[p] - bg[p]).abs() > thr && (frame[p] - b).abs() > (bg[p] - b).abs();
         let mut kept: Option<Blob> = None;
         for i in i0..=i1 {
             for j in j0..=j1 {
                 let p = i * n + j;
-                let m = self.mask[p];
-                let model = frame[p] - self.residual[p];
-                if m == 0.0 || (frame[p] - b).abs() <= (model - b).abs() {
+                if !object(p) {
                     continue;
                 }
-                let one = Blob::pixel(i, j, f64::from(m));
+                let one = Blob::pixel(i, j, f64::from((frame[p] - bg[p]).abs()));
                 match kept.as_mut() {
                     Some(k) => k.merge(&one),
                     None => kept = Some(one),
                 }
             }
         }
-        kept.map(|k| (k, b))
+        let kept = kept.filter(|k| k.pixels >= self.config.standing_min_pixels)?;
+        Some((kept, self.measure_at(&kept, n, clock, object)))
+    }
+
+    /// Moves the other tracks' background model (`Others::background`) towards a standing
+    /// camera's `frame`: a copy of the primary track's model while there are no other tracks,
+    /// else as the primary track's model moves (`Tracker::update_background`) but
+    /// [`super::FROZEN_BACKGROUND_SLOWDOWN`] times more slowly inside every track's box grown by
+    /// its margin.
+    pub(super) fn update_others_background(&mut self, frame: &[f32], n: usize) {
+        let mut others = std::mem::take(&mut self.others);
+        self.freeze_and_follow(&mut others, frame, n);
+        self.others = others;
+    }
+
+    /// [`Self::update_others_background`] on the other tracks taken out of the tracker.
+    fn freeze_and_follow(&self, others: &mut Others, frame: &[f32], n: usize) {
+        let Others { tracks, background, frozen, .. } = others;
+        if tracks.is_empty() || background.len() != n * n {
+            background.clear();
+            background.extend_from_slice(&self.background);
+            return;
+        }
+        let rate = 1.0 / self.config.background_frames as f32;
+        let slow = rate / super::FROZEN_BACKGROUND_SLOWDOWN;
+        frozen.clear();
+        frozen.resize(n * n, false);
+        for bbox in self.track.iter().map(|t| t.bbox).chain(tracks.iter().map(|t| t.blob.bbox)) {
+            let m = self.track_margin(bbox);
+            let (i0, i1, j0, j1) = (bbox[0].saturating_sub(m), (bbox[1] + m).min(n - 1), bbox[2].saturating_sub(m), (bbox[3] + m).min(n - 1));
+            for i in i0..=i1 {
+                frozen[i * n + j0..=i * n + j1].fill(true);
+            }
+        }
+        for ((b, &f), &still) in background.iter_mut().zip(frame).zip(frozen.iter()) {
+            *b += (f - *b) * if still { slow } else { rate };
+        }
     }
 
     /// Ends the other tracks that have held too long: a tentative one at its first frame without a
@@ -336,17 +387,17 @@ impl Tracker {
 
     /// New tracks on the regions left free (heaviest first) while there is room ([`MAX_TRACKS`]),
     /// except regions overlapping the primary track's or another track's box grown by a quarter of
-    /// its size (at least `link_px`): those are parts of a tracked object's region.
+    /// its size (at least `link_px`) — parts of a tracked object's region — and a standing
+    /// camera's regions that are all uncovered background ([`Self::measure_other`]).
     fn start_others(
         &self,
         next_id: &mut usize,
         tracks: &mut Vec<Track>,
         free: &mut [bool],
-        frame: &[f32],
-        n: usize,
-        standing: bool,
+        scene: &Scene,
         ring: &mut Vec<f32>,
     ) {
+        let n = scene.n;
         let near = |b: &Blob, tracks: &[Track]| {
             self.track.is_some_and(|t| b.overlaps(t.bbox, self.track_margin(t.bbox)))
                 || tracks.iter().any(|t| b.overlaps(t.blob.bbox, self.track_margin(t.blob.bbox)))
@@ -357,7 +408,10 @@ impl Tracker {
                 .max_by(|&a, &b| self.blobs[a].mass.total_cmp(&self.blobs[b].mass).then(b.cmp(&a)));
             let Some(r) = heaviest else { break };
             free[r] = false;
-            let (blob, sample) = self.measure_other(self.blobs[r], 0, frame, n, standing, ring);
+            let b = self.blobs[r];
+            let Some((blob, sample)) = self.measure_other(b, b.bbox, 0, scene, ring) else {
+                continue;
+            };
             let mut samples = VecDeque::with_capacity(FIT_SPAN * self.config.fit_frames);
             samples.push_back(sample);
             let baseline = if self.moving { self.config.baseline_frames as f64 } else { 0.0 };
