@@ -477,5 +477,6 @@ def _object(**change):
 )
 def test_bad_objects_are_refused_naming_the_label_frame_and_key(objects, message):
     detector = loomlab.PythonDetector(Returns({"output": 1.0, "objects": objects}), label="lister", threshold=1.0)
-    with pytest.raises(loomlab.DetectorError, match=r"`lister`: step\(frame\) at frame 0 of the episode returned " + message):
+    expected = r"`lister`: step\(frame\) at frame 0 of the episode returned " + message
+    with pytest.raises(loomlab.DetectorError, match=expected):
         loomlab._native._time_python_detector(detector, 32, 2)
