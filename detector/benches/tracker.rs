@@ -65,7 +65,10 @@ fn bench(c: &mut Criterion) {
         group.bench_function(format!("{N}/{count}"), |b| {
             b.iter(|| {
                 k += 1;
-                black_box(det.step_moving(black_box(&frames[k % frames.len()]), &standing).expect("same size"))
+                black_box(
+                    det.step_moving(black_box(&frames[k % frames.len()]), &standing)
+                        .expect("same size"),
+                )
             })
         });
     }

@@ -20,7 +20,11 @@ struct Disc {
 
 impl Disc {
     fn new(row: f64, column: f64, radius: f64, value: f32) -> Self {
-        Self { centre: [row, column], radius, value }
+        Self {
+            centre: [row, column],
+            radius,
+            value,
+        }
     }
 
     /// Its image box `[x0, x1, y0, y1]` (normalised image coordinates, as
@@ -39,7 +43,10 @@ impl Disc {
 
     /// Its centre in normalised image coordinates `[x, y]`.
     fn image_centre(&self) -> [f64; 2] {
-        [2.0 * self.centre[1] / N as f64 - 1.0, 1.0 - 2.0 * self.centre[0] / N as f64]
+        [
+            2.0 * self.centre[1] / N as f64 - 1.0,
+            1.0 - 2.0 * self.centre[0] / N as f64,
+        ]
     }
 }
 
@@ -58,7 +65,11 @@ fn frame(discs: &[Disc]) -> Frame {
 /// standing (its efference copy says so); the first frame shows the background alone.
 fn run(frames: usize, scene: impl Fn(usize) -> Vec<Disc>) -> Vec<Signals> {
     let mut d = Tracker::new(TrackerConfig::default()).unwrap();
-    let standing = EfferenceCopy { dt_s: 1.0 / 120.0, height_m: 0.35, ..EfferenceCopy::default() };
+    let standing = EfferenceCopy {
+        dt_s: 1.0 / 120.0,
+        height_m: 0.35,
+        ..EfferenceCopy::default()
+    };
     (0..frames)
         .map(|k| {
             let discs = if k == 0 { Vec::new() } else { scene(k) };
@@ -71,7 +82,10 @@ fn run(frames: usize, scene: impl Fn(usize) -> Vec<Disc>) -> Vec<Signals> {
 fn nearest<'a>(objects: &'a [PerceivedObject], disc: &Disc) -> &'a PerceivedObject {
     let c = disc.image_centre();
     let d = |o: &PerceivedObject| (o.region.centroid[0] - c[0]).hypot(o.region.centroid[1] - c[1]);
-    objects.iter().min_by(|a, b| d(a).total_cmp(&d(b))).expect("an object is listed")
+    objects
+        .iter()
+        .min_by(|a, b| d(a).total_cmp(&d(b)))
+        .expect("an object is listed")
 }
 
 /// One pixel in normalised image coordinates.
@@ -81,7 +95,10 @@ const PIXEL: f64 = 2.0 / N as f64;
 fn two_objects_at_once_are_both_listed_with_their_boxes() {
     let scene = |k: usize| {
         let t = k as f64;
-        vec![Disc::new(30.0, 20.0 + 0.2 * t, 5.0, 0.1), Disc::new(66.0, 72.0 - 0.15 * t, 6.5, 0.9)]
+        vec![
+            Disc::new(30.0, 20.0 + 0.2 * t, 5.0, 0.1),
+            Disc::new(66.0, 72.0 - 0.15 * t, 6.5, 0.9),
+        ]
     };
     let signals = run(90, scene);
     let confirm = TrackerConfig::default().confirm_frames;
@@ -132,7 +149,10 @@ fn two_objects_crossing_one_above_the_other_keep_their_ids() {
     // boxes overlap while they pass, their regions do not merge
     let scene = |k: usize| {
         let t = k as f64;
-        vec![Disc::new(40.0, 12.0 + 0.6 * t, 5.0, 0.1), Disc::new(53.0, 84.0 - 0.6 * t, 5.0, 0.85)]
+        vec![
+            Disc::new(40.0, 12.0 + 0.6 * t, 5.0, 0.1),
+            Disc::new(53.0, 84.0 - 0.6 * t, 5.0, 0.85),
+        ]
     };
     let signals = run(130, scene);
     // they pass each other at frame 60
@@ -149,7 +169,10 @@ fn two_objects_crossing_one_in_front_of_the_other_keep_their_ids() {
     // for a few frames (the validation gate refuses it, both tracks hold on their fitted motion)
     let scene = |k: usize| {
         let t = k as f64;
-        vec![Disc::new(46.0, 10.0 + 1.0 * t, 4.0, 0.1), Disc::new(46.0, 86.0 - 1.0 * t, 4.0, 0.9)]
+        vec![
+            Disc::new(46.0, 10.0 + 1.0 * t, 4.0, 0.1),
+            Disc::new(46.0, 86.0 - 1.0 * t, 4.0, 0.9),
+        ]
     };
     let signals = run(80, scene);
     // they pass each other at frame 38
@@ -186,7 +209,12 @@ fn tracks_are_born_confirmed_and_lost_as_documented() {
     // the second: born tentative at `appear`, listed from its confirm_frames-th frame on
     assert_eq!(listed(appear + confirm - 2), 1, "tentative");
     assert_eq!(listed(appear + confirm - 1), 2, "confirmed");
-    let second = signals[appear + confirm - 1].objects.iter().find(|o| o.id != first).unwrap().id;
+    let second = signals[appear + confirm - 1]
+        .objects
+        .iter()
+        .find(|o| o.id != first)
+        .unwrap()
+        .id;
     assert_ne!(first, second);
     // after it vanishes it is held for hold_frames frames, then lost
     assert_eq!(listed(vanish + hold - 1), 2, "held");
@@ -195,7 +223,11 @@ fn tracks_are_born_confirmed_and_lost_as_documented() {
     for (k, s) in signals.iter().enumerate().skip(confirm) {
         assert!(s.objects.iter().any(|o| o.id == first), "frame {k}: {:?}", s.objects);
         assert!(s.objects.len() <= 2, "frame {k}: {:?}", s.objects);
-        assert!(s.objects.iter().all(|o| o.id == first || o.id == second), "frame {k}: {:?}", s.objects);
+        assert!(
+            s.objects.iter().all(|o| o.id == first || o.id == second),
+            "frame {k}: {:?}",
+            s.objects
+        );
     }
 }
 
@@ -206,7 +238,12 @@ fn the_number_of_tracks_is_bounded() {
         (0..12)
             .map(|q| {
                 let (row, col) = (12.0 + 24.0 * (q / 4) as f64, 12.0 + 22.0 * (q % 4) as f64);
-                Disc::new(row + 0.05 * k as f64, col, 3.0 + 0.1 * q as f64, if q % 2 == 0 { 0.1 } else { 0.95 })
+                Disc::new(
+                    row + 0.05 * k as f64,
+                    col,
+                    3.0 + 0.1 * q as f64,
+                    if q % 2 == 0 { 0.1 } else { 0.95 },
+                )
             })
             .collect()
     };
@@ -220,6 +257,9 @@ fn the_number_of_tracks_is_bounded() {
     }
     assert_eq!(signals[79].objects.len(), MAX_TRACKS);
     // no track started beyond the bound: the numbers given are those of the first MAX_TRACKS
-    assert!(signals[79].objects.iter().all(|o| o.id <= MAX_TRACKS), "{:?}", signals[79].objects);
+    assert!(
+        signals[79].objects.iter().all(|o| o.id <= MAX_TRACKS),
+        "{:?}",
+        signals[79].objects
+    );
 }
-

@@ -427,23 +427,40 @@ fn signals_of(answer: &Bound<'_, PyAny>) -> Result<(Signals, bool), String> {
 /// index and key.
 fn objects_of(value: &Bound<'_, PyAny>) -> Result<Vec<PerceivedObject>, String> {
     let shown = |v: &Bound<'_, PyAny>| v.repr().map_or_else(|_| "?".to_string(), |r| r.to_string());
-    let list = value
-        .cast::<pyo3::types::PyList>()
-        .map_err(|_| format!("objects = {}, which is not a list (a list of dicts {{id, box, theta_deg, tau_s}})", shown(value)))?;
+    let list = value.cast::<pyo3::types::PyList>().map_err(|_| {
+        format!(
+            "objects = {}, which is not a list (a list of dicts {{id, box, theta_deg, tau_s}})",
+            shown(value)
+        )
+    })?;
     let mut objects = Vec::with_capacity(list.len());
     for (index, item) in list.iter().enumerate() {
         let at = |key: &str| format!("objects[{index}].{key}");
-        let dict = item
-            .cast::<PyDict>()
-            .map_err(|_| format!("objects[{index}] = {}, which is not a dict with keys {}", shown(&item), OBJECT_KEYS.join(", ")))?;
-        if let Some(other) = dict.keys().iter().map(|k| k.to_string()).find(|k| !OBJECT_KEYS.contains(&k.as_str())) {
-            return Err(format!("objects[{index}] with the key {other:?}; its keys are {}", OBJECT_KEYS.join(", ")));
+        let dict = item.cast::<PyDict>().map_err(|_| {
+            format!(
+                "objects[{index}] = {}, which is not a dict with keys {}",
+                shown(&item),
+                OBJECT_KEYS.join(", ")
+            )
+        })?;
+        if let Some(other) = dict
+            .keys()
+            .iter()
+            .map(|k| k.to_string())
+            .find(|k| !OBJECT_KEYS.contains(&k.as_str()))
+        {
+            return Err(format!(
+                "objects[{index}] with the key {other:?}; its keys are {}",
+                OBJECT_KEYS.join(", ")
+            ));
         }
         let get = |key: &str| -> Result<Bound<'_, PyAny>, String> {
-            dict.get_item(key)
-                .ok()
-                .flatten()
-                .ok_or_else(|| format!("objects[{index}] without {key:?}; its keys are {}", OBJECT_KEYS.join(", ")))
+            dict.get_item(key).ok().flatten().ok_or_else(|| {
+                format!(
+                    "objects[{index}] without {key:?}; its keys are {}",
+                    OBJECT_KEYS.join(", ")
+                )
+            })
         };
         let id_value = get("id")?;
         let id = (!id_value.is_instance_of::<pyo3::types::PyBool>())
@@ -451,7 +468,10 @@ fn objects_of(value: &Bound<'_, PyAny>) -> Result<Vec<PerceivedObject>, String> 
             .flatten()
             .ok_or_else(|| format!("{} = {}; ids are ints ≥ 0", at("id"), shown(&id_value)))?;
         if objects.iter().any(|o: &PerceivedObject| o.id == id) {
-            return Err(format!("{} = {id}, the id of an earlier object; each object's id is its own", at("id")));
+            return Err(format!(
+                "{} = {id}, the id of an earlier object; each object's id is its own",
+                at("id")
+            ));
         }
         let box_value = get("box")?;
         let bad_box = || {
@@ -463,7 +483,9 @@ fn objects_of(value: &Bound<'_, PyAny>) -> Result<Vec<PerceivedObject>, String> 
             )
         };
         let [x0, x1, y0, y1] = box_value.extract::<[f64; 4]>().map_err(|_| bad_box())?;
-        let inside = [x0, x1, y0, y1].iter().all(|v| v.is_finite() && (-1.0..=1.0).contains(v));
+        let inside = [x0, x1, y0, y1]
+            .iter()
+            .all(|v| v.is_finite() && (-1.0..=1.0).contains(v));
         if !inside || x0 > x1 || y0 > y1 {
             return Err(bad_box());
         }
@@ -472,13 +494,28 @@ fn objects_of(value: &Bound<'_, PyAny>) -> Result<Vec<PerceivedObject>, String> 
             .extract::<f64>()
             .ok()
             .filter(|t| t.is_finite() && (0.0..=180.0).contains(t))
-            .ok_or_else(|| format!("{} = {}; θ̂ is an angular size in degrees, 0 to 180", at("theta_deg"), shown(&theta_value)))?;
+            .ok_or_else(|| {
+                format!(
+                    "{} = {}; θ̂ is an angular size in degrees, 0 to 180",
+                    at("theta_deg"),
+                    shown(&theta_value)
+                )
+            })?;
         let tau_s = match dict.get_item("tau_s").ok().flatten() {
             None => None,
             Some(v) if v.is_none() => None,
-            Some(v) => Some(v.extract::<f64>().ok().filter(|t| t.is_finite() && *t > 0.0).ok_or_else(|| {
-                format!("{} = {}; τ̂ is a finite time to contact in seconds, > 0 (None: no estimate)", at("tau_s"), shown(&v))
-            })?),
+            Some(v) => Some(
+                v.extract::<f64>()
+                    .ok()
+                    .filter(|t| t.is_finite() && *t > 0.0)
+                    .ok_or_else(|| {
+                        format!(
+                            "{} = {}; τ̂ is a finite time to contact in seconds, > 0 (None: no estimate)",
+                            at("tau_s"),
+                            shown(&v)
+                        )
+                    })?,
+            ),
         };
         objects.push(PerceivedObject {
             id,
