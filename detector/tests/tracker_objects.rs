@@ -145,15 +145,20 @@ fn crossing_ids(signals: &[Signals], scene: &impl Fn(usize) -> Vec<Disc>, k: usi
 
 #[test]
 fn two_objects_crossing_one_above_the_other_keep_their_ids() {
-    // two discs moving towards each other along rows 3 pixels apart (edge to edge): their grown
-    // boxes overlap while they pass, their regions do not merge
+    // two discs 14 px across moving towards each other along rows whose pixels lie 3 apart (rows
+    // 33–46 and 49–62): more than link_px, so their regions stay apart, but within the primary
+    // track's margin (a quarter of its size, 3 px), so its grown box overlaps the other disc
+    // while they pass
     let scene = |k: usize| {
         let t = k as f64;
         vec![
-            Disc::new(40.0, 12.0 + 0.6 * t, 5.0, 0.1),
-            Disc::new(53.0, 84.0 - 0.6 * t, 5.0, 0.85),
+            Disc::new(40.0, 12.0 + 0.6 * t, 7.0, 0.1),
+            Disc::new(56.0, 84.0 - 0.6 * t, 7.0, 0.85),
         ]
     };
+    let rows = |d: &Disc| (0..N).filter(|&i| (0..N).any(|j| d.covers(i, j))).collect::<Vec<_>>();
+    let (a, b) = (rows(&scene(0)[0]), rows(&scene(0)[1]));
+    assert_eq!((a[0], a[a.len() - 1], b[0], b[b.len() - 1]), (33, 46, 49, 62));
     let signals = run(130, scene);
     // they pass each other at frame 60
     let before = crossing_ids(&signals, &scene, 40);
@@ -262,4 +267,47 @@ fn the_number_of_tracks_is_bounded() {
         "{:?}",
         signals[79].objects
     );
+}
+
+#[test]
+fn the_primary_track_continues_another_track_when_it_starts_on_its_region() {
+    // the primary track follows the heavier disc; when that one vanishes and its track ends, the
+    // primary track starts on the other disc, whose confirmed track it continues: the same number,
+    // listed without a gap, while the single-object outputs wait for confirm_frames as before
+    let config = TrackerConfig::default();
+    let vanish = 50;
+    let scene = |k: usize| {
+        let mut discs = vec![Disc::new(60.0, 70.0 - 0.05 * k as f64, 4.0, 0.8)];
+        if k < vanish {
+            discs.insert(0, Disc::new(30.0, 25.0, 5.0, 0.1));
+        }
+        discs
+    };
+    let signals = run(vanish + 60, scene);
+    let first = signals[40].region.expect("the heavier disc is reported").track;
+    let other = signals[40]
+        .objects
+        .iter()
+        .find(|o| Some(o.id) != first)
+        .expect("both listed")
+        .id;
+    // the primary track holds hold_frames frames, then ends; the next frame it starts on the other
+    // disc and continues its track
+    let restart = vanish + config.hold_frames + 1;
+    for (k, s) in signals.iter().enumerate().skip(restart) {
+        assert_eq!(s.objects.len(), 1, "frame {k}: {:?}", s.objects);
+        assert_eq!(s.objects[0].id, other, "frame {k}");
+        let reported = s.region.map(|r| r.track);
+        if k < restart + config.confirm_frames - 1 {
+            assert_eq!(reported, None, "frame {k}: the primary track's outputs wait as before");
+        } else {
+            assert_eq!(reported, Some(Some(other)), "frame {k}");
+        }
+    }
+    for (k, s) in signals.iter().enumerate().skip(config.confirm_frames) {
+        assert!(
+            s.objects.iter().any(|o| o.id == other),
+            "frame {k}: listed without a gap"
+        );
+    }
 }
