@@ -311,3 +311,49 @@ fn the_primary_track_continues_another_track_when_it_starts_on_its_region() {
         );
     }
 }
+
+#[test]
+fn a_moving_camera_lists_two_objects_from_the_compensated_difference() {
+    // the camera creeps forward (its efference copy says so): the residual is the compensated
+    // difference, which holds where each disc is and where it was; each track's box is cut to
+    // where its disc is now (tracker §3)
+    let mut d = Tracker::new(TrackerConfig {
+        appearance: false,
+        ..TrackerConfig::default()
+    })
+    .unwrap();
+    let creeping = EfferenceCopy {
+        forward_mps: 0.01,
+        dt_s: 1.0 / 120.0,
+        translation_m: [0.01 / 120.0, 0.0, 0.0],
+        height_m: 0.35,
+        ..EfferenceCopy::default()
+    };
+    let scene = |k: usize| {
+        let t = k as f64;
+        vec![
+            Disc::new(30.0, 20.0 + 0.4 * t, 5.0, 0.1),
+            Disc::new(62.0, 75.0 - 0.4 * t, 5.0, 0.9),
+        ]
+    };
+    let signals: Vec<Signals> = (0..100)
+        .map(|k| d.step_moving(&frame(&scene(k)), &creeping).unwrap())
+        .collect();
+    let ids = crossing_ids(&signals, &scene, 60);
+    assert_ne!(ids.0, ids.1);
+    for k in 60..100 {
+        assert_eq!(crossing_ids(&signals, &scene, k), ids, "frame {k}");
+        for disc in scene(k) {
+            let o = nearest(&signals[k].objects, &disc);
+            let c = disc.image_centre();
+            let centre = [
+                (o.region.x[0] + o.region.x[1]) / 2.0,
+                (o.region.y[0] + o.region.y[1]) / 2.0,
+            ];
+            assert!(
+                (centre[0] - c[0]).abs() < 1.5 * PIXEL && (centre[1] - c[1]).abs() < 1.5 * PIXEL,
+                "frame {k}: box centre {centre:?} vs {c:?}"
+            );
+        }
+    }
+}

@@ -78,6 +78,8 @@ pub(super) struct Others {
     background: Vec<f32>,
     /// Per pixel: whether it lies in a track's grown box (the model's update, scratch).
     frozen: Vec<bool>,
+    /// The sample buffers of ended tracks, reused by new ones (at most [`MAX_TRACKS`]).
+    spare: Vec<VecDeque<BoxSample>>,
 }
 
 impl Others {
@@ -124,7 +126,9 @@ impl Tracker {
             .max_by_key(|&k| (self.others.tracks[k].age, std::cmp::Reverse(k)));
         match continued {
             Some(k) => {
-                let t = self.others.tracks.remove(k);
+                let mut t = self.others.tracks.remove(k);
+                t.samples.clear();
+                self.others.spare.push(t.samples);
                 self.primary_id = t.id;
                 self.primary_inherited = t.confirmed;
             }
@@ -143,7 +147,8 @@ impl Tracker {
         if self.others.tracks.len() + 1 >= MAX_TRACKS {
             return;
         }
-        let mut samples = VecDeque::new();
+        // the primary track's buffer goes with it; the primary track takes a spare one
+        let mut samples = self.others.spare.pop().unwrap_or_default();
         std::mem::swap(&mut samples, &mut self.samples);
         let motion = std::array::from_fn(|q| self.edges[q] - self.previous_edges[q]);
         let confirmed = self.age >= self.config.confirm_frames || self.primary_inherited;
@@ -169,7 +174,7 @@ impl Tracker {
     /// is then measured and fitted, held or ended, and the regions left over start new tracks.
     pub(super) fn follow_others(&mut self, frame: &[f32], n: usize, standing: bool, claimed: Option<[usize; 4]>) {
         let mut others = std::mem::take(&mut self.others);
-        let Others { tracks, pairs, free, assigned, ring, background, .. } = &mut others;
+        let Others { tracks, pairs, free, assigned, ring, background, spare, .. } = &mut others;
         if !standing {
             background.clear();
         } else if background.len() != n * n {
@@ -222,9 +227,9 @@ impl Tracker {
             let region = assigned[k].take();
             self.step_other(&mut tracks[k], region, &scene, ring);
         }
-        self.end_others(tracks);
+        self.end_others(tracks, spare);
         let mut next_id = self.tracks;
-        self.start_others(&mut next_id, tracks, free, &scene, ring);
+        self.start_others(&mut next_id, tracks, free, &scene, ring, spare);
         self.tracks = next_id;
         self.others = others;
     }
@@ -358,7 +363,7 @@ impl Tracker {
     /// Ends the other tracks that have held too long: a tentative one at its first frame without a
     /// region, a confirmed one after `hold_frames` frames without one ([`MERGED_HOLD_FACTOR`] times
     /// that while its box overlaps the primary track's or another track's box).
-    fn end_others(&self, tracks: &mut Vec<Track>) {
+    fn end_others(&self, tracks: &mut Vec<Track>, spare: &mut Vec<VecDeque<BoxSample>>) {
         let primary = self.track.map(|t| t.bbox);
         let hold = self.config.hold_frames;
         let mut k = 0;
@@ -380,7 +385,9 @@ impl Tracker {
             if keep {
                 k += 1;
             } else {
-                tracks.remove(k);
+                let mut ended = tracks.remove(k);
+                ended.samples.clear();
+                spare.push(ended.samples);
             }
         }
     }
@@ -396,6 +403,7 @@ impl Tracker {
         free: &mut [bool],
         scene: &Scene,
         ring: &mut Vec<f32>,
+        spare: &mut Vec<VecDeque<BoxSample>>,
     ) {
         let n = scene.n;
         let near = |b: &Blob, tracks: &[Track]| {
@@ -412,7 +420,9 @@ impl Tracker {
             let Some((blob, sample)) = self.measure_other(b, b.bbox, 0, scene, ring) else {
                 continue;
             };
-            let mut samples = VecDeque::with_capacity(FIT_SPAN * self.config.fit_frames);
+            let mut samples = spare
+                .pop()
+                .unwrap_or_else(|| VecDeque::with_capacity(FIT_SPAN * self.config.fit_frames));
             samples.push_back(sample);
             let baseline = if self.moving { self.config.baseline_frames as f64 } else { 0.0 };
             let edges = fit_box(&samples, 0, self.config.fit_frames as f64, n, baseline);
