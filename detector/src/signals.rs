@@ -17,8 +17,9 @@ pub struct Signals {
     pub region: Option<ImageRegion>,
     /// Every object the detector perceives in this frame, for detectors that perceive several at
     /// once (`tracker`: its confirmed tracks); empty for the others, whose one percept is
-    /// [`Self::angular_size_deg`] and [`Self::region`] (or the looming side). When it is not
-    /// empty, [`Self::region`] and [`Self::angular_size_deg`] are those of its most urgent object.
+    /// [`Self::angular_size_deg`] and [`Self::region`] (or the looming side). [`Self::region`] and
+    /// [`Self::angular_size_deg`] stay those of the detector's primary object (`tracker`: its
+    /// primary track, listed first whenever they report it; docs/detectors.md, tracker §4).
     /// The escape agent runs one decider per object and plans its manoeuvre about all of them.
     pub objects: Vec<PerceivedObject>,
 }

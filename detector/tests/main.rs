@@ -8,4 +8,5 @@ mod paper_findings;
 mod snapshot;
 mod stimulus;
 mod tracker;
+mod tracker_objects;
 mod video;

@@ -6,7 +6,12 @@
 //!   in [0, 1]) is copied into a fresh float32 numpy array of shape (n, n), row-major, and passed
 //!   to the object's `step(frame)`. It returns a float (the output) or a dict with `output` and
 //!   optionally `angular_size_deg` (θ̂, degrees; `None`: no estimate this frame), `image_x` and
-//!   `image_y` (the object's image position, recorded as auxiliary signals).
+//!   `image_y` (the object's image position, recorded as auxiliary signals) and `objects`: every
+//!   object the detector perceives, a list of dicts `{id, box, theta_deg, tau_s}` (`id` an int,
+//!   `box` `[x0, x1, y0, y1]` in normalised image coordinates within [−1, 1], `theta_deg` θ̂ in
+//!   degrees, `tau_s` optional: its own τ̂ in seconds, or `None`), which become
+//!   `Signals::objects`; the first listed is the primary object, whose θ̂ and box stand for
+//!   `output`, `angular_size_deg` and the region when the dict does not give them.
 //! - **Instances**: the runner builds a fresh detector per episode and per closed-loop tail, on
 //!   several worker threads. Each build is an independent instance: the class called with no
 //!   arguments when the wrapped object is a class, else `copy.deepcopy` of the object; then
@@ -23,13 +28,18 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTracebackMethods, PyType};
 
 use loomlab_detector::registry::{CameraFacts, Configure, ConfiguredDetector, ParamError, Registration, Signal};
-use loomlab_detector::{Detector, DetectorError, DetectorParams, EfferenceCopy, Frame, Registry, Signals};
+use loomlab_detector::{
+    Detector, DetectorError, DetectorParams, EfferenceCopy, Frame, ImageRegion, PerceivedObject, Registry, Signals,
+};
 use loomlab_scenarios::schema::{DetectorDesc, trigger_of};
 
 use crate::errors;
 
 /// The keys a Python detector's `step` may return in a dict.
-const STEP_KEYS: [&str; 4] = ["output", "angular_size_deg", "image_x", "image_y"];
+const STEP_KEYS: [&str; 5] = ["output", "angular_size_deg", "image_x", "image_y", "objects"];
+
+/// The keys of one object in a step's `objects` list (`tau_s` optional).
+const OBJECT_KEYS: [&str; 4] = ["id", "box", "theta_deg", "tau_s"];
 
 /// One `loomlab.PythonDetector`, read from its attributes.
 #[derive(Debug)]
@@ -366,6 +376,7 @@ fn signals_of(answer: &Bound<'_, PyAny>) -> Result<(Signals, bool), String> {
     let mut signals = Signals::default();
     let mut has_output = false;
     let mut gave_theta = false;
+    let mut objects: Option<Vec<PerceivedObject>> = None;
     for (k, v) in dict.iter() {
         let key: String = k.str().map_or_else(|_| "?".into(), |s| s.to_string());
         match key.as_str() {
@@ -380,6 +391,7 @@ fn signals_of(answer: &Bound<'_, PyAny>) -> Result<(Signals, bool), String> {
             }
             "image_x" => signals.aux.push(("image_x", number("image_x", &v)?)),
             "image_y" => signals.aux.push(("image_y", number("image_y", &v)?)),
+            "objects" => objects = Some(objects_of(&v)?),
             other => {
                 return Err(format!(
                     "a dict with the key {other:?}; the keys are {}",
@@ -388,11 +400,136 @@ fn signals_of(answer: &Bound<'_, PyAny>) -> Result<(Signals, bool), String> {
             }
         }
     }
+    if let Some(objects) = objects {
+        // the first object is the primary one: its θ̂ and box stand for what the dict leaves out
+        let primary = objects.first();
+        if !has_output {
+            signals.output = primary.map_or(0.0, |o| o.angular_size_deg);
+            has_output = true;
+        }
+        if !gave_theta {
+            signals.angular_size_deg = primary.map(|o| o.angular_size_deg);
+            gave_theta = true;
+        }
+        signals.region = primary.map(|o| o.region);
+        signals.objects = objects;
+    }
     if !has_output {
-        return Err("a dict without \"output\" (the detector's primary output, a float)".into());
+        return Err("a dict without \"output\" (the detector's primary output, a float) or \"objects\"".into());
     }
     signals.aux.sort_by(|a, b| a.0.cmp(b.0));
     Ok((signals, gave_theta))
+}
+
+/// The perceived objects of a step's `objects` value: a list of dicts of [`OBJECT_KEYS`], each
+/// checked (an int id, not repeated; a box of four finite numbers in [−1, 1] with x0 ≤ x1 and
+/// y0 ≤ y1; θ̂ finite in [0°, 180°]; τ̂ finite and positive, or `None`); errors name the object's
+/// index and key.
+fn objects_of(value: &Bound<'_, PyAny>) -> Result<Vec<PerceivedObject>, String> {
+    let shown = |v: &Bound<'_, PyAny>| v.repr().map_or_else(|_| "?".to_string(), |r| r.to_string());
+    let list = value.cast::<pyo3::types::PyList>().map_err(|_| {
+        format!(
+            "objects = {}, which is not a list (a list of dicts {{id, box, theta_deg, tau_s}})",
+            shown(value)
+        )
+    })?;
+    let mut objects = Vec::with_capacity(list.len());
+    for (index, item) in list.iter().enumerate() {
+        let at = |key: &str| format!("objects[{index}].{key}");
+        let dict = item.cast::<PyDict>().map_err(|_| {
+            format!(
+                "objects[{index}] = {}, which is not a dict with keys {}",
+                shown(&item),
+                OBJECT_KEYS.join(", ")
+            )
+        })?;
+        if let Some(other) = dict
+            .keys()
+            .iter()
+            .map(|k| k.to_string())
+            .find(|k| !OBJECT_KEYS.contains(&k.as_str()))
+        {
+            return Err(format!(
+                "objects[{index}] with the key {other:?}; its keys are {}",
+                OBJECT_KEYS.join(", ")
+            ));
+        }
+        let get = |key: &str| -> Result<Bound<'_, PyAny>, String> {
+            dict.get_item(key).ok().flatten().ok_or_else(|| {
+                format!(
+                    "objects[{index}] without {key:?}; its keys are {}",
+                    OBJECT_KEYS.join(", ")
+                )
+            })
+        };
+        let id_value = get("id")?;
+        let id = (!id_value.is_instance_of::<pyo3::types::PyBool>())
+            .then(|| id_value.extract::<usize>().ok())
+            .flatten()
+            .ok_or_else(|| format!("{} = {}; ids are ints ≥ 0", at("id"), shown(&id_value)))?;
+        if objects.iter().any(|o: &PerceivedObject| o.id == id) {
+            return Err(format!(
+                "{} = {id}, the id of an earlier object; each object's id is its own",
+                at("id")
+            ));
+        }
+        let box_value = get("box")?;
+        let bad_box = || {
+            format!(
+                "{} = {}; a box is [x0, x1, y0, y1]: four finite numbers in [-1, 1] (normalised image coordinates, \
+                 x to the right, y up) with x0 <= x1 and y0 <= y1",
+                at("box"),
+                shown(&box_value)
+            )
+        };
+        let [x0, x1, y0, y1] = box_value.extract::<[f64; 4]>().map_err(|_| bad_box())?;
+        let inside = [x0, x1, y0, y1]
+            .iter()
+            .all(|v| v.is_finite() && (-1.0..=1.0).contains(v));
+        if !inside || x0 > x1 || y0 > y1 {
+            return Err(bad_box());
+        }
+        let theta_value = get("theta_deg")?;
+        let theta = theta_value
+            .extract::<f64>()
+            .ok()
+            .filter(|t| t.is_finite() && (0.0..=180.0).contains(t))
+            .ok_or_else(|| {
+                format!(
+                    "{} = {}; θ̂ is an angular size in degrees, 0 to 180",
+                    at("theta_deg"),
+                    shown(&theta_value)
+                )
+            })?;
+        let tau_s = match dict.get_item("tau_s").ok().flatten() {
+            None => None,
+            Some(v) if v.is_none() => None,
+            Some(v) => Some(
+                v.extract::<f64>()
+                    .ok()
+                    .filter(|t| t.is_finite() && *t > 0.0)
+                    .ok_or_else(|| {
+                        format!(
+                            "{} = {}; τ̂ is a finite time to contact in seconds, > 0 (None: no estimate)",
+                            at("tau_s"),
+                            shown(&v)
+                        )
+                    })?,
+            ),
+        };
+        objects.push(PerceivedObject {
+            id,
+            region: ImageRegion {
+                centroid: [(x0 + x1) / 2.0, (y0 + y1) / 2.0],
+                x: [x0, x1],
+                y: [y0, y1],
+                track: Some(id),
+            },
+            angular_size_deg: theta,
+            tau_s,
+        });
+    }
+    Ok(objects)
 }
 
 /// `Type: message` of a Python exception and the last line of its traceback (where it was raised).

@@ -413,3 +413,70 @@ def test_a_second_ctrl_c_stops_run_suite_at_once(tmp_path):
     assert p.returncode == 130, stderr[-2000:]
     assert "second interrupt: stopped" in stderr
     assert time.monotonic() - started < 5.0
+
+
+class Objects:
+    """Returns only a list of two objects, the first one growing: θ̂ = frame index (degrees); its
+    θ̂ stands for the output and ``angular_size_deg``."""
+
+    threshold = 5.0
+    trigger = "angular_size"
+
+    def reset(self) -> None:
+        self.t = 0
+
+    def step(self, frame: np.ndarray) -> dict:
+        self.t += 1
+        theta = float(min(self.t, 90))
+        return {
+            "objects": [
+                {"id": 7, "box": [-0.1, 0.1, -0.05, 0.15], "theta_deg": theta, "tau_s": None},
+                {"id": 2, "box": [0.5, 0.6, -0.2, -0.1], "theta_deg": 3.0, "tau_s": 1.5},
+            ]
+        }
+
+
+def test_a_detector_may_return_a_list_of_objects():
+    """The first object stands for the detector's output and θ̂: it alarms as the same θ̂ given as
+    ``angular_size_deg`` does."""
+    report = loomlab.run_suite(
+        SUITE, detectors=["soc", loomlab.PythonDetector(Dict()), loomlab.PythonDetector(Objects())], limit=1, size=32
+    )
+    objects, plain = report["detectors"]["objects"], report["detectors"]["dict"]
+    assert objects["hits"] + objects["false_alarms"] == 1
+    for key in ("hits", "misses", "false_alarms", "correct_rejections"):
+        assert objects[key] == plain[key], key
+    # the time the steps take through the runner's glue: the list is accepted every frame
+    assert loomlab._native._time_python_detector(loomlab.PythonDetector(Objects()), 32, 3) >= 0.0
+
+
+def _object(**change):
+    good = {"id": 1, "box": [-0.2, 0.2, -0.1, 0.3], "theta_deg": 4.0}
+    good.update(change)
+    return {key: value for key, value in good.items() if value is not ...}
+
+
+@pytest.mark.parametrize(
+    "objects, message",
+    [
+        ({"id": 1}, r"objects = \{'id': 1\}, which is not a list"),
+        ([3.0], r"objects\[0\] = 3.0, which is not a dict with keys id, box, theta_deg, tau_s"),
+        ([_object(id=1.0)], r"objects\[0\]\.id = 1\.0; ids are ints"),
+        ([_object(id=True)], r"objects\[0\]\.id = True; ids are ints"),
+        ([_object(id=-1)], r"objects\[0\]\.id = -1; ids are ints"),
+        ([_object(), _object()], r"objects\[1\]\.id = 1, the id of an earlier object"),
+        ([_object(box=[0.0, 1.5, 0.0, 0.1])], r"objects\[0\]\.box = \[0\.0, 1\.5, 0\.0, 0\.1\]; .*in \[-1, 1\]"),
+        ([_object(box=[0.3, 0.1, 0.0, 0.1])], r"objects\[0\]\.box = .*x0 <= x1"),
+        ([_object(box=[0.0, float("nan"), 0.0, 0.1])], r"objects\[0\]\.box = \[0\.0, nan, .*finite"),
+        ([_object(box=[0.0, 0.1])], r"objects\[0\]\.box = \[0\.0, 0\.1\]; a box is \[x0, x1, y0, y1\]"),
+        ([_object(theta_deg=float("inf"))], r"objects\[0\]\.theta_deg = inf; .*0 to 180"),
+        ([_object(theta_deg=...)], r"objects\[0\] without \"theta_deg\""),
+        ([_object(tau_s=0.0)], r"objects\[0\]\.tau_s = 0\.0; .*> 0 \(None: no estimate\)"),
+        ([_object(colour=1)], r"objects\[0\] with the key \"colour\"; its keys are id, box, theta_deg, tau_s"),
+    ],
+)
+def test_bad_objects_are_refused_naming_the_label_frame_and_key(objects, message):
+    detector = loomlab.PythonDetector(Returns({"output": 1.0, "objects": objects}), label="lister", threshold=1.0)
+    expected = r"`lister`: step\(frame\) at frame 0 of the episode returned " + message
+    with pytest.raises(loomlab.DetectorError, match=expected):
+        loomlab._native._time_python_detector(detector, 32, 2)

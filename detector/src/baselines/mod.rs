@@ -49,7 +49,7 @@ pub use fu2020::{Fu2020, Fu2020Coefficients, Fu2020Config};
 pub use keil2004::{KEIL2004_MAX_ITERATIONS, Keil2004, Keil2004Config};
 pub use lowpass::LowPass;
 pub use soc::{Soc, SocConfig, SocPooling};
-pub use tracker::{Tracker, TrackerConfig};
+pub use tracker::{MAX_TRACKS, MERGED_HOLD_FACTOR, Tracker, TrackerConfig};
 
 use serde::Deserialize;
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import importlib
 import inspect
 import re
-from typing import Any, Dict, Optional, Union
+from typing import Any, Dict, List, Optional, Union
 
 try:  # Python >= 3.8
     from typing import Protocol
@@ -25,9 +25,20 @@ import numpy as np
 #: The trigger signals a Python detector can be alarmed on.
 TRIGGERS = ("output", "angular_size")
 
+#: One object of a step's ``objects`` list: ``id`` (an int ≥ 0, the detector's own number for it,
+#: stable while it follows the object), ``box`` (``[x0, x1, y0, y1]``: its image box in normalised
+#: image coordinates, x to the right and y up, each in [-1, 1]), ``theta_deg`` (its θ̂ in degrees)
+#: and optionally ``tau_s`` (its time to contact in seconds, > 0, when the detector estimates one;
+#: None or absent: the escape agent estimates it from θ̂).
+PerceivedObject = Dict[str, Union[int, float, None, List[float]]]
+
 #: What ``step`` may return: the output, or a dict with ``output`` and optionally
-#: ``angular_size_deg`` (θ̂ in degrees, or None), ``image_x`` and ``image_y``.
-StepResult = Union[float, Dict[str, Optional[float]]]
+#: ``angular_size_deg`` (θ̂ in degrees, or None), ``image_x``, ``image_y`` and ``objects`` (every
+#: object the detector perceives, a list of :data:`PerceivedObject`; the first is its primary
+#: object, whose θ̂ and box stand for ``output``, ``angular_size_deg`` and the object's region when
+#: the dict leaves them out). Values are checked every frame (finite, boxes inside the image, ids
+#: ints and distinct); an error names the detector's label, the frame and the key.
+StepResult = Union[float, Dict[str, Union[None, float, List[PerceivedObject]]]]
 
 
 class Detector(Protocol):

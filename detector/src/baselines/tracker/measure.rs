@@ -13,16 +13,22 @@ impl Tracker {
     /// its size and its centroid as its centre: whole-pixel edges jump by a pixel at a time, while
     /// the area of a growing object grows by one pixel at a time.
     pub(super) fn measure(&self, b: &Blob, n: usize) -> BoxSample {
+        self.measure_at(b, n, self.clock, |p| self.mask[p] != 0.0)
+    }
+
+    /// [`Self::measure`] at frame `clock` of a track's fit, a pixel `p` (`i·n + j`) being the
+    /// region's when `marked(p)` (the changed pixels: `mask` ≠ 0, for the primary track).
+    pub(super) fn measure_at(&self, b: &Blob, n: usize, clock: usize, marked: impl Fn(usize) -> bool) -> BoxSample {
         let [i0, i1, j0, j1] = b.bbox;
         let (h, w) = ((i1 - i0 + 1) as f64, (j1 - j0 + 1) as f64);
         let area = b.pixels as f64;
         let c = n as f64 / 2.0;
-        let k = self.clock as f64;
+        let k = clock as f64;
         if !b.current || area < MIN_SOLID_FILL * w * h || b.mass <= 0.0 {
             return BoxSample::of(k, (w * h).sqrt(), [(i0 + i1 + 1) as f64 / 2.0 - c, (j0 + j1 + 1) as f64 / 2.0 - c], w, h, false);
         }
         let centroid = [b.sum_i / b.mass + 0.5 - c, b.sum_j / b.mass + 0.5 - c];
-        let range = self.size_range(b, n);
+        let range = Self::size_range(b, n, marked);
         // a disc's size: the middle of the range its pixels allow
         let size = range.map_or(area.sqrt(), |[lo, hi]| (lo + hi) / 2.0);
         // and its box: a disc's diameter, `2/√π` times its size (its pixels' box is whole pixels
@@ -50,12 +56,12 @@ impl Tracker {
     /// one; the size is `√π · r`. A small disc's pixel count changes in steps of several pixels at
     /// once (a disc centred on a pixel corner gains 4 or 8 at a time), and its centroid is off
     /// its centre by a fraction of a pixel; the range holds the true size whatever the step.
-    fn size_range(&self, b: &Blob, n: usize) -> Option<[f64; 2]> {
+    fn size_range(b: &Blob, n: usize, marked: impl Fn(usize) -> bool) -> Option<[f64; 2]> {
         let [i0, i1, j0, j1] = b.bbox;
         if i0 == 0 || j0 == 0 || i1 + 1 >= n || j1 + 1 >= n {
             return None;
         }
-        let marked = |i: usize, j: usize| self.mask[i * n + j] != 0.0;
+        let marked = |i: usize, j: usize| marked(i * n + j);
         let (mut count, mut sum_i, mut sum_j) = (0.0, 0.0, 0.0);
         // edge pixels: marked ones with an unmarked 4-neighbour, unmarked ones with a marked
         // 8-neighbour (the farthest marked and the nearest unmarked centres are among them)

@@ -83,11 +83,39 @@
 //!    fitted box and the region's residual-weighted centroid as
 //!    [`Signals::region`](crate::Signals::region) (what the collision-course gate needs); `aux`:
 //!    `pixels` (changed pixels of the object), `x`, `y` (centroid).
+//! 6. **Several objects** (`objects.rs`): the track of steps 3–5 is the *primary* track, the one
+//!    the single-object outputs above follow; beside it the tracker holds up to
+//!    [`MAX_TRACKS`] − 1 *other* tracks, each with its own fit of step 4. Per frame, after the
+//!    primary track's step, the regions that are not part of the primary track's region (those
+//!    overlapping its box) are **assigned** to the other tracks, cheapest pair first (greedy): a
+//!    region is a candidate of a track when it overlaps the track's predicted box (its fitted box
+//!    moved as it moved in the last frame) grown by a quarter of its size (at least `link_px`) and
+//!    passes the track's validation gate; the cost is the distance between the two boxes' centres
+//!    in units of the track's size. An assigned region is joined by the free regions touching it
+//!    (and, for a moving camera, overlapping the predicted box), a standing camera's cleaned of
+//!    the background it uncovered without changing the model (which follows the primary track
+//!    only; a region that is all uncovered background — where an object was, or stood when the
+//!    model started — is no measurement and starts no track), and measured and fitted as in step 4 (a moving camera's other tracks are measured on
+//!    the difference's regions, not by the object's appearance). A track is **born** tentative on
+//!    each region left free that does not overlap a tracked box grown by its margin, heaviest
+//!    first, while fewer than [`MAX_TRACKS`] tracks are held; it is **confirmed** once it has
+//!    lasted `confirm_frames`; a tentative track is **lost** at its first frame without a region,
+//!    a confirmed one after `hold_frames` frames without one — [`MERGED_HOLD_FACTOR`] times that
+//!    while its box overlaps another track's (two objects crossing: their regions merged, the
+//!    gate refuses the merged region, each track holds on its fitted motion). Every track has its
+//!    own number from one count: when the primary track starts on the region of another track, it
+//!    continues that track (its number, and it is listed at once when that track was confirmed),
+//!    and when a region takes the primary track over (`take_over`), the object passing beside
+//!    lives on as another track. [`Signals::objects`](crate::Signals::objects) lists the primary
+//!    track when reported (or continued from a confirmed track) first, then every confirmed other
+//!    track, each with its region and θ̂ of step 5; the single-object outputs are the primary
+//!    track's alone, exactly as without the other tracks.
 
 mod background;
 mod config;
 mod fit;
 mod measure;
+mod objects;
 mod region;
 mod track;
 
@@ -99,6 +127,7 @@ use fit::{BoxSample, fit_box};
 use region::{Blob, Grouping, box_union};
 
 pub use config::TrackerConfig;
+pub use objects::{MAX_TRACKS, MERGED_HOLD_FACTOR};
 
 /// A region more than this many times wider than high is ignored: a thin horizontal band is the
 /// far ground at the horizon, whose texture is finer than a pixel there and changes unpredictably
@@ -200,8 +229,19 @@ pub struct Tracker {
     object_luminance: Option<f32>,
     blobs: Vec<Blob>,
     track: Option<Blob>,
-    /// Tracks started since the last reset: the current track's number ([`ImageRegion::track`]).
+    /// Tracks started since the last reset, the primary one's and the others' (`others`): the last
+    /// track number given ([`ImageRegion::track`]).
     tracks: usize,
+    /// The primary track's number: a new one whenever it starts following another region, that of
+    /// the other track it continues when it starts on that track's region (`Tracker::adopt`).
+    primary_id: usize,
+    /// Whether the primary track continues a confirmed other track: it is listed in
+    /// [`Signals::objects`] before it has lasted `confirm_frames` (its single-object outputs wait).
+    primary_inherited: bool,
+    /// The primary track's fitted box one frame earlier (its motion when it is handed to `others`).
+    previous_edges: [f64; 4],
+    /// The tracks beside the primary one (module docs, step 6).
+    others: objects::Others,
     missed: usize,
     /// Frames the current track has lasted.
     age: usize,
@@ -238,6 +278,10 @@ impl Tracker {
             blobs: Vec::new(),
             track: None,
             tracks: 0,
+            primary_id: 0,
+            primary_inherited: false,
+            previous_edges: [0.0; 4],
+            others: objects::Others::default(),
             missed: 0,
             age: 0,
             samples: std::collections::VecDeque::new(),
@@ -262,12 +306,17 @@ impl Tracker {
     /// `sample`'s centre moved from the current camera's view to that of the track's first
     /// measurement (the camera's rotation since then undone), so that the fit sees the object's
     /// own motion and not the camera's turning or shake (module docs, step 4).
-    fn stabilise(&self, mut sample: BoxSample, n: usize) -> BoxSample {
-        if self.turn == IDENTITY {
+    fn stabilise(&self, sample: BoxSample, n: usize) -> BoxSample {
+        self.stabilise_by(&self.turn, sample, n)
+    }
+
+    /// [`Self::stabilise`] for a track whose camera rotation since its first measurement is `turn`.
+    fn stabilise_by(&self, turn: &Mat3, mut sample: BoxSample, n: usize) -> BoxSample {
+        if *turn == IDENTITY {
             return sample;
         }
         let (f, size) = (self.focal_px(n), 1.0 / sample.inverse_size);
-        let d = crate::compensation::apply(&self.turn, [1.0, -sample.x * size / f, -sample.y * size / f]);
+        let d = crate::compensation::apply(turn, [1.0, -sample.x * size / f, -sample.y * size / f]);
         if d[0] > 1e-6 {
             sample.x = -f * d[1] / d[0] / size;
             sample.y = -f * d[2] / d[0] / size;
@@ -277,13 +326,18 @@ impl Tracker {
 
     /// The fitted box `[top, bottom, left, right]` (pixels) moved from the view of the track's
     /// first measurement to the current camera's: [`Self::stabilise`] undone at its centre.
-    fn destabilise(&self, [top, bottom, left, right]: [f64; 4], n: usize) -> [f64; 4] {
-        if self.turn == IDENTITY {
+    fn destabilise(&self, edges: [f64; 4], n: usize) -> [f64; 4] {
+        self.destabilise_by(&self.turn, edges, n)
+    }
+
+    /// [`Self::destabilise`] for a track whose camera rotation since its first measurement is `turn`.
+    fn destabilise_by(&self, turn: &Mat3, [top, bottom, left, right]: [f64; 4], n: usize) -> [f64; 4] {
+        if *turn == IDENTITY {
             return [top, bottom, left, right];
         }
         let (f, c) = (self.focal_px(n), n as f64 / 2.0);
         let (ci, cj) = ((top + bottom) / 2.0 - c, (left + right) / 2.0 - c);
-        let d = crate::compensation::apply_t(&self.turn, [1.0, -cj / f, -ci / f]);
+        let d = crate::compensation::apply_t(turn, [1.0, -cj / f, -ci / f]);
         if d[0] <= 1e-6 {
             return [top, bottom, left, right];
         }
@@ -291,31 +345,20 @@ impl Tracker {
         [top + di, bottom + di, left + dj, right + dj]
     }
 
-    fn signals(&self, n: usize) -> Signals {
+    /// What the track of region `t`, fitted box `edges` (`[top, bottom, left, right]`, pixels) and
+    /// number `id` shows (module docs, step 5): its image region and θ̂ (degrees); None while the
+    /// region reaches from one image border to the opposite one.
+    fn percept(&self, t: &Blob, [top, bottom, left, right]: [f64; 4], id: usize, n: usize) -> Option<(ImageRegion, f64)> {
         // a region from one image border to the opposite one is the scene moving (a drifting wall,
         // the ground), not an object with a size
-        let spans_image = |t: &Blob| {
-            let [top, bottom, left, right] = t.touches(n);
-            (top && bottom) || (left && right)
-        };
-        let confirmed = self
-            .track
-            .as_ref()
-            .filter(|t| (self.age >= self.config.confirm_frames || self.confirmed_by_appearance()) && !spans_image(t));
-        let Some(t) = confirmed else {
-            return Signals {
-                output: 0.0,
-                angular_size_deg: Some(0.0),
-                aux: vec![("pixels", 0.0), ("x", f64::NAN), ("y", f64::NAN)],
-                region: None,
-                objects: Vec::new(),
-            };
-        };
+        let [cut_top, cut_bottom, cut_left, cut_right] = t.touches(n);
+        if (cut_top && cut_bottom) || (cut_left && cut_right) {
+            return None;
+        }
         let nf = n as f64;
         let x_of = |j: f64| 2.0 * j / nf - 1.0;
         let y_of = |i: f64| 1.0 - 2.0 * i / nf;
         let [i0, i1, j0, j1] = t.bbox;
-        let [top, bottom, left, right] = self.edges;
         let (ci, cj) = if t.mass > 0.0 {
             (t.sum_i / t.mass + 0.5, t.sum_j / t.mass + 0.5)
         } else {
@@ -325,15 +368,34 @@ impl Tracker {
             centroid: [x_of(cj), y_of(ci)],
             x: [x_of(left), x_of(right.max(left))],
             y: [y_of(bottom.max(top)), y_of(top)],
-            track: Some(self.tracks),
+            track: Some(id),
         };
         let [w, h] = region.angular_size_deg(self.config.fov_deg);
         // an image border cuts the object: only the extent along it measures the object's size
-        let [cut_top, cut_bottom, cut_left, cut_right] = t.touches(n);
         let theta = match (cut_left || cut_right, cut_top || cut_bottom) {
             (true, false) => h,
             (false, true) => w,
             _ => w.max(h),
+        };
+        Some((region, theta))
+    }
+
+    fn signals(&self, n: usize) -> Signals {
+        let reported = self.age >= self.config.confirm_frames || self.confirmed_by_appearance();
+        let primary = self
+            .track
+            .as_ref()
+            .filter(|_| reported || self.primary_inherited)
+            .and_then(|t| Some((t, self.percept(t, self.edges, self.primary_id, n)?)));
+        let objects = self.objects(n, primary.map(|(_, p)| p));
+        let Some((t, (region, theta))) = primary.filter(|_| reported) else {
+            return Signals {
+                output: 0.0,
+                angular_size_deg: Some(0.0),
+                aux: vec![("pixels", 0.0), ("x", f64::NAN), ("y", f64::NAN)],
+                region: None,
+                objects,
+            };
         };
         Signals {
             output: theta,
@@ -344,7 +406,7 @@ impl Tracker {
                 ("y", region.centroid[1]),
             ],
             region: Some(region),
-            objects: Vec::new(),
+            objects,
         }
     }
 }
@@ -364,6 +426,9 @@ impl Detector for Tracker {
         }
         self.track = None;
         self.tracks = 0;
+        self.primary_id = 0;
+        self.primary_inherited = false;
+        self.others.clear();
         self.missed = 0;
         self.age = 0;
         self.background.clear();
@@ -390,7 +455,9 @@ impl Detector for Tracker {
             }
         }
         if ego.knows_motion() && ego.rotation_rad.iter().any(|&r| r != 0.0) {
-            self.turn = crate::compensation::mul(&self.turn, &rotation_matrix(ego.rotation_rad));
+            let rotation = rotation_matrix(ego.rotation_rad);
+            self.turn = crate::compensation::mul(&self.turn, &rotation);
+            self.others.turn(&rotation);
         }
         let standing = !ego.knows_motion()
             || (ego.rotation_rad.iter().all(|r| r.abs() < STANDING_MOTION)
@@ -433,6 +500,8 @@ impl Detector for Tracker {
         let taken_over = if self.config.take_over { self.take_over(n) } else { None };
         let chosen = match taken_over {
             Some(b) => {
+                // the object passing beside lives on as one of the other tracks
+                self.hand_over_primary();
                 self.track = None;
                 self.age = 0;
                 self.missed = 0;
@@ -440,11 +509,14 @@ impl Detector for Tracker {
             }
             None => self.choose(),
         };
-        if chosen.is_some() && self.track.is_none() {
-            // a new track: another number, and its object's luminance is not known yet
-            self.tracks += 1;
+        if let Some(b) = chosen.filter(|_| self.track.is_none()) {
+            // a new track: another number (or that of the other track it continues), and its
+            // object's luminance is not known yet
+            self.adopt(&b);
             self.object_luminance = None;
         }
+        // the regions the primary track's region is made of are not the other tracks'
+        let claimed = chosen.map(|b| b.bbox);
         // whether this frame's measurement is of the object's appearance alone (no region)
         let mut appearance_only = false;
         let chosen = if standing {
@@ -504,7 +576,11 @@ impl Detector for Tracker {
             }
             None => {}
         }
+        if self.track.is_none() {
+            self.primary_inherited = false;
+        }
         if self.track.is_some() {
+            self.previous_edges = self.edges;
             self.edges = self.destabilise(fit_box(
                 &self.samples,
                 self.clock,
@@ -516,8 +592,10 @@ impl Detector for Tracker {
             ), n);
             self.clock += 1;
         }
+        self.follow_others(frame.data(), n, standing, claimed);
         if standing {
             self.update_background(frame.data(), n);
+            self.update_others_background(frame.data(), n);
         }
         Ok(self.signals(n))
     }

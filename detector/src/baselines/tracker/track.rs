@@ -1,6 +1,8 @@
 //! The track: which region is the object, the validation gate, and confirmation by appearance.
 
-use super::fit::Lines;
+use std::collections::VecDeque;
+
+use super::fit::{BoxSample, Lines};
 use super::region::Blob;
 use super::{
     APPEARANCE_CONFIRM_FRAMES, DIFFERENCE_MEMORY_DIVISOR, GATE_MIN_SAMPLES, GATE_SLACK_PX, TAKE_OVER_BESIDE_WIDTHS,
@@ -68,15 +70,21 @@ impl Tracker {
     /// [`DIFFERENCE_MEMORY_DIVISOR`]): what the regions have been, not the fitted object box (a
     /// difference box's is cut to where the object is now).
     pub(super) fn passes_gate(&self, b: &Blob) -> bool {
-        if self.track.is_none() || self.samples.len() < GATE_MIN_SAMPLES {
+        self.track.is_none() || self.size_gate(&self.samples, self.clock, b.bbox)
+    }
+
+    /// The validation gate of a track holding `samples` at frame `clock` of its fit, for a region
+    /// of box `bbox` ([`Self::passes_gate`]; the tracks beside the primary one use it too): true
+    /// while the track holds fewer than [`GATE_MIN_SAMPLES`] measurements.
+    pub(super) fn size_gate(&self, samples: &VecDeque<BoxSample>, clock: usize, [i0, i1, j0, j1]: [usize; 4]) -> bool {
+        if samples.len() < GATE_MIN_SAMPLES {
             return true;
         }
         let memory = self.config.fit_frames as f64 / DIFFERENCE_MEMORY_DIVISOR;
-        let lines = Lines::fit(&self.samples, self.clock as f64, memory, |s| {
+        let lines = Lines::fit(samples, clock as f64, memory, |s| {
             [(s.width * s.height).sqrt() / s.inverse_size, 0.0, 0.0, 0.0, 0.0]
         });
         let predicted = lines.at(0).max(1.0);
-        let [i0, i1, j0, j1] = b.bbox;
         let measured = (((i1 - i0 + 1) * (j1 - j0 + 1)) as f64).sqrt();
         let g = self.config.size_gate_ratio;
         measured <= g * predicted + GATE_SLACK_PX && measured >= predicted / g - GATE_SLACK_PX
