@@ -84,6 +84,31 @@ fn generated_heldout_tables_match_the_heldout_baseline() {
     assert!(report.suite.ends_with("suites/heldout"), "{}", report.suite);
 }
 
+#[test]
+fn table_tag_updates_and_checks_only_that_suites_blocks() {
+    let dir = tmp("docs", "tagged-table");
+    let readme = dir.join("README.md");
+    let good = read("README.md");
+    // the held-out block emptied: stale for --tag heldout, not for the default suite's check
+    let begin = good.find("<!-- results-brief@heldout:begin -->\n").unwrap() + "<!-- results-brief@heldout:begin -->\n".len();
+    let end = good.find("<!-- results-brief@heldout:end -->").unwrap();
+    let bad = format!("{}{}", &good[..begin], &good[end..]);
+    std::fs::write(&readme, &bad).unwrap();
+    let o = loomlab(&["table", BASELINE, "--update", s(&readme), "--check"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let o = loomlab(&["table", HELDOUT_BASELINE, "--tag", "heldout", "--update", s(&readme), "--check"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o.stderr));
+    assert!(text(&o.stderr).contains("`results-brief@heldout`"), "{}", text(&o.stderr));
+    // --update with the tag restores it, touching nothing else
+    let o = loomlab(&["table", HELDOUT_BASELINE, "--tag", "heldout", "--update", s(&readme)]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert_eq!(std::fs::read_to_string(&readme).unwrap(), good);
+    // a bad tag is bad input naming the fix
+    let o = loomlab(&["table", HELDOUT_BASELINE, "--tag", "Held Out", "--update", s(&readme)]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    assert!(text(&o.stderr).contains("--tag `Held Out`"), "{}", text(&o.stderr));
+}
+
 /// The held-out suite runs the default suite's detector rows, exactly (labels, thresholds,
 /// parameters), with the default suite's camera, so that each row's results compare row by row;
 /// and none of its scenario files is a default-suite file.

@@ -717,7 +717,7 @@ mod tests {
     fn the_brief_names_the_best_row_within_the_false_alarm_bound() {
         let mut r = report();
         let brief = brief_table(&r);
-        let (best, s) = best_detector_row(&r).unwrap();
+        let (best, s) = best_detector_row(&r).map(|(l, s)| (l.to_string(), s.clone())).unwrap();
         assert!(s.false_alarm_rate.unwrap() <= BRIEF_MAX_FALSE_ALARM_RATE);
         assert!(
             brief.contains(&format!("| `{best}` (most evasions at ≤ 10 % false alarms) |")),
@@ -729,7 +729,7 @@ mod tests {
         louder.evaded += 1;
         louder.false_alarm_rate = Some(BRIEF_MAX_FALSE_ALARM_RATE + 0.01);
         r.detectors.insert("zz_louder".into(), louder);
-        assert_eq!(best_detector_row(&r).unwrap().0, best);
+        assert_eq!(best_detector_row(&r).unwrap().0, best.as_str());
         // collisions caused: the sum of false alarms and hits that collided
         let ic = &r.detectors["ideal_course"];
         assert_eq!(ic.collisions_caused, ic.false_alarm_collisions + ic.hit_collisions);
