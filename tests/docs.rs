@@ -75,11 +75,17 @@ fn generated_heldout_tables_match_the_heldout_baseline() {
     let brief = block("README.md", "results-brief");
     let (best, _) = best_detector_row(&report).unwrap();
     for label in [best, "ideal_course", "oracle"] {
-        assert!(brief.contains(&format!("| `{label}`")), "README's held-out table lacks {label}");
+        assert!(
+            brief.contains(&format!("| `{label}`")),
+            "README's held-out table lacks {label}"
+        );
     }
     let full = block("docs/results.md", "results-full");
     for label in report.detectors.keys() {
-        assert!(full.contains(&format!("| `{label}`")), "the held-out table lacks the row {label}");
+        assert!(
+            full.contains(&format!("| `{label}`")),
+            "the held-out table lacks the row {label}"
+        );
     }
     assert!(report.suite.ends_with("suites/heldout"), "{}", report.suite);
 }
@@ -90,15 +96,28 @@ fn table_tag_updates_and_checks_only_that_suites_blocks() {
     let readme = dir.join("README.md");
     let good = read("README.md");
     // the held-out block emptied: stale for --tag heldout, not for the default suite's check
-    let begin = good.find("<!-- results-brief@heldout:begin -->\n").unwrap() + "<!-- results-brief@heldout:begin -->\n".len();
+    let begin =
+        good.find("<!-- results-brief@heldout:begin -->\n").unwrap() + "<!-- results-brief@heldout:begin -->\n".len();
     let end = good.find("<!-- results-brief@heldout:end -->").unwrap();
     let bad = format!("{}{}", &good[..begin], &good[end..]);
     std::fs::write(&readme, &bad).unwrap();
     let o = loomlab(&["table", BASELINE, "--update", s(&readme), "--check"]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
-    let o = loomlab(&["table", HELDOUT_BASELINE, "--tag", "heldout", "--update", s(&readme), "--check"]);
+    let o = loomlab(&[
+        "table",
+        HELDOUT_BASELINE,
+        "--tag",
+        "heldout",
+        "--update",
+        s(&readme),
+        "--check",
+    ]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o.stderr));
-    assert!(text(&o.stderr).contains("`results-brief@heldout`"), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("`results-brief@heldout`"),
+        "{}",
+        text(&o.stderr)
+    );
     // --update with the tag restores it, touching nothing else
     let o = loomlab(&["table", HELDOUT_BASELINE, "--tag", "heldout", "--update", s(&readme)]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
@@ -115,11 +134,11 @@ fn table_tag_updates_and_checks_only_that_suites_blocks() {
 #[test]
 fn heldout_suite_runs_the_default_suites_rows_on_other_scenarios() {
     let suite = |dir: &str| -> toml::Table { toml::from_str(&read(&format!("{dir}/suite.toml"))).unwrap() };
-    let (default, heldout) = (
-        suite("scenarios/suites/default"),
-        suite("scenarios/suites/heldout"),
+    let (default, heldout) = (suite("scenarios/suites/default"), suite("scenarios/suites/heldout"));
+    assert_eq!(
+        heldout["defaults"], default["defaults"],
+        "the [defaults] (rows, camera) must be the default suite's"
     );
-    assert_eq!(heldout["defaults"], default["defaults"], "the [defaults] (rows, camera) must be the default suite's");
     assert_eq!(heldout["require_tier"].as_bool(), Some(true));
     let files = |dir: &str| -> Vec<String> {
         let mut names: Vec<String> = std::fs::read_dir(root().join(dir))
@@ -136,9 +155,15 @@ fn heldout_suite_runs_the_default_suites_rows_on_other_scenarios() {
         assert!(!theirs.contains(f), "{f} is a default-suite scenario");
     }
     let readme = read("scenarios/suites/heldout/README.md");
-    assert!(readme.contains("Never tuned on"), "the held-out README must say it is never tuned on");
+    assert!(
+        readme.contains("Never tuned on"),
+        "the held-out README must say it is never tuned on"
+    );
     for f in &ours {
-        assert!(readme.contains(&format!("`{f}`")), "the held-out README does not list {f}");
+        assert!(
+            readme.contains(&format!("`{f}`")),
+            "the held-out README does not list {f}"
+        );
     }
 }
 

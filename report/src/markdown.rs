@@ -545,7 +545,11 @@ fn brief_table(report: &Report) -> String {
         ));
     }
     for r in ["ideal_course", "oracle"] {
-        if let Some(s) = report.detectors.get(r).filter(|_| report.references.iter().any(|x| x == r)) {
+        if let Some(s) = report
+            .detectors
+            .get(r)
+            .filter(|_| report.references.iter().any(|x| x == r))
+        {
             rows.push((format!("`{r}` *"), s));
         }
     }
@@ -701,7 +705,10 @@ mod tests {
         assert!(new.contains("@heldout:begin -->\nkept\n<!--"), "{new}");
         assert!(stale_blocks(&new, &r).unwrap().is_empty());
         // and the held-out run rewrites only its own block
-        assert_eq!(stale_tagged_blocks(&new, &r, Some("heldout")).unwrap(), ["results-suite@heldout"]);
+        assert_eq!(
+            stale_tagged_blocks(&new, &r, Some("heldout")).unwrap(),
+            ["results-suite@heldout"]
+        );
         let (tagged, n) = update_tagged_blocks(&new, &r, Some("heldout")).unwrap();
         assert_eq!(n, 1);
         assert!(!tagged.contains("kept"), "{tagged}");
@@ -723,7 +730,10 @@ mod tests {
             brief.contains(&format!("| `{best}` (most evasions at ≤ 10 % false alarms) |")),
             "{brief}"
         );
-        assert!(brief.contains("| `ideal_course` * |") && brief.contains("| `oracle` * |"), "{brief}");
+        assert!(
+            brief.contains("| `ideal_course` * |") && brief.contains("| `oracle` * |"),
+            "{brief}"
+        );
         // a row that evades more but above the bound is not the best
         let mut louder = s.clone();
         louder.evaded += 1;

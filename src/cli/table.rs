@@ -52,7 +52,8 @@ pub fn run(args: TableArgs) -> anyhow::Result<i32> {
     for file in &args.update {
         let text = std::fs::read_to_string(file).with_context(|| format!("cannot read {}", file.display()))?;
         if args.check {
-            let names = stale_tagged_blocks(&text, &report, tag).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+            let names =
+                stale_tagged_blocks(&text, &report, tag).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
             for name in &names {
                 errln!(
                     "{}: the generated block `{name}` disagrees with {}; regenerate it with `{REGENERATE}`",
@@ -63,7 +64,8 @@ pub fn run(args: TableArgs) -> anyhow::Result<i32> {
             stale += names.len();
             continue;
         }
-        let (new, blocks) = update_tagged_blocks(&text, &report, tag).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+        let (new, blocks) =
+            update_tagged_blocks(&text, &report, tag).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
         if blocks == 0 {
             bail!(
                 "{}: no generated block (`<!-- results-table:begin -->` … `:end -->`)",
