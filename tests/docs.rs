@@ -4,12 +4,14 @@
 
 use std::path::{Path, PathBuf};
 
-use loomlab_report::markdown::{REGENERATE, stale_blocks};
+use loomlab_report::markdown::{REGENERATE, best_detector_row, stale_blocks, stale_tagged_blocks};
 use loomlab_scenarios::report::Report;
 
 use crate::common::{loomlab, s, text, tmp};
 
 const BASELINE: &str = "scenarios/baseline/default-report.json";
+/// The held-out suite's committed report; its blocks are tagged `@heldout`.
+const HELDOUT_BASELINE: &str = "scenarios/suites/heldout/baseline/report.json";
 /// Documents with generated blocks (the Makefile's `DOC_TABLES`).
 const GENERATED: [&str; 2] = ["README.md", "docs/results.md"];
 
@@ -49,6 +51,120 @@ fn generated_tables_match_the_baseline() {
         );
     }
     assert!(!report.references.is_empty());
+}
+
+#[test]
+fn generated_heldout_tables_match_the_heldout_baseline() {
+    let report = Report::read_json(&root().join(HELDOUT_BASELINE)).unwrap();
+    for doc in GENERATED {
+        let stale = stale_tagged_blocks(&read(doc), &report, Some("heldout")).unwrap_or_else(|e| panic!("{doc}: {e}"));
+        assert!(
+            stale.is_empty(),
+            "{doc}: the generated block(s) {stale:?} disagree with {HELDOUT_BASELINE}; regenerate them with `{REGENERATE}`"
+        );
+    }
+    // the README shows the held-out suite's short table, docs/results.md its full one with every row
+    let block = |doc: &str, name: &str| {
+        let text = read(doc);
+        let begin = text
+            .find(&format!("<!-- {name}@heldout:begin -->"))
+            .unwrap_or_else(|| panic!("{doc} lacks the block {name}@heldout"));
+        let end = text.find(&format!("<!-- {name}@heldout:end -->")).unwrap();
+        text[begin..end].to_string()
+    };
+    let brief = block("README.md", "results-brief");
+    let (best, _) = best_detector_row(&report).unwrap();
+    for label in [best, "ideal_course", "oracle"] {
+        assert!(
+            brief.contains(&format!("| `{label}`")),
+            "README's held-out table lacks {label}"
+        );
+    }
+    let full = block("docs/results.md", "results-full");
+    for label in report.detectors.keys() {
+        assert!(
+            full.contains(&format!("| `{label}`")),
+            "the held-out table lacks the row {label}"
+        );
+    }
+    assert!(report.suite.ends_with("suites/heldout"), "{}", report.suite);
+}
+
+#[test]
+fn table_tag_updates_and_checks_only_that_suites_blocks() {
+    let dir = tmp("docs", "tagged-table");
+    let readme = dir.join("README.md");
+    let good = read("README.md");
+    // the held-out block emptied: stale for --tag heldout, not for the default suite's check
+    let begin =
+        good.find("<!-- results-brief@heldout:begin -->\n").unwrap() + "<!-- results-brief@heldout:begin -->\n".len();
+    let end = good.find("<!-- results-brief@heldout:end -->").unwrap();
+    let bad = format!("{}{}", &good[..begin], &good[end..]);
+    std::fs::write(&readme, &bad).unwrap();
+    let o = loomlab(&["table", BASELINE, "--update", s(&readme), "--check"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let o = loomlab(&[
+        "table",
+        HELDOUT_BASELINE,
+        "--tag",
+        "heldout",
+        "--update",
+        s(&readme),
+        "--check",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("`results-brief@heldout`"),
+        "{}",
+        text(&o.stderr)
+    );
+    // --update with the tag restores it, touching nothing else
+    let o = loomlab(&["table", HELDOUT_BASELINE, "--tag", "heldout", "--update", s(&readme)]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert_eq!(std::fs::read_to_string(&readme).unwrap(), good);
+    // a bad tag is bad input naming the fix
+    let o = loomlab(&["table", HELDOUT_BASELINE, "--tag", "Held Out", "--update", s(&readme)]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    assert!(text(&o.stderr).contains("--tag `Held Out`"), "{}", text(&o.stderr));
+}
+
+/// The held-out suite runs the default suite's detector rows, exactly (labels, thresholds,
+/// parameters), with the default suite's camera, so that each row's results compare row by row;
+/// and none of its scenario files is a default-suite file.
+#[test]
+fn heldout_suite_runs_the_default_suites_rows_on_other_scenarios() {
+    let suite = |dir: &str| -> toml::Table { toml::from_str(&read(&format!("{dir}/suite.toml"))).unwrap() };
+    let (default, heldout) = (suite("scenarios/suites/default"), suite("scenarios/suites/heldout"));
+    assert_eq!(
+        heldout["defaults"], default["defaults"],
+        "the [defaults] (rows, camera) must be the default suite's"
+    );
+    assert_eq!(heldout["require_tier"].as_bool(), Some(true));
+    let files = |dir: &str| -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(root().join(dir))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.ends_with(".toml") && n != "suite.toml")
+            .collect();
+        names.sort();
+        names
+    };
+    let (ours, theirs) = (files("scenarios/suites/heldout"), files("scenarios/suites/default"));
+    assert!(ours.len() >= 5, "{ours:?}");
+    for f in &ours {
+        assert!(!theirs.contains(f), "{f} is a default-suite scenario");
+    }
+    let readme = read("scenarios/suites/heldout/README.md");
+    assert!(
+        readme.contains("Never tuned on"),
+        "the held-out README must say it is never tuned on"
+    );
+    for f in &ours {
+        assert!(
+            readme.contains(&format!("`{f}`")),
+            "the held-out README does not list {f}"
+        );
+    }
 }
 
 #[test]

@@ -104,7 +104,7 @@ pub fn table(class: &str, headers: &[&str], rows: &[(String, Vec<String>)]) -> S
 }
 
 /// The headers of [`summary_rows`].
-pub const SUMMARY_HEADERS: [&str; 13] = [
+pub const SUMMARY_HEADERS: [&str; 14] = [
     "detector",
     "episodes",
     "hits",
@@ -118,6 +118,7 @@ pub const SUMMARY_HEADERS: [&str; 13] = [
     "mean lead (s)",
     "θ at alarm (deg)",
     "collision reduction",
+    "collisions caused (false alarms + hits)",
 ];
 
 /// One row per detector of a summary table; reference rows (class `ref`) after the detectors.
@@ -147,6 +148,13 @@ pub fn summary_rows<'a>(
                 s.mean_angular_size_at_alarm_deg,
             ),
             cell(&pct(s.collision_reduction), s.collision_reduction),
+            cell(
+                &format!(
+                    "{} ({} + {})",
+                    s.collisions_caused, s.false_alarm_collisions, s.hit_collisions
+                ),
+                Some(s.collisions_caused as f64),
+            ),
         ];
         if is_reference(label) {
             refs.push(("ref".to_string(), cells));

@@ -71,7 +71,9 @@ impl RunPage<'_> {
         b.push_str(&table("summary", &SUMMARY_HEADERS, &summary_rows(r.detectors.iter())));
         b.push_str(
             "<p class=\"meta\">Hit: alarm no later than the threat's escape deadline; miss: later or never; \
-             false alarm: an alarm without a threat. Reference rows: <code>null</code> never alarms, \
+             false alarm: an alarm without a threat. Collisions caused: the row's own dodges ended in a \
+             collision, after a false alarm (the cruising robot would have been untouched) or a hit (the \
+             alarm came in time). Reference rows: <code>null</code> never alarms, \
              <code>oracle</code> alarms at each evadable threat's deadline, <code>ideal_theta</code> \
              thresholds the true angular size of the moving objects, <code>ideal_tau</code> alarms on the \
              time to contact estimated from each object's true angular size, <code>ideal_course</code> \

@@ -4,14 +4,17 @@
 //! Columns (see [`HEADER`]): `scenario,episode,seed,params,detector,threat,t_contact_s,t_alarm_s,
 //! outcome,collision,ttc_at_alarm_s,angular_size_at_alarm_deg,max_signal,lead_s,t_deadline_s,
 //! deadline_lead_s,evadable,l_over_v_s,eye_ttc_at_alarm_s,theta_rel_err_median,theta_rel_err_p90,
-//! theta_at_first_estimate_deg,triggers,impact_speed_mps,impulse_ns,theta_required_deg`
+//! theta_at_first_estimate_deg,triggers,impact_speed_mps,impulse_ns,theta_required_deg,
+//! collision_caused`
 //! (`theta_required_deg`: the true angular size of an evadable threat at its escape deadline, the
-//! same on every row of the episode). `params` is a
+//! same on every row of the episode; `collision_caused`: the row's own escape manoeuvre caused the
+//! collision, a false alarm or a hit that collided, see [`crate::metrics`]). `params` is a
 //! compact JSON object of the episode's swept/sampled values (`{"speed_kmh":"50"}`), quoted as CSV
 //! requires; booleans are `true`/`false`; absent values are empty cells; numbers are written in
 //! Rust's shortest round-trip form, so a read gives back exactly what was written. `lead_s`
-//! (`t_c − t_a` for hits), `deadline_lead_s` (`t_c − t_dl`) and `evadable` (a threat with a
-//! deadline) are derived and ignored on reading. Fields are quoted per RFC 4180 when they
+//! (`t_c − t_a` for hits), `deadline_lead_s` (`t_c − t_dl`), `evadable` (a threat with a
+//! deadline) and `collision_caused` are derived and ignored on reading; files written before
+//! `collision_caused` existed (the column last) still read ([`OPTIONAL_ON_READ`]). Fields are quoted per RFC 4180 when they
 //! hold a comma, quote or line break.
 //!
 //! Crash safety: [`EpisodesCsvWriter::write_episode`] writes all rows of an episode with one
@@ -26,8 +29,9 @@ use std::path::{Path, PathBuf};
 
 use crate::metrics::{DetectorEpisode, EpisodeOutcome, Outcome, ScoringError};
 
-/// The column names, in order.
-pub const HEADER: [&str; 26] = [
+/// The column names, in order (new columns are appended, so that tools reading columns by position
+/// keep working).
+pub const HEADER: [&str; 27] = [
     "scenario",
     "episode",
     "seed",
@@ -54,7 +58,11 @@ pub const HEADER: [&str; 26] = [
     "impact_speed_mps",
     "impulse_ns",
     "theta_required_deg",
+    "collision_caused",
 ];
+
+/// Derived columns added after the first release of the format: a file without them still reads.
+pub const OPTIONAL_ON_READ: [&str; 1] = ["collision_caused"];
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> ScoringError + '_ {
     move |source| ScoringError::Io {
@@ -113,6 +121,7 @@ pub fn format_rows(episode: &EpisodeOutcome) -> String {
             opt(d.impact_speed_mps),
             opt(d.impulse_ns),
             opt(d.theta_required_deg),
+            d.collision_caused().to_string(),
         ];
         out += &cells.join(",");
         out.push('\n');
@@ -272,7 +281,11 @@ pub fn parse_episodes_csv(text: &str, origin: &Path) -> Result<Vec<EpisodeOutcom
     };
     let mut col = BTreeMap::new();
     for name in HEADER {
-        let i = header.fields.iter().position(|h| h == name).ok_or_else(|| {
+        let found = header.fields.iter().position(|h| h == name);
+        if found.is_none() && OPTIONAL_ON_READ.contains(&name) {
+            continue;
+        }
+        let i = found.ok_or_else(|| {
             err(
                 1,
                 format!("missing column `{name}` (expected columns: {})", HEADER.join(",")),

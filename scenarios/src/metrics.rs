@@ -18,7 +18,15 @@
 //!
 //! So a hit is an alarm in time to evade, and a hit that still collides is a contradiction of the
 //! closed loop (a re-trigger of the level-triggered controller that dodges back into the object,
-//! or a non-monotone deadline): reports count it as `hit_collisions`.
+//! a dodge into another object, or a non-monotone deadline): reports count it as `hit_collisions`.
+//!
+//! **Collisions caused by a row's own manoeuvres** ([`DetectorEpisode::collision_caused`]): a
+//! false alarm that collides (the open loop touched nothing, so only the escape manoeuvre can have
+//! driven the robot into an object) and a hit that collides (the alarm came in time for the
+//! manoeuvre to evade, yet the closed loop collided). Late and silent misses and unavoidable
+//! threats collide with or without the manoeuvre and are not counted. Reports give
+//! `collisions_caused = false_alarm_collisions + hit_collisions` and `collisions_caused_rate =
+//! collisions_caused / episodes` (the row's episodes, threats and non-threats alike).
 //!
 //! The ROC **score** of an episode ([`DetectorEpisode::max_signal`]) is the maximum signal over the
 //! window in which an alarm counts: frames with `t ≤ t_dl − lead_margin` for evadable threats, all
@@ -303,6 +311,12 @@ impl DetectorEpisode {
         Some(self.t_contact_s? - self.t_deadline_s?)
     }
 
+    /// Whether the row's own escape manoeuvre caused this episode's collision: a false alarm or a
+    /// hit whose closed loop collided (see the module docs).
+    pub fn collision_caused(&self) -> bool {
+        self.collision && matches!(self.outcome, Outcome::FalseAlarm | Outcome::Hit)
+    }
+
     /// A miss with an alarm after the deadline.
     pub fn is_late_miss(&self) -> bool {
         self.outcome == Outcome::Miss && self.t_alarm_s.is_some()
@@ -525,6 +539,17 @@ pub struct DetectorSummary {
     /// Non-threat episodes that collided after a false-alarm escape.
     #[serde(default)]
     pub false_alarm_collisions: u64,
+    /// Collisions the row's own manoeuvres caused: `false_alarm_collisions + hit_collisions`
+    /// ([`DetectorEpisode::collision_caused`]). Reports written before the key existed get it
+    /// derived on reading ([`DetectorSummary::derive_collisions_caused`]).
+    #[serde(default)]
+    pub collisions_caused: u64,
+    /// collisions_caused / episodes (`None` without episodes).
+    #[serde(default)]
+    pub collisions_caused_rate: Option<f64>,
+    /// 95 % Wilson interval of `collisions_caused_rate`.
+    #[serde(default)]
+    pub collisions_caused_rate_ci: Option<Interval>,
     /// 1 − collisions / collisions of the `null` reference row (filled in by the report; `None`
     /// without a null row or when null never collides).
     #[serde(default)]
@@ -563,7 +588,7 @@ impl DetectorSummary {
         let roc = stats::roc_curve(&positives, &negatives);
         let auc = (!roc.is_empty()).then(|| stats::auc_trapezoid(&roc));
         let hits_iter = || eps.iter().filter(|e| e.outcome == Outcome::Hit);
-        Self {
+        let mut summary = Self {
             episodes,
             hits,
             misses,
@@ -595,11 +620,25 @@ impl DetectorSummary {
                 .iter()
                 .filter(|e| e.outcome == Outcome::FalseAlarm && e.collision)
                 .count() as u64,
+            collisions_caused: 0,
+            collisions_caused_rate: None,
+            collisions_caused_rate_ci: None,
             collision_reduction: None,
             lv_fit: LvFit::from_episodes(&eps),
             theta_accuracy: ThetaAccuracy::from_episodes(&eps),
             roc,
-        }
+        };
+        summary.derive_collisions_caused();
+        summary
+    }
+
+    /// Fills `collisions_caused` and its rate and interval from `false_alarm_collisions`,
+    /// `hit_collisions` and `episodes`, which every report carries (also those written before the
+    /// keys existed: [`crate::report::Report::from_json`] calls this on every summary it reads).
+    pub fn derive_collisions_caused(&mut self) {
+        self.collisions_caused = self.false_alarm_collisions + self.hit_collisions;
+        self.collisions_caused_rate = stats::rate(self.collisions_caused, self.episodes);
+        self.collisions_caused_rate_ci = stats::wilson_95(self.collisions_caused, self.episodes);
     }
 }
 

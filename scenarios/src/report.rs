@@ -21,6 +21,7 @@
 //! beside the detectors and are listed in `references`. Every summary also carries the escape
 //! fields (`evadable_threats`, `unavoidable_threats`, `evaded`, `evasion_rate`, `late_misses`,
 //! `silent_misses`, `hit_collisions`, `retriggered_hit_collisions`, `false_alarm_collisions`,
+//! `collisions_caused`, `collisions_caused_rate`, `collisions_caused_rate_ci`,
 //! `collision_reduction`), `lv_fit` and `theta_accuracy`. See [`crate::metrics`] for the
 //! definitions.
 
@@ -252,12 +253,24 @@ impl Report {
         serde_json::to_string_pretty(self).expect("a Report always serialises (string keys, no maps of floats)")
     }
 
-    /// Parse report JSON text; `origin` names the source in errors.
+    /// Parse report JSON text; `origin` names the source in errors. The collisions caused by each
+    /// row's manoeuvres are derived again from the counts every report carries
+    /// ([`DetectorSummary::derive_collisions_caused`]), so that reports written before those keys
+    /// existed (committed baselines) read with the right numbers rather than zeros.
     pub fn from_json(text: &str, origin: &Path) -> Result<Self, ScoringError> {
-        serde_json::from_str(text).map_err(|e| ScoringError::Json {
+        let mut report: Self = serde_json::from_str(text).map_err(|e| ScoringError::Json {
             path: origin.to_path_buf(),
             reason: e.to_string(),
-        })
+        })?;
+        let summaries = report
+            .detectors
+            .values_mut()
+            .chain(report.scenarios.values_mut().flat_map(|s| s.detectors.values_mut()))
+            .chain(report.tiers.values_mut().flat_map(|t| t.detectors.values_mut()));
+        for s in summaries {
+            s.derive_collisions_caused();
+        }
+        Ok(report)
     }
 
     /// Write `report.json` (pretty, trailing newline).
@@ -329,7 +342,8 @@ fn fmt_opt(v: Option<f64>, digits: usize) -> String {
 
 /// Aligned table: the detectors, then the reference rows (marked `*`): episodes, hit rate
 /// [95 % CI], false-alarm rate [95 % CI], evasion rate [95 % CI], collision rate, collision
-/// reduction against `null`, hits that collided, AUC; a first line counts the threats.
+/// reduction against `null`, hits that collided, the collisions the row's own manoeuvres caused
+/// (false alarms + hits that collided), AUC; a first line counts the threats.
 pub fn format_summary_table(detectors: &BTreeMap<String, DetectorSummary>) -> String {
     let header = [
         "detector",
@@ -340,6 +354,7 @@ pub fn format_summary_table(detectors: &BTreeMap<String, DetectorSummary>) -> St
         "collision rate",
         "coll. reduction",
         "hit+coll (retrig.)",
+        "caused coll. (FA+hit)",
         "AUC",
     ];
     let is_ref = |id: &str| crate::reference::is_reference(id);
@@ -348,7 +363,7 @@ pub fn format_summary_table(detectors: &BTreeMap<String, DetectorSummary>) -> St
             .iter()
             .filter_map(|r| detectors.get_key_value(*r)),
     );
-    let rows: Vec<[String; 9]> = ordered
+    let rows: Vec<[String; 10]> = ordered
         .map(|(id, s)| {
             [
                 if is_ref(id) { format!("{id} *") } else { id.clone() },
@@ -359,6 +374,10 @@ pub fn format_summary_table(detectors: &BTreeMap<String, DetectorSummary>) -> St
                 fmt_opt(s.collision_rate, 2),
                 fmt_opt(s.collision_reduction, 2),
                 format!("{} ({})", s.hit_collisions, s.retriggered_hit_collisions),
+                format!(
+                    "{} ({}+{})",
+                    s.collisions_caused, s.false_alarm_collisions, s.hit_collisions
+                ),
                 fmt_opt(s.auc, 3),
             ]
         })

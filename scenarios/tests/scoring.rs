@@ -1310,6 +1310,88 @@ fn hit_collisions_and_false_alarm_collisions_are_counted() {
     assert!(table.lines().nth(3).unwrap().contains("  2 (0)  "), "{table}");
 }
 
+#[test]
+fn collisions_caused_are_the_false_alarms_and_hits_that_collided() {
+    let eps = [
+        ep(true, Some(3.0), Some(1.0), true, Some(9.0)), // hit that collided: caused
+        ep(true, Some(3.0), Some(1.0), false, Some(9.0)), // hit, evaded
+        ep(true, Some(3.0), Some(2.95), true, Some(1.0)), // late miss: collides anyway, not caused
+        ep(true, Some(3.0), None, true, Some(0.0)),      // silent miss: not caused
+        ep(false, None, Some(1.0), true, Some(9.0)),     // false alarm into an object: caused
+        ep(false, None, Some(1.0), true, Some(9.0)),     // another
+        ep(false, None, Some(1.0), false, Some(9.0)),    // false alarm, harmless
+        ep(false, None, None, true, Some(0.0)),          // correct rejection that collided: not caused
+        ep_dl(true, Some(1.0), None, Some(0.2), true, Some(9.0)), // unavoidable: not caused
+        ep(false, None, None, false, Some(0.0)),         // correct rejection
+    ];
+    let caused: Vec<bool> = eps.iter().map(|e| e.collision_caused()).collect();
+    assert_eq!(
+        caused,
+        [true, false, false, false, true, true, false, false, false, false]
+    );
+    let s = DetectorSummary::from_episodes(&eps);
+    assert_eq!((s.false_alarm_collisions, s.hit_collisions), (2, 1));
+    assert_eq!(s.collisions_caused, 3);
+    assert_eq!(s.collisions_caused_rate, Some(0.3), "over all 10 episodes of the row");
+    let ci = s.collisions_caused_rate_ci.unwrap();
+    assert!(ci.lower < 0.3 && 0.3 < ci.upper, "{ci:?}");
+    // in report.json, and the terminal table's column
+    let v: serde_json::Value = serde_json::to_value(&s).unwrap();
+    assert_eq!(v["collisions_caused"], 3);
+    assert_eq!(v["collisions_caused_rate"], 0.3);
+    let table = report::format_summary_table(&BTreeMap::from([("hopfield".to_string(), s)]));
+    assert!(
+        table.lines().nth(1).unwrap().contains("caused coll. (FA+hit)"),
+        "{table}"
+    );
+    assert!(table.lines().nth(3).unwrap().contains("  3 (2+1)  "), "{table}");
+    // a row without episodes has no rate
+    let empty = DetectorSummary::from_episodes(&[]);
+    assert_eq!((empty.collisions_caused, empty.collisions_caused_rate), (0, None));
+}
+
+#[test]
+fn reports_without_the_collisions_caused_keys_read_with_them_derived() {
+    let mut eps = suite_episodes();
+    eps.push(episode(
+        "pass \"by\"",
+        10,
+        vec![
+            with_detector(ep(false, None, Some(1.0), true, Some(9.0)), "hopfield"),
+            with_detector(ep(false, None, None, false, Some(1.0)), "soc"),
+        ],
+    ));
+    let tiers = BTreeMap::from([("approach, frontal".to_string(), 2), ("pass \"by\"".to_string(), 3)]);
+    let report = Report::from_tiered_episodes(&meta(), &eps, &tiers);
+    let mut v: serde_json::Value = serde_json::from_str(&report.to_json()).unwrap();
+    // an old report: the keys removed everywhere (pooled, per scenario, per tier)
+    fn strip(v: &mut serde_json::Value) -> usize {
+        let mut n = 0;
+        match v {
+            serde_json::Value::Object(m) => {
+                for k in [
+                    "collisions_caused",
+                    "collisions_caused_rate",
+                    "collisions_caused_rate_ci",
+                ] {
+                    n += usize::from(m.remove(k).is_some());
+                }
+                n += m.values_mut().map(strip).sum::<usize>();
+            }
+            serde_json::Value::Array(a) => n += a.iter_mut().map(strip).sum::<usize>(),
+            _ => {}
+        }
+        n
+    }
+    assert!(
+        strip(&mut v) >= 3 * report.detectors.len() * 2,
+        "pooled and per-scenario keys removed"
+    );
+    let old = Report::from_json(&v.to_string(), Path::new("old.json")).unwrap();
+    assert_eq!(old, report, "the derived values equal the ones written");
+    assert!(old.detectors.values().any(|s| s.collisions_caused > 0));
+}
+
 /// One episode with a `null` row (no alarm) and a detector row, both scored from `truth`.
 fn null_and_detector(
     index: usize,
@@ -1682,6 +1764,46 @@ fn lv_fit_is_in_the_summary_from_three_qualifying_episodes() {
 }
 
 // ---------------------------------------------------------------- episodes.csv with deadlines
+
+#[test]
+fn csv_appends_collision_caused_and_reads_files_without_it() {
+    assert_eq!(HEADER.last(), Some(&"collision_caused"), "new columns are appended");
+    assert_eq!(
+        HEADER[HEADER.len() - 2],
+        "theta_required_deg",
+        "the columns before keep their order"
+    );
+    let caused = ep(false, None, Some(1.0), true, Some(9.0)); // a false alarm that collided
+    let evaded = ep(true, Some(3.0), Some(1.0), false, Some(9.0));
+    let eps = vec![episode(
+        "caused",
+        0,
+        vec![with_detector(caused, "hopfield"), with_detector(evaded, "soc")],
+    )];
+    let text = episodes_csv::header_line() + &episodes_csv::format_rows(&eps[0]);
+    let last: Vec<&str> = text.lines().map(|l| l.rsplit(',').next().unwrap()).collect();
+    assert_eq!(last, ["collision_caused", "true", "false"]);
+    assert_eq!(
+        episodes_csv::parse_episodes_csv(&text, Path::new("new.csv")).unwrap(),
+        eps
+    );
+    // a file written before the column existed: every line without its last cell
+    let old: String = text
+        .lines()
+        .map(|l| format!("{}\n", &l[..l.rfind(',').unwrap()]))
+        .collect();
+    assert!(!old.contains("collision_caused"));
+    assert_eq!(
+        episodes_csv::parse_episodes_csv(&old, Path::new("old.csv")).unwrap(),
+        eps
+    );
+    // any other missing column is still an error naming it
+    let bad = old.replacen("theta_required_deg", "theta_req", 1);
+    let e = episodes_csv::parse_episodes_csv(&bad, Path::new("bad.csv"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("missing column `theta_required_deg`"), "{e}");
+}
 
 #[test]
 fn csv_round_trip_keeps_the_deadline_and_lv_columns() {

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use clap::Args;
-use loomlab_report::markdown::{REGENERATE, render_block, stale_blocks, update_blocks};
+use loomlab_report::markdown::{REGENERATE, render_block, stale_tagged_blocks, update_tagged_blocks, valid_tag};
 use loomlab_scenarios::report::Report;
 
 /// Arguments of `loomlab table`.
@@ -27,10 +27,19 @@ pub struct TableArgs {
     /// With --update: write nothing, exit 1 if a file's blocks differ from the report's numbers.
     #[arg(long, requires = "update")]
     pub check: bool,
+    /// With --update: rewrite (or check) the blocks tagged with this suite tag
+    /// (`<!-- results-table@TAG:begin -->`, e.g. `heldout`) instead of the untagged ones, which are
+    /// the default suite's.
+    #[arg(long, requires = "update", value_name = "TAG")]
+    pub tag: Option<String>,
 }
 
 /// Runs `loomlab table`.
 pub fn run(args: TableArgs) -> anyhow::Result<i32> {
+    if let Some(tag) = args.tag.as_deref().filter(|t| !valid_tag(t)) {
+        bail!("--tag `{tag}`: a suite tag is made of lower-case letters, digits, `_` and `-` (e.g. `--tag heldout`)");
+    }
+    let tag = args.tag.as_deref();
     let report = Report::read_json(&args.report)?;
     if args.update.is_empty() {
         outln!(
@@ -43,7 +52,8 @@ pub fn run(args: TableArgs) -> anyhow::Result<i32> {
     for file in &args.update {
         let text = std::fs::read_to_string(file).with_context(|| format!("cannot read {}", file.display()))?;
         if args.check {
-            let names = stale_blocks(&text, &report).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+            let names =
+                stale_tagged_blocks(&text, &report, tag).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
             for name in &names {
                 errln!(
                     "{}: the generated block `{name}` disagrees with {}; regenerate it with `{REGENERATE}`",
@@ -54,7 +64,8 @@ pub fn run(args: TableArgs) -> anyhow::Result<i32> {
             stale += names.len();
             continue;
         }
-        let (new, blocks) = update_blocks(&text, &report).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+        let (new, blocks) =
+            update_tagged_blocks(&text, &report, tag).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
         if blocks == 0 {
             bail!(
                 "{}: no generated block (`<!-- results-table:begin -->` … `:end -->`)",
