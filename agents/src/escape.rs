@@ -559,10 +559,6 @@ impl EscapeController {
             dodge_offset_m: self.dodge_offset_m,
             config: &self.config,
         };
-        if std::env::var_os("LOOMLAB_DEBUG_PLAN").is_some() {
-            let c: Vec<String> = preference.iter().map(|c| format!("{:?}/{:?}={:.3}", c.manoeuvre, c.side, self.planner.clearance(*c, &ctx))).collect();
-            eprintln!("plan t={t_s:.3} odo={:?} running={running:?} {} objects={}", self.odometry, c.join(" "), self.planner.debug());
-        }
         self.planner.choose(&ctx, &preference, running)
     }
 

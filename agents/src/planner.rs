@@ -57,6 +57,11 @@ pub const FORECAST_MEMORY_S: f64 = 3.0;
 /// that does not stand in the world: the image gives no scale, so the forecast's metres hold for
 /// the assumed closing speed only (module docs, "Prediction").
 pub const SCALE_HYPOTHESES: [f64; 3] = [0.5, 1.0, 1.6];
+/// How many closing-speed hypotheses a candidate is checked under: [`SCALE_HYPOTHESES`] and the
+/// robot's own speed (`Remembered::scales`).
+pub const HYPOTHESES: usize = 4;
+/// The weights of the hypotheses in a candidate's score (the assumed closing speed counts twice).
+pub const HYPOTHESIS_WEIGHTS: [f64; HYPOTHESES] = [1.0, 2.0, 1.0, 1.0];
 /// How much larger (m) another candidate's capped clearance must be to replace the running one.
 pub const SWITCH_MARGIN_M: f64 = 0.05;
 
@@ -182,6 +187,19 @@ impl Remembered {
         (centre, [half_depth, half_width])
     }
 
+    /// The factors on the forecast's metres under which the object is checked: 1 for an object
+    /// standing in the world; else [`SCALE_HYPOTHESES`] and the factor that makes it close at the
+    /// robot's own speed (an object standing in the world that the gate did not recognise as one).
+    fn scales(&self) -> [f64; HYPOTHESES] {
+        let f = &self.forecast;
+        if f.standing {
+            return [1.0; HYPOTHESES];
+        }
+        let own_speed = (self.origin.velocity[0] / f.closing_mps).clamp(0.0, 1.0);
+        let [a, b, c] = SCALE_HYPOTHESES;
+        [a, b, c, if own_speed > 0.0 { own_speed } else { b }]
+    }
+
     /// Whether the object passes above or below the body (a straight vertical course that misses).
     fn passes_over_or_under(&self, facts: &RobotFacts) -> bool {
         let [b, t] = self.forecast.arrival_vertical_m;
@@ -193,7 +211,7 @@ impl Remembered {
     fn passed_s(&self, facts: &RobotFacts) -> f64 {
         let f = &self.forecast;
         let depth = (f.arrival_lateral_m[1] - f.arrival_lateral_m[0]).abs().clamp(0.04, 5.0);
-        let slowest = if f.standing { 1.0 } else { SCALE_HYPOTHESES[0] };
+        let slowest = self.scales().into_iter().fold(1.0, f64::min);
         f.t_s + f.tau_s + (facts.body.behind_camera_m + depth) / (slowest * f.closing_mps).max(0.1)
     }
 }
@@ -228,11 +246,6 @@ impl Planner {
             facts,
             objects: Vec::with_capacity(MAX_PLANNED_OBJECTS),
         }
-    }
-
-    /// debug
-    pub fn debug(&self) -> String {
-        self.objects.iter().map(|o| format!("[id {} t {:.3} f {:?} origin {:?}]", o.id, o.refreshed_s, o.forecast, o.origin.position_m)).collect::<Vec<_>>().join(" ")
     }
 
     /// Forget every object (new episode).
@@ -297,6 +310,24 @@ impl Planner {
     /// The clearance (m) of `candidate` from every remembered object (`f64::INFINITY` with none
     /// in its way).
     pub fn clearance(&self, candidate: Candidate, ctx: &PlanContext<'_>) -> f64 {
+        self.clearances(candidate, ctx).into_iter().fold(f64::INFINITY, f64::min)
+    }
+
+    /// A candidate's score: the weighted mean over the closing-speed hypotheses of its clearance
+    /// capped at `clearance_margin_m` ([`HYPOTHESIS_WEIGHTS`]).
+    pub fn score(&self, candidate: Candidate, ctx: &PlanContext<'_>) -> f64 {
+        let margin = ctx.config.clearance_margin_m;
+        let total: f64 = HYPOTHESIS_WEIGHTS.iter().sum();
+        self.clearances(candidate, ctx)
+            .iter()
+            .zip(HYPOTHESIS_WEIGHTS)
+            .map(|(c, w)| c.min(margin) * w)
+            .sum::<f64>()
+            / total
+    }
+
+    /// The clearance of `candidate` under each closing-speed hypothesis.
+    fn clearances(&self, candidate: Candidate, ctx: &PlanContext<'_>) -> [f64; HYPOTHESES] {
         let facts = &self.facts;
         let end = self
             .objects
@@ -305,13 +336,13 @@ impl Planner {
             .map(|o| o.passed_s(facts))
             .fold(f64::NEG_INFINITY, f64::max)
             .min(ctx.t_s + MAX_HORIZON_S);
+        let mut clearance = [f64::INFINITY; HYPOTHESES];
         if end <= ctx.t_s {
-            return f64::INFINITY;
+            return clearance;
         }
         let body = &facts.body;
         let mut pose = ctx.odometry;
         let mut offset = ctx.dodge_offset_m;
-        let mut clearance = f64::INFINITY;
         let mut t = ctx.t_s;
         let manoeuvre = ctx.config.command(candidate, ctx.cruise, facts.base);
         while t < end {
@@ -331,18 +362,13 @@ impl Planner {
             offset += (before + pose.velocity[1]) / 2.0 * PLAN_STEP_S - ctx.cruise.lateral_mps * PLAN_STEP_S;
             t += PLAN_STEP_S;
             for o in self.objects.iter().filter(|o| !o.passes_over_or_under(facts)) {
-                let scales = if o.forecast.standing {
-                    &[1.0][..]
-                } else {
-                    &SCALE_HYPOTHESES[..]
-                };
-                for &scale in scales {
+                for (scale, c) in o.scales().into_iter().zip(clearance.iter_mut()) {
                     let (centre, half) = o.footprint(t, scale);
                     let rel = pose.to_body(centre);
                     let gap_forward =
                         (rel[0] - half[0] - body.ahead_of_camera_m).max(-body.behind_camera_m - (rel[0] + half[0]));
                     let gap_lateral = rel[1].abs() - half[1] - body.half_width_m;
-                    clearance = clearance.min(gap_forward.max(gap_lateral));
+                    *c = c.min(gap_forward.max(gap_lateral));
                 }
             }
         }
@@ -357,7 +383,7 @@ impl Planner {
         if self.objects.is_empty() {
             return None;
         }
-        let capped = |c: Candidate| self.clearance(c, ctx).min(ctx.config.clearance_margin_m);
+        let capped = |c: Candidate| self.score(c, ctx);
         let mut best: Option<(Candidate, f64)> = None;
         for &c in preference {
             let score = capped(c);
