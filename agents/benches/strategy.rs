@@ -62,5 +62,56 @@ fn strategy_update(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, strategy_update);
+/// The manoeuvre planner's cost per decision: the choice among the four candidates with one, three
+/// and eight objects remembered (each rolled out to the last object's passage, under the four
+/// closing-speed hypotheses), side by side.
+fn planner_choice(c: &mut Criterion) {
+    use loomlab_agents::decision::CourseForecast;
+    use loomlab_agents::planner::{Odometry, PlanContext};
+    use loomlab_agents::{Candidate, DodgeSide, Planner, RobotFacts, VelocityCommand};
+    let config = EscapeConfig::default();
+    let cruising = Odometry {
+        velocity: [1.0, 0.0, 0.0],
+        ..Odometry::default()
+    };
+    let ball = |i: usize| {
+        let x = i as f64 * 0.7 - 2.0;
+        CourseForecast {
+            t_s: 0.0,
+            tau_s: 0.9 + 0.05 * i as f64,
+            closing_mps: 10.0,
+            lateral_m: [2.0 * x - 0.1, 2.0 * x + 0.1],
+            arrival_lateral_m: [x - 0.1, x + 0.1],
+            arrival_vertical_m: [-0.1, 0.1],
+            straight: Some(true),
+            standing: false,
+        }
+    };
+    let preference = [
+        Candidate::dodge(DodgeSide::Left),
+        Candidate::dodge(DodgeSide::Right),
+        Candidate::ALL[2],
+        Candidate::ALL[3],
+    ];
+    let mut group = c.benchmark_group("planner");
+    group.throughput(Throughput::Elements(1));
+    for objects in [1usize, 3, 8] {
+        let mut planner = Planner::new(RobotFacts::default());
+        for i in 0..objects {
+            planner.observe(i, &ball(i), 0.0, &cruising, f64::NEG_INFINITY);
+        }
+        let ctx = PlanContext {
+            t_s: 0.0,
+            odometry: cruising,
+            cruise: VelocityCommand::forward(1.0),
+            dodge_offset_m: 0.0,
+            config: &config,
+        };
+        group.bench_function(format!("choose_{objects}_objects"), |b| {
+            b.iter(|| black_box(planner.choose(black_box(&ctx), &preference, None)))
+        });
+    }
+}
+
+criterion_group!(benches, strategy_update, planner_choice);
 criterion_main!(benches);
