@@ -538,7 +538,13 @@ impl EscapeController {
 
     /// The planner's choice at `t_s`: the candidate with the largest capped clearance, preferring
     /// `running`, then the dodge to `side`, the other dodge, stopping, reversing.
-    fn plan(&self, t_s: f64, side: DodgeSide, cruise: VelocityCommand, running: Option<Candidate>) -> Option<Candidate> {
+    fn plan(
+        &self,
+        t_s: f64,
+        side: DodgeSide,
+        cruise: VelocityCommand,
+        running: Option<Candidate>,
+    ) -> Option<Candidate> {
         if self.config.manoeuvre != Manoeuvre::Plan || !self.planner.has_objects() {
             return None;
         }
@@ -734,7 +740,9 @@ impl EscapeController {
                 self.phase = Phase::Manoeuvre { start_s: t_s, chosen };
                 self.triggers += 1;
                 self.first_trigger_s.get_or_insert(t_s);
-                self.last_side = Some(chosen.side).filter(|_| chosen.manoeuvre == Manoeuvre::DodgeLateral).or(Some(side));
+                self.last_side = Some(chosen.side)
+                    .filter(|_| chosen.manoeuvre == Manoeuvre::DodgeLateral)
+                    .or(Some(side));
                 let command = self.dodge_command(chosen, cruise);
                 self.record(t_s, command, cruise);
                 return (

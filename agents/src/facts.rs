@@ -61,7 +61,10 @@ impl RobotFacts {
             }
         }
         for (key, v) in [
-            ("world.robot.body (reach ahead of the camera)", self.body.ahead_of_camera_m),
+            (
+                "world.robot.body (reach ahead of the camera)",
+                self.body.ahead_of_camera_m,
+            ),
             ("world.robot.body (reach behind the camera)", self.body.behind_camera_m),
         ] {
             if !(v.is_finite() && v >= 0.0) {
@@ -72,8 +75,12 @@ impl RobotFacts {
             ("world.robot.max_accel_mps2", self.accel_mps2),
             ("world.robot.max_yaw_accel_rps2", self.yaw_accel_rps2),
         ] {
-            if !(v > 0.0) {
-                return Err(invalid(key, v, "must be > 0 (infinite: the drive follows its commands at once)"));
+            if v.is_nan() || v <= 0.0 {
+                return Err(invalid(
+                    key,
+                    v,
+                    "must be > 0 (infinite: the drive follows its commands at once)",
+                ));
             }
         }
         let fov = self.pinhole.fov_deg();

@@ -23,8 +23,8 @@ pub mod error;
 pub mod escape;
 pub mod facts;
 pub mod looming_side;
-pub mod sensing;
 pub mod planner;
+pub mod sensing;
 
 pub use action::{ActionConfig, ContinuousAction, DiscreteAction};
 pub use agent::{AgentStep, EscapeAgent};

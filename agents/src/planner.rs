@@ -141,7 +141,11 @@ impl Odometry {
         let limits = [facts.accel_mps2, facts.accel_mps2, facts.yaw_accel_rps2];
         for ((v, t), a) in self.velocity.iter_mut().zip(target).zip(limits) {
             let step = a * dt_s;
-            *v = if (t - *v).abs() <= step { t } else { *v + step * (t - *v).signum() };
+            *v = if (t - *v).abs() <= step {
+                t
+            } else {
+                *v + step * (t - *v).signum()
+            };
         }
         let (s, c) = self.heading_rad.sin_cos();
         let [f, l, w] = self.velocity;
@@ -151,7 +155,7 @@ impl Odometry {
     }
 
     /// A point given in this pose's body frame (forward, left), in the odometry frame.
-    fn to_odometry(&self, forward: f64, left: f64) -> [f64; 2] {
+    fn point_in_odometry(&self, forward: f64, left: f64) -> [f64; 2] {
         let (s, c) = self.heading_rad.sin_cos();
         [
             self.position_m[0] + forward * c - left * s,
@@ -160,7 +164,7 @@ impl Odometry {
     }
 
     /// A point of the odometry frame in this pose's body frame (forward, left).
-    fn to_body(&self, p: [f64; 2]) -> [f64; 2] {
+    fn point_in_body(&self, p: [f64; 2]) -> [f64; 2] {
         let (s, c) = self.heading_rad.sin_cos();
         let (dx, dy) = (p[0] - self.position_m[0], p[1] - self.position_m[1]);
         [dx * c + dy * s, -dx * s + dy * c]
@@ -194,7 +198,7 @@ impl Remembered {
         let [vf, vl, _] = self.origin.velocity;
         let centre = self
             .origin
-            .to_odometry(nearest + half_depth + vf * s, (left + right) / 2.0 + vl * s);
+            .point_in_odometry(nearest + half_depth + vf * s, (left + right) / 2.0 + vl * s);
         (centre, [half_depth, half_width])
     }
 
@@ -278,7 +282,11 @@ impl Planner {
             && forecast.tau_s > 0.0
             && forecast.closing_mps.is_finite()
             && forecast.closing_mps > 0.0
-            && forecast.lateral_m.iter().chain(&forecast.arrival_lateral_m).all(|v| v.is_finite())
+            && forecast
+                .lateral_m
+                .iter()
+                .chain(&forecast.arrival_lateral_m)
+                .all(|v| v.is_finite())
             && window_start >= steady_since_s - 1e-9;
         if !usable {
             return;
@@ -321,7 +329,9 @@ impl Planner {
     /// The clearance (m) of `candidate` from every remembered object (`f64::INFINITY` with none
     /// in its way).
     pub fn clearance(&self, candidate: Candidate, ctx: &PlanContext<'_>) -> f64 {
-        self.clearances(candidate, ctx).into_iter().fold(f64::INFINITY, f64::min)
+        self.clearances(candidate, ctx)
+            .into_iter()
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// A candidate's score: the weighted mean over the closing-speed hypotheses of its clearance
@@ -375,7 +385,7 @@ impl Planner {
             for o in self.objects.iter().filter(|o| !o.passes_over_or_under(facts)) {
                 for (scale, c) in o.scales().into_iter().zip(clearance.iter_mut()) {
                     let (centre, half) = o.footprint(t, scale);
-                    let rel = pose.to_body(centre);
+                    let rel = pose.point_in_body(centre);
                     let gap_forward =
                         (rel[0] - half[0] - body.ahead_of_camera_m).max(-body.behind_camera_m - (rel[0] + half[0]));
                     let gap_lateral = rel[1].abs() - half[1] - body.half_width_m;
@@ -390,7 +400,12 @@ impl Planner {
     /// `ctx.clearance_margin_m`, ties going to the earliest of `preference` (see the module docs).
     /// `running`: the candidate being run, kept unless another is better by [`SWITCH_MARGIN_M`].
     /// `None` when no object is remembered (the caller's fixed rule decides).
-    pub fn choose(&self, ctx: &PlanContext<'_>, preference: &[Candidate], running: Option<Candidate>) -> Option<Candidate> {
+    pub fn choose(
+        &self,
+        ctx: &PlanContext<'_>,
+        preference: &[Candidate],
+        running: Option<Candidate>,
+    ) -> Option<Candidate> {
         if self.objects.is_empty() {
             return None;
         }

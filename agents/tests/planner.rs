@@ -13,7 +13,13 @@ const CRUISE: VelocityCommand = VelocityCommand {
 
 /// An object `depth_m` ahead now, its centre `lateral_m` to the right of the camera, closing at
 /// `closing_mps` and arriving `arrival_lateral_m` to the right, `half_width_m` wide each side.
-fn forecast(depth_m: f64, lateral_m: f64, arrival_lateral_m: f64, half_width_m: f64, closing_mps: f64) -> CourseForecast {
+fn forecast(
+    depth_m: f64,
+    lateral_m: f64,
+    arrival_lateral_m: f64,
+    half_width_m: f64,
+    closing_mps: f64,
+) -> CourseForecast {
     CourseForecast {
         t_s: 0.0,
         tau_s: depth_m / closing_mps,
@@ -58,18 +64,28 @@ fn preference(first: DodgeSide) -> [Candidate; 4] {
     } else {
         DodgeSide::Left
     };
-    [Candidate::dodge(first), Candidate::dodge(other), Candidate::ALL[2], Candidate::ALL[3]]
+    [
+        Candidate::dodge(first),
+        Candidate::dodge(other),
+        Candidate::ALL[2],
+        Candidate::ALL[3],
+    ]
 }
 
 fn clearances(planner: &Planner, config: &EscapeConfig) -> Vec<(Candidate, f64)> {
-    Candidate::ALL.iter().map(|c| (*c, planner.clearance(*c, &ctx(config)))).collect()
+    Candidate::ALL
+        .iter()
+        .map(|c| (*c, planner.clearance(*c, &ctx(config))))
+        .collect()
 }
 
 #[test]
 fn a_lone_ball_on_course_is_dodged_to_the_preferred_side_and_the_dodge_clears_it() {
     let config = EscapeConfig::default();
     let planner = planner_with(&[forecast(8.0, 0.0, 0.0, 0.1, 10.0)]);
-    let chosen = planner.choose(&ctx(&config), &preference(DodgeSide::Right), None).unwrap();
+    let chosen = planner
+        .choose(&ctx(&config), &preference(DodgeSide::Right), None)
+        .unwrap();
     assert_eq!(chosen, Candidate::dodge(DodgeSide::Right));
     let c = clearances(&planner, &config);
     assert!(c[0].1 > 0.3 && c[1].1 > 0.3, "{c:?}");
@@ -82,10 +98,7 @@ fn two_balls_from_both_sides_with_one_safe_gap() {
     // ball A on course (arrives at the camera), ball B arriving 0.8 m to the left: the dodge to
     // the left runs into B, the dodge to the right clears both, whatever the preference says
     let config = EscapeConfig::default();
-    let planner = planner_with(&[
-        forecast(8.0, 0.5, 0.0, 0.1, 10.0),
-        forecast(9.0, -2.0, -0.8, 0.1, 10.0),
-    ]);
+    let planner = planner_with(&[forecast(8.0, 0.5, 0.0, 0.1, 10.0), forecast(9.0, -2.0, -0.8, 0.1, 10.0)]);
     for first in [DodgeSide::Left, DodgeSide::Right] {
         let chosen = planner.choose(&ctx(&config), &preference(first), None).unwrap();
         assert_eq!(chosen, Candidate::dodge(DodgeSide::Right), "preferring {first:?}");
@@ -103,7 +116,9 @@ fn a_threat_with_a_car_passing_beside_is_dodged_away_from_the_car() {
     let config = EscapeConfig::default();
     let car = forecast(14.0, 1.8, 1.8, 0.9, 9.0);
     let planner = planner_with(&[forecast(10.0, 0.0, 0.0, 0.1, 10.0), car]);
-    let chosen = planner.choose(&ctx(&config), &preference(DodgeSide::Right), None).unwrap();
+    let chosen = planner
+        .choose(&ctx(&config), &preference(DodgeSide::Right), None)
+        .unwrap();
     assert_eq!(chosen, Candidate::dodge(DodgeSide::Left));
     let c = clearances(&planner, &config);
     assert!(c[1].1 < 0.0, "the dodge to the right hits the car: {c:?}");
@@ -119,16 +134,17 @@ fn a_wall_beside_the_dodge_limits_it_and_the_other_side_is_taken() {
         ..EscapeConfig::default()
     };
     let planner = planner_with(&[forecast(8.0, -0.3, -0.15, 0.2, 10.0)]);
-    let chosen = planner.choose(&ctx(&config), &preference(DodgeSide::Left), None).unwrap();
+    let chosen = planner
+        .choose(&ctx(&config), &preference(DodgeSide::Left), None)
+        .unwrap();
     assert_eq!(chosen, Candidate::dodge(DodgeSide::Right));
     // and a pole standing 1 m to the left ahead (closing at the robot's own speed) blocks the
     // left as well when nothing limits the offset
     let config = EscapeConfig::default();
-    let planner = planner_with(&[
-        forecast(6.0, 0.0, 0.0, 0.1, 10.0),
-        forecast(1.2, -0.7, -0.7, 0.1, 1.0),
-    ]);
-    let chosen = planner.choose(&ctx(&config), &preference(DodgeSide::Left), None).unwrap();
+    let planner = planner_with(&[forecast(6.0, 0.0, 0.0, 0.1, 10.0), forecast(1.2, -0.7, -0.7, 0.1, 1.0)]);
+    let chosen = planner
+        .choose(&ctx(&config), &preference(DodgeSide::Left), None)
+        .unwrap();
     assert_eq!(chosen, Candidate::dodge(DodgeSide::Right));
 }
 
@@ -141,7 +157,9 @@ fn when_both_dodges_run_into_a_ball_the_robot_holds_back() {
         forecast(9.0, -1.6, -0.8, 0.15, 10.0),
         forecast(9.0, 1.6, 0.8, 0.15, 10.0),
     ]);
-    let chosen = planner.choose(&ctx(&config), &preference(DodgeSide::Left), None).unwrap();
+    let chosen = planner
+        .choose(&ctx(&config), &preference(DodgeSide::Left), None)
+        .unwrap();
     assert!(
         matches!(chosen.manoeuvre, Manoeuvre::Stop | Manoeuvre::Reverse),
         "{chosen:?}: {:?}",

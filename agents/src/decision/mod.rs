@@ -128,7 +128,9 @@ mod rule;
 mod tau;
 mod window;
 
-pub use course::{CourseForecast, PASS_SIDE_MIN_RADII, STANDING_TOLERANCE, STOPPING_TAU_RATE, STRAIGHT_COURSE_MAX_RADII};
+pub use course::{
+    CourseForecast, PASS_SIDE_MIN_RADII, STANDING_TOLERANCE, STOPPING_TAU_RATE, STRAIGHT_COURSE_MAX_RADII,
+};
 pub use percept::{ImageExtent, Percept, SelfMotion};
 pub use rule::{BodyExtent, Course, DecisionRule, MAX_PERSISTENCE_FRAMES, TriggerSignal};
 pub use tau::surface_factor;
