@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::SimError;
 use crate::glam::{DQuat, DVec3};
+use crate::sensor::SensorDesc;
 use crate::trajectory::Pose64;
 
 /// Camera description (TOML table `[world.camera]`).
@@ -32,6 +33,10 @@ pub struct CameraDesc {
     pub near_m: f32,
     /// Optional camera shake (default: none).
     pub shake: Option<ShakeDesc>,
+    /// The sensor (`[world.camera.sensor]`: exposure blur, noise, gain, gamma, quantisation;
+    /// [`crate::sensor`]). Default: the ideal camera (left out when written).
+    #[serde(skip_serializing_if = "SensorDesc::is_ideal")]
+    pub sensor: SensorDesc,
 }
 
 impl Default for CameraDesc {
@@ -44,6 +49,7 @@ impl Default for CameraDesc {
             pitch_deg: 0.0,
             near_m: 0.01,
             shake: None,
+            sensor: SensorDesc::default(),
         }
     }
 }

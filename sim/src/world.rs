@@ -182,6 +182,8 @@ pub(crate) struct BuiltWorld {
     pub sky: f32,
     pub ground: Option<ResolvedTexture>,
     pub camera: Camera,
+    /// The camera's sensor; `None` for the ideal camera.
+    pub sensor: Option<crate::sensor::Sensor>,
     pub robot: RobotDesc,
     pub robot_prim: Prim,
     pub robot_start: Pose64,
@@ -346,6 +348,7 @@ impl WorldDesc {
             None
         };
         let camera = self.camera.build(seed)?;
+        let sensor = self.camera.sensor.build(self.dt())?;
         let robot_prim = self.robot.body_prim()?;
         let robot_start = self.robot.start_pose(&robot_prim);
         let frame = AimFrame {
@@ -391,6 +394,7 @@ impl WorldDesc {
             sky: self.sky_luminance,
             ground,
             camera,
+            sensor,
             robot: self.robot.clone(),
             robot_prim,
             robot_start,

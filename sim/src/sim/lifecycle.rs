@@ -109,6 +109,7 @@ impl Sim {
             instances: Vec::new(),
             contacts: self.contacts.clone(),
             ground_truth: self.ground_truth,
+            past_view: self.past_view.clone(),
         }
     }
 
@@ -260,6 +261,7 @@ impl Sim {
             instances: Vec::new(),
             contacts: Vec::new(),
             ground_truth: true,
+            past_view: None,
             world,
         };
         if !dynamic {

@@ -114,6 +114,8 @@ pub struct Sim {
     instances: Vec<RenderInstance>,
     contacts: Vec<Contact>,
     ground_truth: bool,
+    /// The view before the current frame, kept when the sensor blurs over an exposure.
+    past_view: Option<view::PastViewOwned>,
 }
 
 impl std::fmt::Debug for Sim {

@@ -22,6 +22,7 @@ impl Sim {
     /// returns the contacts that started.
     pub(super) fn advance(&mut self, command: &Command) -> Result<Vec<Contact>, SimError> {
         command.validate()?;
+        self.keep_past_view();
         self.command = *command;
         let mut new_contacts = match self.world.physics {
             PhysicsMode::Analytic => self.advance_analytic(command),

@@ -3,7 +3,28 @@
 use super::Sim;
 use crate::SimError;
 use crate::glam::DVec3;
-use crate::render::{FrameDesc, RenderInstance};
+use crate::render::{FrameDesc, PastView, RenderInstance, SensorFrame};
+use crate::sensor::Sensor;
+
+/// The view one camera period earlier, kept for the sensor's exposure blur ([`PastView`]).
+#[derive(Clone, Debug)]
+pub(super) struct PastViewOwned {
+    camera_position: DVec3,
+    camera_rotation: crate::glam::DQuat,
+    t_s: f64,
+    instances: Vec<RenderInstance>,
+}
+
+impl PastViewOwned {
+    fn view(&self) -> PastView<'_> {
+        PastView {
+            camera_position: self.camera_position,
+            camera_rotation: self.camera_rotation,
+            t_s: self.t_s,
+            instances: &self.instances,
+        }
+    }
+}
 
 /// The robot's view at one moment, captured to be rendered later ([`Sim::capture_view`]): several
 /// frames of one open-loop pass can then be rendered in one batch ([`Renderer::render_batch`] of
@@ -21,6 +42,8 @@ pub struct CapturedView {
     ground: Option<crate::texture::ResolvedTexture>,
     t_s: f64,
     instances: Vec<RenderInstance>,
+    /// The sensor, its seed and this frame's index, and the view before (see [`SensorFrame`]).
+    sensor: Option<(Sensor, u64, u64, Option<PastViewOwned>)>,
 }
 
 impl CapturedView {
@@ -35,6 +58,15 @@ impl CapturedView {
             ground: self.ground.as_ref(),
             t_s: self.t_s,
             instances: &self.instances,
+            sensor: self
+                .sensor
+                .as_ref()
+                .map(|(sensor, seed, frame_index, past)| SensorFrame {
+                    sensor,
+                    seed: *seed,
+                    frame_index: *frame_index,
+                    previous: past.as_ref().map(PastViewOwned::view),
+                }),
         }
     }
 
@@ -79,7 +111,33 @@ impl Sim {
             ground: d.ground.copied(),
             t_s: d.t_s,
             instances: d.instances.to_vec(),
+            sensor: self
+                .world
+                .sensor
+                .map(|s| (s, self.seed, self.step_index, self.past_view.clone())),
         }
+    }
+
+    /// Keeps the current view as the one before the next frame's (before the world advances),
+    /// when the sensor blurs over an exposure.
+    pub(super) fn keep_past_view(&mut self) {
+        if self.world.sensor.is_none_or(|s| s.views_per_frame() == 1) {
+            return;
+        }
+        self.prepare_instances();
+        let cam = self.world.camera.pose(&self.robot_pose, self.t);
+        let mut past = self.past_view.take().unwrap_or(PastViewOwned {
+            camera_position: cam.position,
+            camera_rotation: cam.rotation,
+            t_s: self.t,
+            instances: Vec::new(),
+        });
+        past.camera_position = cam.position;
+        past.camera_rotation = cam.rotation;
+        past.t_s = self.t;
+        past.instances.clear();
+        past.instances.extend_from_slice(&self.instances);
+        self.past_view = Some(past);
     }
 
     /// The view now (after [`Self::prepare_instances`]).
@@ -94,6 +152,12 @@ impl Sim {
             ground: self.world.ground.as_ref(),
             t_s: self.t,
             instances: &self.instances,
+            sensor: self.world.sensor.as_ref().map(|sensor| SensorFrame {
+                sensor,
+                seed: self.seed,
+                frame_index: self.step_index,
+                previous: self.past_view.as_ref().map(PastViewOwned::view),
+            }),
         }
     }
 
