@@ -37,6 +37,10 @@ pub struct CameraDesc {
     /// [`crate::sensor`]). Default: the ideal camera (left out when written).
     #[serde(skip_serializing_if = "SensorDesc::is_ideal")]
     pub sensor: SensorDesc,
+    /// Perception latency (s): a step's frame is the view this much earlier, quantised to camera
+    /// frames ([`crate::latency`]). Default 0 (left out when written).
+    #[serde(skip_serializing_if = "crate::robot::is_zero")]
+    pub perception_latency_s: f32,
 }
 
 impl Default for CameraDesc {
@@ -50,6 +54,7 @@ impl Default for CameraDesc {
             near_m: 0.01,
             shake: None,
             sensor: SensorDesc::default(),
+            perception_latency_s: 0.0,
         }
     }
 }

@@ -234,6 +234,77 @@ fn gaussians(rng: &mut ChaCha8Rng, out: &mut [f64; 4]) {
     }
 }
 
+/// A sensor profile: the camera's sensor and the pipeline's latencies, set on every episode's world
+/// by `loomlab run --sensor NAME`, a suite's `sensor = "NAME"` key or `EscapeEnv(sensor=…)`
+/// (replacing the scenario files' `[world.camera.sensor]`, `world.camera.perception_latency_s`
+/// and `world.robot.actuation_latency_s`).
+///
+/// - **`ideal`**: today's camera and body: no blur, no noise, floats, no latency.
+/// - **`robot`**: a small ground robot with a global-shutter CMOS camera at 120 Hz:
+///   - 4 ms exposure (an indoor exposure that keeps a fast ball's smear to a few pixels), 4
+///     sub-frames;
+///   - 6 000 e⁻ full well and 3 e⁻ read noise (the order of small-pixel CMOS sensors, a few µm
+///     pixels: a few thousand electrons of well and a few of read noise), gain 1 so that the suite's
+///     luminance 1 fills the well: at the sky's 0.8 a pixel holds 4 800 e⁻, SNR ≈ 69;
+///   - 8-bit output, linear (gamma 1: the detectors' models assume linear luminance);
+///   - 25 ms perception latency (exposure, readout, transfer and the detector's frame: 3 frames at
+///     120 Hz; mjlab models 40–60 ms of camera latency as 2–3 control steps, Falanga et al. 2020
+///     dodge with 3.5 ms end to end with an event camera) and 10 ms actuation latency (the motor
+///     controller's loop and the drive's response: 1 frame).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensorProfile {
+    /// The profile's name.
+    pub name: &'static str,
+    /// `[world.camera.sensor]`.
+    pub sensor: SensorDesc,
+    /// `world.camera.perception_latency_s` (s).
+    pub perception_latency_s: f32,
+    /// `world.robot.actuation_latency_s` (s).
+    pub actuation_latency_s: f32,
+}
+
+/// The names of the sensor profiles ([`SensorProfile::named`]).
+pub const SENSOR_PROFILES: [&str; 2] = ["ideal", "robot"];
+
+impl SensorProfile {
+    /// The profile called `name` (one of [`SENSOR_PROFILES`]); an error lists them.
+    pub fn named(name: &str) -> Result<SensorProfile, String> {
+        match name {
+            "ideal" => Ok(SensorProfile {
+                name: "ideal",
+                sensor: SensorDesc::default(),
+                perception_latency_s: 0.0,
+                actuation_latency_s: 0.0,
+            }),
+            "robot" => Ok(SensorProfile {
+                name: "robot",
+                sensor: SensorDesc {
+                    exposure_s: 0.004,
+                    subframes: 4,
+                    full_well_e: 6000.0,
+                    read_noise_e: 3.0,
+                    gain: 1.0,
+                    bits: 8,
+                    gamma: 1.0,
+                },
+                perception_latency_s: 0.025,
+                actuation_latency_s: 0.010,
+            }),
+            other => Err(format!(
+                "unknown sensor profile `{other}`; known profiles: {}",
+                SENSOR_PROFILES.join(", ")
+            )),
+        }
+    }
+
+    /// Sets the profile's sensor and latencies on `world`.
+    pub fn apply(&self, world: &mut crate::WorldDesc) {
+        world.camera.sensor = self.sensor;
+        world.camera.perception_latency_s = self.perception_latency_s;
+        world.robot.actuation_latency_s = self.actuation_latency_s;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -281,6 +352,15 @@ mod tests {
         ] {
             assert!(bad.build(1.0).is_err(), "{bad:?}");
         }
+    }
+
+    #[test]
+    fn profiles_by_name() {
+        assert_eq!(SensorProfile::named("ideal").unwrap().sensor, SensorDesc::default());
+        let robot = SensorProfile::named("robot").unwrap();
+        assert!(robot.sensor.build(1.0 / 120.0).unwrap().is_some());
+        let e = SensorProfile::named("nosuch").unwrap_err();
+        assert!(e.contains("ideal, robot"), "{e}");
     }
 
     #[test]

@@ -184,6 +184,10 @@ pub(crate) struct BuiltWorld {
     pub camera: Camera,
     /// The camera's sensor; `None` for the ideal camera.
     pub sensor: Option<crate::sensor::Sensor>,
+    /// Perception latency in camera frames.
+    pub perception_delay: usize,
+    /// Actuation latency in camera frames.
+    pub actuation_delay: usize,
     pub robot: RobotDesc,
     pub robot_prim: Prim,
     pub robot_start: Pose64,
@@ -349,6 +353,16 @@ impl WorldDesc {
         };
         let camera = self.camera.build(seed)?;
         let sensor = self.camera.sensor.build(self.dt())?;
+        let perception_delay = crate::latency::latency_frames(
+            "world.camera.perception_latency_s",
+            self.camera.perception_latency_s,
+            self.dt(),
+        )?;
+        let actuation_delay = crate::latency::latency_frames(
+            "world.robot.actuation_latency_s",
+            self.robot.actuation_latency_s,
+            self.dt(),
+        )?;
         let robot_prim = self.robot.body_prim()?;
         let robot_start = self.robot.start_pose(&robot_prim);
         let frame = AimFrame {
@@ -395,6 +409,8 @@ impl WorldDesc {
             ground,
             camera,
             sensor,
+            perception_delay,
+            actuation_delay,
             robot: self.robot.clone(),
             robot_prim,
             robot_start,

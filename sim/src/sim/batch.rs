@@ -133,8 +133,9 @@ impl Sim {
     fn submit_views(sims: &mut [&mut Sim], renderer: &mut Renderer) -> Result<PendingViews, SimError> {
         for sim in sims.iter_mut() {
             sim.prepare_instances();
+            sim.sync_views();
         }
-        let descs: Vec<FrameDesc<'_>> = sims.iter().map(|s| s.frame_desc()).collect();
+        let descs: Vec<FrameDesc<'_>> = sims.iter().map(|s| s.view_desc()).collect();
         renderer.submit_batch(&descs)
     }
 

@@ -110,6 +110,8 @@ impl Sim {
             contacts: self.contacts.clone(),
             ground_truth: self.ground_truth,
             past_view: self.past_view.clone(),
+            commands: self.commands.clone(),
+            views: self.views.clone(),
         }
     }
 
@@ -262,6 +264,8 @@ impl Sim {
             contacts: Vec::new(),
             ground_truth: true,
             past_view: None,
+            commands: crate::latency::DelayLine::new(world.actuation_delay),
+            views: crate::latency::DelayLine::new(world.perception_delay),
             world,
         };
         if !dynamic {

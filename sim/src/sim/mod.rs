@@ -116,6 +116,10 @@ pub struct Sim {
     ground_truth: bool,
     /// The view before the current frame, kept when the sensor blurs over an exposure.
     past_view: Option<view::PastViewOwned>,
+    /// Commands waiting out the actuation latency ([`crate::latency`]).
+    commands: crate::latency::DelayLine<Command>,
+    /// Views waiting out the perception latency.
+    views: crate::latency::DelayLine<CapturedView>,
 }
 
 impl std::fmt::Debug for Sim {

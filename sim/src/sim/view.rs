@@ -42,6 +42,8 @@ pub struct CapturedView {
     ground: Option<crate::texture::ResolvedTexture>,
     t_s: f64,
     instances: Vec<RenderInstance>,
+    /// The step index of the view.
+    frame_index: u64,
     /// The sensor, its seed and this frame's index, and the view before (see [`SensorFrame`]).
     sensor: Option<(Sensor, u64, u64, Option<PastViewOwned>)>,
 }
@@ -97,9 +99,37 @@ impl Sim {
         self.instances = instances;
     }
 
-    /// Captures the current view (what [`Sim::observe`] would render now) to render it later,
-    /// e.g. in a batch with other moments of the same episode. Works without a renderer.
+    /// Captures the view [`Sim::observe`] would render now (with a perception latency, the view of
+    /// that many frames earlier: [`crate::latency`]) to render it later, e.g. in a batch with other
+    /// moments of the same episode. Works without a renderer.
     pub fn capture_view(&mut self) -> CapturedView {
+        if self.world.perception_delay == 0 {
+            return self.capture_current();
+        }
+        self.sync_views();
+        self.views.front_opt().cloned().expect("synced")
+    }
+
+    /// With a perception latency, queues the current view unless it is queued already.
+    pub(super) fn sync_views(&mut self) {
+        if self.world.perception_delay > 0 && self.views.back().is_none_or(|v| v.frame_index != self.step_index) {
+            let v = self.capture_current();
+            self.views.push(v);
+        }
+    }
+
+    /// The description of the view to render now: the current one, or with a perception latency
+    /// the queued one of that many frames earlier (after [`Self::prepare_instances`] and
+    /// [`Self::sync_views`]).
+    pub(super) fn view_desc(&self) -> FrameDesc<'_> {
+        match self.views.front_opt() {
+            Some(v) if self.world.perception_delay > 0 => v.desc(),
+            _ => self.frame_desc(),
+        }
+    }
+
+    /// The current view, captured.
+    fn capture_current(&mut self) -> CapturedView {
         self.prepare_instances();
         let d = self.frame_desc();
         CapturedView {
@@ -111,6 +141,7 @@ impl Sim {
             ground: d.ground.copied(),
             t_s: d.t_s,
             instances: d.instances.to_vec(),
+            frame_index: self.step_index,
             sensor: self
                 .world
                 .sensor
@@ -167,8 +198,9 @@ impl Sim {
             return Ok(());
         };
         self.prepare_instances();
+        self.sync_views();
         let mut frame = std::mem::take(&mut self.frame);
-        let result = renderer.render(&self.frame_desc(), &mut frame);
+        let result = renderer.render(&self.view_desc(), &mut frame);
         self.frame = frame;
         self.renderer = Some(renderer);
         result
