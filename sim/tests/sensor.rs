@@ -203,3 +203,71 @@ fn an_explicit_ideal_sensor_changes_nothing() {
         frames(&sliding_board(SensorDesc::default()), 1, 3)
     );
 }
+
+/// With a perception latency of d frames a step's frame is the view of d frames earlier (the
+/// first frame while the line fills), through every way of making a frame; ground truth is now's.
+#[test]
+fn a_perception_latency_delays_the_frames_by_whole_frames() {
+    let ideal = sliding_board(SensorDesc::default());
+    let mut late = ideal.clone();
+    late.camera.perception_latency_s = 0.07; // 2.1 frames at 30 Hz: 2
+    let (a, b) = (frames(&ideal, 2, 6), frames(&late, 2, 6));
+    for k in 0..a.len() {
+        assert_eq!(b[k], a[k.saturating_sub(2)], "frame {k}");
+    }
+    // a physics-only replay then rendering in a batch (the runner's closed-loop tails), and
+    // captured views, give the same delayed frames
+    let mut physics = Sim::new_physics_only(&late, 2).expect("physics");
+    let views: Vec<_> = (0..3)
+        .map(|_| {
+            physics.step(&Command::default()).expect("step");
+            physics.capture_view()
+        })
+        .collect();
+    let mut renderer = Renderer::new(late.camera.n).expect("renderer");
+    let descs: Vec<_> = views.iter().map(|v| v.desc()).collect();
+    let mut got = vec![Vec::new(); descs.len()];
+    renderer.render_batch(&descs, &mut got).expect("render_batch");
+    for (k, frame) in got.iter().enumerate() {
+        assert_eq!(frame, &b[k + 1], "captured view {}", k + 1);
+    }
+    for k in 4..=6 {
+        let out = Sim::step_batch(&mut [&mut physics], &[Command::default()], &mut renderer).expect("batch");
+        assert_eq!(out[0].frame, b[k], "tail frame {k}");
+        assert!(
+            (out[0].t_s - k as f64 / 30.0).abs() < 1e-12,
+            "the output's time is now's"
+        );
+    }
+}
+
+/// With an actuation latency of d frames the robot's velocities are the ideal robot's d frames
+/// later (dynamic physics: the drive tracks the delayed command).
+#[test]
+fn an_actuation_latency_delays_the_commands_by_whole_frames() {
+    let mut ideal = WorldDesc::default();
+    ideal.camera.n = 20;
+    let mut late = ideal.clone();
+    late.robot.actuation_latency_s = 0.025; // 3 frames at 120 Hz
+    let commands: Vec<Command> = (0..20)
+        .map(|k| {
+            if k < 5 {
+                Command::forward(1.0)
+            } else {
+                Command::forward(0.2)
+            }
+        })
+        .collect();
+    let speeds = |desc: &WorldDesc| {
+        let mut sim = Sim::new_physics_only(desc, 1).expect("physics");
+        commands
+            .iter()
+            .map(|c| sim.step(c).expect("step").robot.velocity_mps[0])
+            .collect::<Vec<f64>>()
+    };
+    let (a, b) = (speeds(&ideal), speeds(&late));
+    assert!(a[8] < a[4], "the slower command slows the robot: {a:?}");
+    for k in 3..a.len() {
+        assert_eq!(b[k], a[k - 3], "speed after step {k}");
+    }
+}
