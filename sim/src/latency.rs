@@ -58,6 +58,11 @@ impl<T: Clone> DelayLine<T> {
         self.items.front().expect("a pushed line is never empty")
     }
 
+    /// The item `i` places behind the front (0: the front).
+    pub fn get(&self, i: usize) -> Option<&T> {
+        self.items.get(i)
+    }
+
     /// The item pushed last.
     pub fn back(&self) -> Option<&T> {
         self.items.back()

@@ -16,7 +16,8 @@
 //! 2. *Electrons* (linear domain): L is the fraction of the full well the pixel collects,
 //!    `μ = L · full_well_e` electrons; photon shot noise (Poisson, drawn as its Gaussian
 //!    approximation with the same mean and variance μ) and read noise (Gaussian, `read_noise_e`
-//!    electrons RMS) are added: `e = μ + √μ · z₁ + read_noise_e · z₂`.
+//!    electrons RMS) are added, as one Gaussian of their summed variance:
+//!    `e = μ + √(μ + read_noise_e²) · z` (z from a table of 65 536 normal quantiles).
 //! 3. *Gain*: `v = gain · e / full_well_e` (without noise, `v = gain · L`), clipped to [0, 1].
 //!    Mean and variance of v before clipping: `gain · L` and `gain² · (μ + read_noise_e²) / full_well_e²`.
 //! 4. *Gamma* (optional): `v ← v^(1 / gamma)`, a display encoding (gamma 1: linear).
@@ -190,13 +191,16 @@ impl Sensor {
         if d.full_well_e > 0.0 {
             let mut rng = ChaCha8Rng::seed_from_u64(seed ^ NOISE_SALT);
             rng.set_stream(frame_index);
+            let table = normal_table();
             let scale = d.gain / d.full_well_e;
-            let mut normals = [0.0f64; 4];
-            for pair in frame.chunks_mut(2) {
-                gaussians(&mut rng, &mut normals);
-                for (i, v) in pair.iter_mut().enumerate() {
+            let read_var = d.read_noise_e * d.read_noise_e;
+            for quad in frame.chunks_mut(4) {
+                let bits = rng.next_u64();
+                for (i, v) in quad.iter_mut().enumerate() {
+                    // shot noise (variance μ) and read noise (read²) together: one Gaussian
+                    let z = table[((bits >> (16 * i)) & 0xffff) as usize];
                     let mu = f64::from(*v).max(0.0) * d.full_well_e;
-                    let e = mu + mu.sqrt() * normals[2 * i] + d.read_noise_e * normals[2 * i + 1];
+                    let e = mu + (mu + read_var).sqrt() * z;
                     *v = (e * scale).clamp(0.0, 1.0) as f32;
                 }
             }
@@ -220,17 +224,68 @@ impl Sensor {
     }
 }
 
-/// Four independent standard normal numbers (Box–Muller on two pairs of 32-bit uniforms).
-fn gaussians(rng: &mut ChaCha8Rng, out: &mut [f64; 4]) {
-    for pair in out.chunks_mut(2) {
-        let bits = rng.next_u64();
-        // uniforms in (0, 1]: u1 never 0 (ln), u2 in [0, 1)
-        let u1 = ((bits >> 32) as f64 + 1.0) / 4_294_967_296.0;
-        let u2 = (bits & 0xffff_ffff) as f64 / 4_294_967_296.0;
-        let r = (-2.0 * u1.ln()).sqrt();
-        let (s, c) = (std::f64::consts::TAU * u2).sin_cos();
-        pair[0] = r * c;
-        pair[1] = r * s;
+/// Standard normal numbers by a 16-bit index: the quantiles `Φ⁻¹((i + ½) / 65 536)`, scaled to
+/// mean 0 and variance 1 exactly (the noise draws one per pixel: a table look-up instead of a
+/// Box–Muller transform, ~10× faster; the distribution is exact to within its 2⁻¹⁶ steps and its
+/// tails end at ±4.3σ).
+fn normal_table() -> &'static [f64; 65536] {
+    static TABLE: std::sync::OnceLock<Box<[f64; 65536]>> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let mut t = Box::new([0.0f64; 65536]);
+        for (i, z) in t.iter_mut().enumerate() {
+            *z = inverse_normal_cdf((i as f64 + 0.5) / 65536.0);
+        }
+        let mean = t.iter().sum::<f64>() / 65536.0;
+        let sd = (t.iter().map(|z| (z - mean).powi(2)).sum::<f64>() / 65536.0).sqrt();
+        t.iter_mut().for_each(|z| *z = (*z - mean) / sd);
+        t
+    })
+}
+
+/// Φ⁻¹(p) for p in (0, 1): Acklam's rational approximation (relative error below 1.2e-9).
+fn inverse_normal_cdf(p: f64) -> f64 {
+    const A: [f64; 6] = [
+        -3.969_683_028_665_376e1,
+        2.209_460_984_245_205e2,
+        -2.759_285_104_469_687e2,
+        1.383_577_518_672_69e2,
+        -3.066_479_806_614_716e1,
+        2.506_628_277_459_239,
+    ];
+    const B: [f64; 5] = [
+        -5.447_609_879_822_406e1,
+        1.615_858_368_580_409e2,
+        -1.556_989_798_598_866e2,
+        6.680_131_188_771_972e1,
+        -1.328_068_155_288_572e1,
+    ];
+    const C: [f64; 6] = [
+        -7.784_894_002_430_293e-3,
+        -3.223_964_580_411_365e-1,
+        -2.400_758_277_161_838,
+        -2.549_732_539_343_734,
+        4.374_664_141_464_968,
+        2.938_163_982_698_783,
+    ];
+    const D: [f64; 4] = [
+        7.784_695_709_041_462e-3,
+        3.224_671_290_700_398e-1,
+        2.445_134_137_142_996,
+        3.754_408_661_907_416,
+    ];
+    let tail = |q: f64| {
+        (((((C[0] * q + C[1]) * q + C[2]) * q + C[3]) * q + C[4]) * q + C[5])
+            / ((((D[0] * q + D[1]) * q + D[2]) * q + D[3]) * q + 1.0)
+    };
+    if p < 0.024_25 {
+        tail((-2.0 * p.ln()).sqrt())
+    } else if p > 1.0 - 0.024_25 {
+        -tail((-2.0 * (1.0 - p).ln()).sqrt())
+    } else {
+        let q = p - 0.5;
+        let r = q * q;
+        (((((A[0] * r + A[1]) * r + A[2]) * r + A[3]) * r + A[4]) * r + A[5]) * q
+            / (((((B[0] * r + B[1]) * r + B[2]) * r + B[3]) * r + B[4]) * r + 1.0)
     }
 }
 
@@ -352,6 +407,15 @@ mod tests {
         ] {
             assert!(bad.build(1.0).is_err(), "{bad:?}");
         }
+    }
+
+    #[test]
+    fn the_normal_table_is_standard_normal() {
+        let t = normal_table();
+        assert!((inverse_normal_cdf(0.975) - 1.959_963_985).abs() < 1e-8);
+        assert!((inverse_normal_cdf(0.001) + 3.090_232_306).abs() < 1e-8);
+        let within_1sd = t.iter().filter(|z| z.abs() < 1.0).count() as f64 / 65536.0;
+        assert!((within_1sd - 0.682_689).abs() < 1e-3, "{within_1sd}");
     }
 
     #[test]

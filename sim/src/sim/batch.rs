@@ -132,8 +132,7 @@ impl Sim {
     /// Submits the current views of `sims` (at most [`Renderer::max_batch`]) for rendering.
     fn submit_views(sims: &mut [&mut Sim], renderer: &mut Renderer) -> Result<PendingViews, SimError> {
         for sim in sims.iter_mut() {
-            sim.prepare_instances();
-            sim.sync_views();
+            sim.prepare_view();
         }
         let descs: Vec<FrameDesc<'_>> = sims.iter().map(|s| s.view_desc()).collect();
         renderer.submit_batch(&descs)

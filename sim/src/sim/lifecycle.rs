@@ -109,7 +109,7 @@ impl Sim {
             instances: Vec::new(),
             contacts: self.contacts.clone(),
             ground_truth: self.ground_truth,
-            past_view: self.past_view.clone(),
+            shown: None,
             commands: self.commands.clone(),
             views: self.views.clone(),
         }
@@ -263,9 +263,9 @@ impl Sim {
             instances: Vec::new(),
             contacts: Vec::new(),
             ground_truth: true,
-            past_view: None,
+            shown: None,
             commands: crate::latency::DelayLine::new(world.actuation_delay),
-            views: crate::latency::DelayLine::new(world.perception_delay),
+            views: crate::latency::DelayLine::new(world.perception_delay + 1),
             world,
         };
         if !dynamic {

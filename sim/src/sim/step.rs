@@ -25,7 +25,6 @@ impl Sim {
         // the view before the step enters the perception queue first (an episode's first frame
         // fills it, whether or not it was observed)
         self.sync_views();
-        self.keep_past_view();
         // actuation latency: the command given now acts that many frames later
         let command = if self.world.actuation_delay > 0 {
             *self.commands.push(*command)
