@@ -85,6 +85,10 @@ pub struct EnvOptions {
     /// controller's manoeuvre is (`[controller] duration_s`), instead of several decisions that
     /// must all choose it: random exploration rarely holds a dodge long enough to evade.
     pub dodge_hold_s: f64,
+    /// The sensor profile every episode runs under (`ideal`, `robot`: blur, noise, quantisation and
+    /// the perception and actuation latencies, `loomlab_sim::SensorProfile`); `None`: the scenario
+    /// file's own sensor keys.
+    pub sensor: Option<String>,
 }
 
 impl Default for EnvOptions {
@@ -102,6 +106,7 @@ impl Default for EnvOptions {
             max_episode_steps: None,
             action_repeat: 1,
             dodge_hold_s: 0.0,
+            sensor: None,
         }
     }
 }
@@ -128,6 +133,9 @@ impl EnvOptions {
 
     /// Checks every value.
     pub fn validate(&self) -> Result<(), EnvError> {
+        if let Some(name) = &self.sensor {
+            loomlab_sim::SensorProfile::named(name).map_err(|reason| EnvError::option("sensor", name, reason))?;
+        }
         if let Some(n) = self.frame_size
             && !(loomlab_sim::MIN_FRAME_SIZE..=MAX_FRAME_SIZE).contains(&n)
         {

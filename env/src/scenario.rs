@@ -52,9 +52,16 @@ impl EnvScenario {
                 }
             }
         }
+        let sensor = match &options.sensor {
+            Some(name) => Some(
+                loomlab_sim::SensorProfile::named(name).map_err(|reason| EnvError::option("sensor", name, reason))?,
+            ),
+            None => None,
+        };
         let opts = LoadOptions {
             seed,
             size: options.frame_size,
+            sensor,
             detectors: options.detectors.clone(),
             detector_entries: None,
             ..Default::default()

@@ -214,7 +214,12 @@ impl EscapeVectorEnv {
             // thread steps group g + 1's physics, and group g's detectors run on the pool while
             // the device renders the groups after it. The auto-resets (of environments that take
             // no period) run on the pool meanwhile.
-            let group = Sim::batch_group(stepping.len().max(1), &self.renderer);
+            let layers = going
+                .iter_mut()
+                .filter_map(|(_, env)| env.sim_mut().map(|s| s.layers_per_frame()))
+                .max()
+                .unwrap_or(1);
+            let group = Sim::batch_group_of(stepping.len().max(1), layers, &self.renderer);
             let renderer = &mut self.renderer;
             let pending = &pending;
             rayon::in_place_scope(|scope| -> Result<(), EnvError> {

@@ -178,6 +178,10 @@ pub struct Report {
     /// Per-tier summaries, keyed by the tier (`"0"` … `"3"`); empty when no scenario states one.
     #[serde(default)]
     pub tiers: BTreeMap<String, TierSummary>,
+    /// The sensor profile the worlds ran under (`loomlab run --sensor`, a suite's `sensor` key);
+    /// absent: each scenario file's own sensor (the ideal camera unless it sets one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor_profile: Option<String>,
 }
 
 /// The reference labels that occur in `episodes`, in table order.
@@ -238,6 +242,7 @@ impl Report {
             lead_margin_s: finite_or_zero(meta.lead_margin_s),
             references: present_references(episodes),
             detectors: summarize_by_detector(episodes),
+            sensor_profile: None,
             scenarios,
             tiers,
         }

@@ -48,6 +48,9 @@ struct SuiteDoc {
     defaults: Option<Table>,
     #[serde(default)]
     require_tier: bool,
+    /// The sensor profile every scenario runs under (`loomlab run --sensor` overrides it).
+    #[serde(default)]
+    sensor: Option<String>,
 }
 
 /// A loaded suite.
@@ -59,6 +62,9 @@ pub struct Suite {
     pub description: String,
     /// The scenarios, in run order.
     pub scenarios: Vec<Scenario>,
+    /// The sensor profile its worlds were given (the load options', else the suite's `sensor`
+    /// key); `None`: each scenario file's own sensor (ideal unless it sets one).
+    pub sensor: Option<&'static str>,
 }
 
 /// Every scenario's tier, by scenario name (scenarios without one are left out).
@@ -228,7 +234,9 @@ pub fn load_suite(path: &Path, opts: &LoadOptions) -> Result<Suite, ScenarioErro
             (doc, files)
         } else {
             let scenario = load_scenario(path, None, opts)?;
-            return finish(path, String::new(), vec![scenario]);
+            let mut suite = finish(path, String::new(), vec![scenario])?;
+            suite.sensor = opts.sensor.map(|p| p.name);
+            return Ok(suite);
         }
     };
     let suite_file: PathBuf = if meta.is_dir() {
@@ -240,6 +248,20 @@ pub fn load_suite(path: &Path, opts: &LoadOptions) -> Result<Suite, ScenarioErro
         table,
         file: suite_file.clone(),
     });
+    // the suite's sensor profile, unless the options set one
+    let with_profile;
+    let opts = match (&opts.sensor, &doc.sensor) {
+        (None, Some(name)) => {
+            let profile = loomlab_sim::SensorProfile::named(name)
+                .map_err(|reason| ScenarioError::key(&suite_file, "sensor", reason))?;
+            with_profile = LoadOptions {
+                sensor: Some(profile),
+                ..opts.clone()
+            };
+            &with_profile
+        }
+        _ => opts,
+    };
     let mut scenarios = Vec::with_capacity(files.len());
     for f in &files {
         let scenario = load_scenario(f, defaults.as_ref(), opts)?;
@@ -257,7 +279,9 @@ pub fn load_suite(path: &Path, opts: &LoadOptions) -> Result<Suite, ScenarioErro
         }
         scenarios.push(scenario);
     }
-    finish(path, doc.description, scenarios)
+    let mut suite = finish(path, doc.description, scenarios)?;
+    suite.sensor = opts.sensor.map(|p| p.name);
+    Ok(suite)
 }
 
 fn finish(path: &Path, description: String, scenarios: Vec<Scenario>) -> Result<Suite, ScenarioError> {
@@ -293,5 +317,6 @@ fn finish(path: &Path, description: String, scenarios: Vec<Scenario>) -> Result<
         path: path.into(),
         description,
         scenarios,
+        sensor: None,
     })
 }

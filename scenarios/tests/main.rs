@@ -3,6 +3,7 @@
 mod deadline;
 mod efference;
 mod hopfield_rendered;
+mod latency;
 mod parser_fuzz;
 mod reference;
 mod registry;

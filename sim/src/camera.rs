@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::SimError;
 use crate::glam::{DQuat, DVec3};
+use crate::sensor::SensorDesc;
 use crate::trajectory::Pose64;
 
 /// Camera description (TOML table `[world.camera]`).
@@ -32,6 +33,14 @@ pub struct CameraDesc {
     pub near_m: f32,
     /// Optional camera shake (default: none).
     pub shake: Option<ShakeDesc>,
+    /// The sensor (`[world.camera.sensor]`: exposure blur, noise, gain, gamma, quantisation;
+    /// [`crate::sensor`]). Default: the ideal camera (left out when written).
+    #[serde(skip_serializing_if = "SensorDesc::is_ideal")]
+    pub sensor: SensorDesc,
+    /// Perception latency (s): a step's frame is the view this much earlier, quantised to camera
+    /// frames ([`crate::latency`]). Default 0 (left out when written).
+    #[serde(skip_serializing_if = "crate::robot::is_zero")]
+    pub perception_latency_s: f32,
 }
 
 impl Default for CameraDesc {
@@ -44,6 +53,8 @@ impl Default for CameraDesc {
             pitch_deg: 0.0,
             near_m: 0.01,
             shake: None,
+            sensor: SensorDesc::default(),
+            perception_latency_s: 0.0,
         }
     }
 }

@@ -115,6 +115,15 @@ pub struct RobotDesc {
     pub max_decel_mps2: f32,
     /// Largest yaw acceleration (rad/s²; dynamic physics). Default 3.2.
     pub max_yaw_accel_rps2: f32,
+    /// Actuation latency (s): a command takes effect this much later, quantised to camera frames
+    /// ([`crate::latency`]). Default 0 (left out when written).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub actuation_latency_s: f32,
+}
+
+/// `true` for 0 (keys left out of written descriptions at their default).
+pub(crate) fn is_zero(v: &f32) -> bool {
+    *v == 0.0
 }
 
 impl Default for RobotDesc {
@@ -132,6 +141,7 @@ impl Default for RobotDesc {
             max_accel_mps2: 2.5,
             max_decel_mps2: 2.5,
             max_yaw_accel_rps2: 3.2,
+            actuation_latency_s: 0.0,
         }
     }
 }

@@ -182,6 +182,12 @@ pub(crate) struct BuiltWorld {
     pub sky: f32,
     pub ground: Option<ResolvedTexture>,
     pub camera: Camera,
+    /// The camera's sensor; `None` for the ideal camera.
+    pub sensor: Option<crate::sensor::Sensor>,
+    /// Perception latency in camera frames.
+    pub perception_delay: usize,
+    /// Actuation latency in camera frames.
+    pub actuation_delay: usize,
     pub robot: RobotDesc,
     pub robot_prim: Prim,
     pub robot_start: Pose64,
@@ -346,6 +352,17 @@ impl WorldDesc {
             None
         };
         let camera = self.camera.build(seed)?;
+        let sensor = self.camera.sensor.build(self.dt())?;
+        let perception_delay = crate::latency::latency_frames(
+            "world.camera.perception_latency_s",
+            self.camera.perception_latency_s,
+            self.dt(),
+        )?;
+        let actuation_delay = crate::latency::latency_frames(
+            "world.robot.actuation_latency_s",
+            self.robot.actuation_latency_s,
+            self.dt(),
+        )?;
         let robot_prim = self.robot.body_prim()?;
         let robot_start = self.robot.start_pose(&robot_prim);
         let frame = AimFrame {
@@ -391,6 +408,9 @@ impl WorldDesc {
             sky: self.sky_luminance,
             ground,
             camera,
+            sensor,
+            perception_delay,
+            actuation_delay,
             robot: self.robot.clone(),
             robot_prim,
             robot_start,

@@ -8,4 +8,5 @@ mod desc;
 mod determinism;
 mod dynamics;
 mod goldens;
+mod sensor;
 mod sphere_size;

@@ -41,6 +41,11 @@ pub struct RenderArgs {
     /// Frame size n (overrides `world.camera.n`), 20..=2048 (`loomlab_sim::MIN_FRAME_SIZE`..=`MAX_N`).
     #[arg(long)]
     pub size: Option<u32>,
+    /// Render under this sensor profile (`ideal`, `robot`: blur, noise, quantisation and the
+    /// perception latency; the actuation latency delays `robot_command`), overriding the file's
+    /// `[world.camera.sensor]` and latencies.
+    #[arg(long, value_name = "PROFILE")]
+    pub sensor: Option<String>,
     /// Do not write the animated GIF.
     #[arg(long)]
     pub no_gif: bool,
@@ -153,6 +158,11 @@ fn plan(args: &RenderArgs) -> anyhow::Result<Plan> {
             );
         }
         scene.world.camera.n = n;
+    }
+    if let Some(name) = &args.sensor {
+        loomlab_sim::SensorProfile::named(name)
+            .map_err(|e| anyhow::anyhow!("--sensor: {e}"))?
+            .apply(&mut scene.world);
     }
     if let Some(p) = args.physics {
         scene.world.physics = match p {

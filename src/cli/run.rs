@@ -46,6 +46,11 @@ pub struct RunArgs {
     /// Frame size n for every episode (overrides world.camera.n).
     #[arg(long, value_name = "N")]
     pub size: Option<u32>,
+    /// Run every world under this sensor profile (`ideal`, `robot`): the camera's sensor (blur,
+    /// noise, quantisation) and the perception and actuation latencies; overrides the suite's
+    /// `sensor` key and the scenario files' own (docs/reference.md#sensor-profiles).
+    #[arg(long, value_name = "PROFILE")]
+    pub sensor: Option<String>,
     /// Run only the scenarios of these difficulty tiers (comma-separated, 0 to 3: 0 the paper's
     /// conditions, 1 static clutter, 2 ego-motion, 3 hard; a file's top-level `tier`). Scenarios
     /// without a tier are left out. Applied before --limit.
@@ -102,6 +107,7 @@ impl RunArgs {
             jobs: self.jobs.map(count),
             seed: self.seed,
             size: self.size.map(i64::from),
+            sensor: self.sensor,
             tier: self.tier,
             limit: self.limit.map(count),
             resume: self.resume,

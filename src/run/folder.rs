@@ -82,6 +82,7 @@ impl RunSession {
         };
         let mut manifest = Manifest::new(String::new(), &self.plan.suite_path, self.plan.total);
         manifest.traces = r.traces;
+        manifest.sensor = self.plan.suite.sensor.unwrap_or_default().to_string();
         if let Some(command) = &r.command {
             manifest.command = command.clone();
         }
@@ -161,6 +162,22 @@ impl RunSession {
         } else {
             None
         };
+        if let Some(m) = earlier.as_ref().filter(|m| m.sensor != manifest.sensor) {
+            let name = |s: &str| {
+                if s.is_empty() {
+                    "none (the scenario files' own)".to_string()
+                } else {
+                    format!("`{s}`")
+                }
+            };
+            anyhow::bail!(
+                "{}: the run there ran under sensor profile {}, this one asks for {}; resume it with the same \
+                 --sensor (or suite `sensor` key), or start over with --overwrite",
+                out.display(),
+                name(&m.sensor),
+                name(&manifest.sensor)
+            );
+        }
         if let Some(m) = earlier.filter(|m| m.definition == manifest.definition && m.episodes == manifest.episodes) {
             if !r.quiet {
                 errln!(

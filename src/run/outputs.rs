@@ -52,7 +52,8 @@ impl RunSession {
         let Some(w) = writers else { return Ok(()) };
         let out = w.dir.dir.clone();
         if !ran.outcomes.is_empty() {
-            let partial = Report::from_tiered_episodes(meta, &ran.outcomes, &self.plan.tiers);
+            let mut partial = Report::from_tiered_episodes(meta, &ran.outcomes, &self.plan.tiers);
+            partial.sensor_profile = self.plan.suite.sensor.map(String::from);
             w.dir.record(PARTIAL_REPORT)?;
             write_atomic(&out.join(PARTIAL_REPORT), (partial.to_json() + "\n").as_bytes())?;
         }
@@ -82,7 +83,8 @@ impl RunSession {
         ran: &Ran,
         meta: &ReportMeta,
     ) -> anyhow::Result<Option<Written>> {
-        let report = Report::from_tiered_episodes(meta, &ran.outcomes, &self.plan.tiers);
+        let mut report = Report::from_tiered_episodes(meta, &ran.outcomes, &self.plan.tiers);
+        report.sensor_profile = self.plan.suite.sensor.map(String::from);
         let Some(w) = writers else {
             return Ok(Some(Written {
                 report,

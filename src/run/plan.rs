@@ -56,6 +56,12 @@ impl RunPlan {
         let opts = LoadOptions {
             seed: request.seed,
             size: request.frame_size(),
+            sensor: request
+                .sensor
+                .as_deref()
+                .map(loomlab_sim::SensorProfile::named)
+                .transpose()
+                .map_err(|e| anyhow::anyhow!("--sensor: {e}"))?,
             detectors,
             detector_entries,
             added_detectors: added,

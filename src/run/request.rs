@@ -37,6 +37,9 @@ pub struct RunRequest {
     pub seed: u64,
     /// Frame size for every episode.
     pub size: Option<i64>,
+    /// The sensor profile every world runs under (`ideal`, `robot`; `None`: the suite's `sensor`
+    /// key, else each scenario file's own sensor).
+    pub sensor: Option<String>,
     /// Only the scenarios of these difficulty tiers (`0,2`).
     pub tier: Option<String>,
     /// Only the suite's first episodes.

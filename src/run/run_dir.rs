@@ -111,6 +111,10 @@ pub struct Manifest {
     /// expanding every episode again (empty: an older version's run, or not computed).
     #[serde(default)]
     pub definition: String,
+    /// The sensor profile the run's worlds ran under (`--sensor`, the suite's `sensor` key; empty:
+    /// each scenario file's own): a `--resume` under another profile is refused.
+    #[serde(default)]
+    pub sensor: String,
 }
 
 impl Manifest {
@@ -128,6 +132,7 @@ impl Manifest {
             traces: false,
             written: WRITTEN.into(),
             definition: String::new(),
+            sensor: String::new(),
         }
     }
 

@@ -18,6 +18,9 @@ pub struct LoadOptions {
     pub seed: u64,
     /// Frame size n overriding every `world.camera.n`.
     pub size: Option<u32>,
+    /// A sensor profile set on every world (`--sensor`, a suite's `sensor` key): it replaces the
+    /// scenario files' `[world.camera.sensor]` and latencies ([`loomlab_sim::SensorProfile`]).
+    pub sensor: Option<loomlab_sim::SensorProfile>,
     /// Run exactly these detector ids (the scenario's settings for them when it lists them,
     /// defaults otherwise); `None`: the scenario's list (default every registered detector). With
     /// `detector_entries` it only filters those entries by id.

@@ -16,6 +16,9 @@ pub(super) fn resolve(
     if let Some(n) = opts.size {
         world.camera.n = n;
     }
+    if let Some(profile) = &opts.sensor {
+        profile.apply(&mut world);
+    }
     world.validate().map_err(|e| match e {
         loomlab_sim::SimError::InvalidDesc { key, value, reason } => {
             let key = if key.starts_with("world.") {

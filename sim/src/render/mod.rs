@@ -6,5 +6,6 @@ mod renderer;
 
 pub use gpu::{ADAPTER_ENV, GpuContext, LLVMPIPE_THREADS_ENV, llvmpipe_threads};
 pub use renderer::{
-    FrameDesc, MAX_BATCH, PendingViews, RenderInstance, RenderTimings, Renderer, frame_to_u8, padded_bytes_per_row,
+    FrameDesc, MAX_BATCH, PastView, PendingViews, RenderInstance, RenderTimings, Renderer, SensorFrame, frame_to_u8,
+    padded_bytes_per_row,
 };

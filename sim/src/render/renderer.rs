@@ -20,6 +20,7 @@ use super::gpu::GpuContext;
 use super::mesh;
 use crate::SimError;
 use crate::glam::{DQuat, DVec3, Mat4, Quat, Vec3, Vec4};
+use crate::sensor::Sensor;
 use crate::shape::PrimKind;
 use crate::texture::{ResolvedTexture, TextureKind};
 
@@ -60,6 +61,94 @@ pub struct FrameDesc<'a> {
     pub t_s: f64,
     /// What to draw.
     pub instances: &'a [RenderInstance],
+    /// The camera's sensor, when it is not the ideal camera ([`crate::sensor`]): exposure blur over
+    /// sub-frames, noise, gain, gamma, quantisation. `None` renders the view as it is.
+    pub sensor: Option<SensorFrame<'a>>,
+}
+
+/// What the sensor needs to make one frame ([`FrameDesc::sensor`]).
+#[derive(Clone, Copy, Debug)]
+pub struct SensorFrame<'a> {
+    /// The validated sensor.
+    pub sensor: &'a Sensor,
+    /// The simulator's seed (the noise's generator).
+    pub seed: u64,
+    /// The frame's index in its episode (the noise's stream).
+    pub frame_index: u64,
+    /// The view one camera period earlier (the start of the interpolation for the exposure's
+    /// sub-frames); `None` for an episode's first frame (not blurred).
+    pub previous: Option<PastView<'a>>,
+}
+
+/// The view one camera period before a frame, for the sensor's exposure blur.
+#[derive(Clone, Copy, Debug)]
+pub struct PastView<'a> {
+    /// Camera position (world).
+    pub camera_position: DVec3,
+    /// Camera orientation.
+    pub camera_rotation: DQuat,
+    /// Simulation time (s).
+    pub t_s: f64,
+    /// What was drawn then (relative to the camera then), in the same order as the frame's.
+    pub instances: &'a [RenderInstance],
+}
+
+/// How one frame of a submission is made from its rendered layers.
+#[derive(Clone, Copy, Debug)]
+struct FramePlan {
+    /// Layers (sub-frames) averaged into the frame.
+    layers: usize,
+    /// The sensor's noise, gain, gamma and quantisation, with the generator's seed and stream.
+    sensor: Option<(Sensor, u64, u64)>,
+}
+
+impl FrameDesc<'_> {
+    /// Layers this frame renders: the sensor's sub-frames, or 1.
+    pub fn layers(&self) -> usize {
+        self.sensor.map_or(1, |s| s.sensor.views_per_frame())
+    }
+
+    /// The sub-frame views of a frame with an exposure (camera pose, time, instances), interpolated
+    /// between the previous view and this one; empty when the frame renders as one view.
+    fn subframes(&self) -> Vec<(DVec3, DQuat, f64, Vec<RenderInstance>)> {
+        let Some(sf) = self.sensor else { return Vec::new() };
+        let k = sf.sensor.views_per_frame();
+        if k == 1 {
+            return Vec::new();
+        }
+        (0..k)
+            .map(|j| {
+                let a = sf.sensor.subframe_lag(j);
+                match sf.previous.filter(|p| p.instances.len() == self.instances.len()) {
+                    Some(p) if a > 0.0 => {
+                        let af = a as f32;
+                        let inst = self
+                            .instances
+                            .iter()
+                            .zip(p.instances)
+                            .map(|(c, o)| RenderInstance {
+                                position: c.position.lerp(o.position, af),
+                                rotation: c.rotation.slerp(o.rotation, af).normalize(),
+                                ..*c
+                            })
+                            .collect();
+                        (
+                            self.camera_position.lerp(p.camera_position, a),
+                            self.camera_rotation.slerp(p.camera_rotation, a).normalize(),
+                            self.t_s + (p.t_s - self.t_s) * a,
+                            inst,
+                        )
+                    }
+                    _ => (
+                        self.camera_position,
+                        self.camera_rotation,
+                        self.t_s,
+                        self.instances.to_vec(),
+                    ),
+                }
+            })
+            .collect()
+    }
 }
 
 #[repr(C)]
@@ -285,6 +374,34 @@ struct Readback {
     state: Arc<AtomicU8>,
 }
 
+/// Calls `push(i, value)` for the n·n pixels of the layer at byte `base` of a mapped readback
+/// (rows `bpr` bytes apart), row-major.
+fn read_layer(view: &[u8], base: usize, bpr: usize, n: usize, mut push: impl FnMut(usize, f32)) {
+    for row in 0..n {
+        let bytes = &view[base + row * bpr..base + row * bpr + n * 4];
+        for (c, b) in bytes.chunks_exact(4).enumerate() {
+            push(row * n + c, f32::from_ne_bytes([b[0], b[1], b[2], b[3]]));
+        }
+    }
+}
+
+/// Makes one frame of `plan` from its layers, starting at layer `first`: the mean of its
+/// sub-frames, then the sensor's noise, gain, gamma and quantisation.
+fn sensor_frame(view: &[u8], first: usize, bpr: usize, n: usize, plan: &FramePlan, out: &mut Vec<f32>) {
+    out.clear();
+    out.resize(n * n, 0.0);
+    for l in first..first + plan.layers {
+        read_layer(view, l * bpr * n, bpr, n, |i, x| out[i] += x);
+    }
+    if plan.layers > 1 {
+        let k = plan.layers as f32;
+        out.iter_mut().for_each(|v| *v /= k);
+    }
+    if let Some((sensor, seed, frame_index)) = plan.sensor {
+        sensor.apply(out, seed, frame_index);
+    }
+}
+
 /// Views submitted by [`Renderer::submit_batch`] and not yet read back: the device renders them
 /// while the caller goes on (steps the next simulators' physics, encodes the next batch);
 /// [`Renderer::collect_batch`] waits for them and copies their pixels out. Dropping it without
@@ -295,6 +412,8 @@ pub struct PendingViews {
     renderer: u64,
     readback: Readback,
     views: usize,
+    /// Per frame: its layers and sensor; empty when every frame is one plain view.
+    plans: Vec<FramePlan>,
     index: wgpu::SubmissionIndex,
 }
 
@@ -592,13 +711,26 @@ impl Renderer {
                 format!("must be one per frame description ({} given)", frames.len()),
             ));
         }
-        let chunk = self.max_layers as usize;
-        let mut pending = Vec::with_capacity(frames.len().div_ceil(chunk));
-        for frames in frames.chunks(chunk) {
-            pending.push(self.submit_batch(frames)?);
+        // submissions of at most max_layers layers (a frame with sub-frames takes several)
+        let max = self.max_layers as usize;
+        let mut ranges = Vec::new();
+        let (mut start, mut layers) = (0, 0);
+        for (i, f) in frames.iter().enumerate() {
+            if layers + f.layers() > max && i > start {
+                ranges.push(start..i);
+                (start, layers) = (i, 0);
+            }
+            layers += f.layers();
         }
-        for (views, outs) in pending.into_iter().zip(outs.chunks_mut(chunk)) {
-            self.collect_batch(views, outs)?;
+        if start < frames.len() {
+            ranges.push(start..frames.len());
+        }
+        let mut pending = Vec::with_capacity(ranges.len());
+        for r in &ranges {
+            pending.push(self.submit_batch(&frames[r.clone()])?);
+        }
+        for (views, r) in pending.into_iter().zip(ranges) {
+            self.collect_batch(views, &mut outs[r])?;
         }
         Ok(())
     }
@@ -609,15 +741,31 @@ impl Renderer {
     /// pixels are those [`Renderer::render`] gives. This is how [`crate::Sim::step_batch`]
     /// overlaps one group's physics with the previous group's rendering.
     pub fn submit_batch(&mut self, frames: &[FrameDesc<'_>]) -> Result<PendingViews, SimError> {
-        if frames.is_empty() || frames.len() > self.max_layers as usize {
+        let layers: usize = frames.iter().map(FrameDesc::layers).sum();
+        if frames.is_empty() || layers > self.max_layers as usize {
             return Err(SimError::invalid(
                 "submit_batch frames",
-                frames.len(),
-                format!("must be 1..={} views (Renderer::max_batch)", self.max_layers),
+                format!("{} views ({layers} layers with the sensor's sub-frames)", frames.len()),
+                format!(
+                    "must be 1..={} layers (Renderer::max_batch; each frame takes \
+                     world.camera.sensor.subframes layers when it has an exposure)",
+                    self.max_layers
+                ),
             ));
         }
+        let plans: Vec<FramePlan> = if frames.iter().any(|f| f.sensor.is_some()) {
+            frames
+                .iter()
+                .map(|f| FramePlan {
+                    layers: f.layers(),
+                    sensor: f.sensor.map(|s| (*s.sensor, s.seed, s.frame_index)),
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         let t_start = std::time::Instant::now();
-        self.ensure_layers(frames.len() as u32);
+        self.ensure_layers(layers as u32);
         let readback = self.readbacks.pop().unwrap_or_else(|| Readback {
             buffer: self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("readback"),
@@ -627,11 +775,33 @@ impl Renderer {
             }),
             state: Arc::new(AtomicU8::new(0)),
         });
-        let cmd = self.encode(frames, &readback.buffer);
+        let cmd = if layers == frames.len() {
+            self.encode(frames, &readback.buffer)
+        } else {
+            // the exposure's sub-frames, each one a view of its own
+            let subs: Vec<_> = frames.iter().map(FrameDesc::subframes).collect();
+            let mut descs = Vec::with_capacity(layers);
+            for (f, sub) in frames.iter().zip(&subs) {
+                if sub.is_empty() {
+                    descs.push(*f);
+                }
+                for (position, rotation, t_s, instances) in sub {
+                    descs.push(FrameDesc {
+                        camera_position: *position,
+                        camera_rotation: *rotation,
+                        t_s: *t_s,
+                        instances,
+                        sensor: None,
+                        ..*f
+                    });
+                }
+            }
+            self.encode(&descs, &readback.buffer)
+        };
         let t_encoded = std::time::Instant::now();
         let index = self.ctx.queue.submit(Some(cmd));
         let t_submitted = std::time::Instant::now();
-        let bytes = u64::from(self.padded_bpr) * u64::from(self.n) * frames.len() as u64;
+        let bytes = u64::from(self.padded_bpr) * u64::from(self.n) * layers as u64;
         readback.state.store(0, Ordering::Release);
         let state = Arc::clone(&readback.state);
         readback.buffer.slice(..bytes).map_async(wgpu::MapMode::Read, move |r| {
@@ -645,6 +815,7 @@ impl Renderer {
             renderer: self.id,
             readback,
             views: frames.len(),
+            plans,
             index,
         })
     }
@@ -669,7 +840,11 @@ impl Renderer {
         let t_start = std::time::Instant::now();
         let device = &self.ctx.device;
         let PendingViews {
-            readback, views, index, ..
+            readback,
+            views,
+            plans,
+            index,
+            ..
         } = pending;
         device
             .poll(wgpu::PollType::Wait {
@@ -704,25 +879,30 @@ impl Renderer {
         let t_waited = std::time::Instant::now();
         let n = self.n as usize;
         let bpr = self.padded_bpr as usize;
+        let layers = if plans.is_empty() {
+            views
+        } else {
+            plans.iter().map(|p| p.layers).sum()
+        };
         {
             let view = readback
                 .buffer
-                .get_mapped_range(..(bpr * n * views) as u64)
+                .get_mapped_range(..(bpr * n * layers) as u64)
                 .map_err(|e| SimError::Gpu {
                     during: "reading back the frame",
                     reason: e.to_string(),
                 })?;
-            for (v, out) in outs.iter_mut().enumerate() {
-                out.clear();
-                out.reserve(n * n);
-                let base = v * bpr * n;
-                for row in 0..n {
-                    let bytes = &view[base + row * bpr..base + row * bpr + n * 4];
-                    out.extend(
-                        bytes
-                            .chunks_exact(4)
-                            .map(|b| f32::from_ne_bytes([b[0], b[1], b[2], b[3]])),
-                    );
+            if plans.is_empty() {
+                for (v, out) in outs.iter_mut().enumerate() {
+                    out.clear();
+                    out.reserve(n * n);
+                    read_layer(&view, v * bpr * n, bpr, n, |_, x| out.push(x));
+                }
+            } else {
+                let mut layer = 0;
+                for (plan, out) in plans.iter().zip(outs.iter_mut()) {
+                    sensor_frame(&view, layer, bpr, n, plan, out);
+                    layer += plan.layers;
                 }
             }
         }
@@ -732,7 +912,7 @@ impl Renderer {
         }
         let t_end = std::time::Instant::now();
         let tm = &mut self.timings;
-        tm.frames += views as u64;
+        tm.frames += layers as u64;
         tm.wait_s += (t_waited - t_start).as_secs_f64();
         tm.readback_s += (t_end - t_waited).as_secs_f64();
         Ok(())

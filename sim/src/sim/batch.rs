@@ -22,7 +22,8 @@ impl Sim {
         Self::check_steps("step_batch commands", sims, commands, renderer)?;
         // In groups: the device renders one group's views while this thread steps the next
         // group's physics (each simulator's steps and view are independent of the others').
-        let group = Self::batch_group(sims.len(), renderer);
+        let layers = sims.iter().map(|s| s.layers_per_frame()).max().unwrap_or(1);
+        let group = Self::batch_group_of(sims.len(), layers, renderer);
         let mut submitted = Vec::with_capacity(sims.len().div_ceil(group));
         for (sims, commands) in sims.chunks_mut(group).zip(commands.chunks(group)) {
             submitted.push(Self::step_submit(sims, commands, renderer)?);
@@ -38,6 +39,17 @@ impl Sim {
     /// pipelines; see [`Sim::step_submit`]).
     pub fn batch_group(views: usize, renderer: &Renderer) -> usize {
         pipeline_group(views, renderer.max_batch())
+    }
+
+    /// [`Sim::batch_group`] for views of `layers` renders each (the sensor's sub-frames,
+    /// [`Sim::layers_per_frame`]): a group's layers fit one submission.
+    pub fn batch_group_of(views: usize, layers: usize, renderer: &Renderer) -> usize {
+        pipeline_group(views, renderer.max_batch() / layers.max(1))
+    }
+
+    /// Renders per frame: the sensor's sub-frames when it has an exposure, else 1.
+    pub fn layers_per_frame(&self) -> usize {
+        self.world.sensor.map_or(1, |s| s.views_per_frame())
     }
 
     /// The first half of [`Sim::step_batch`] for one group of at most [`Renderer::max_batch`]
@@ -105,7 +117,8 @@ impl Sim {
     /// Renders the current views of `sims` in one batch into their frames (submissions of at most
     /// [`Renderer::max_batch`] views, read back once all are submitted).
     fn render_views(sims: &mut [&mut Sim], renderer: &mut Renderer) -> Result<(), SimError> {
-        let group = renderer.max_batch().max(1);
+        let layers = sims.iter().map(|s| s.layers_per_frame()).max().unwrap_or(1);
+        let group = (renderer.max_batch() / layers).max(1);
         let mut pending = Vec::with_capacity(sims.len().div_ceil(group));
         for sims in sims.chunks_mut(group) {
             pending.push(Self::submit_views(sims, renderer)?);
@@ -119,9 +132,9 @@ impl Sim {
     /// Submits the current views of `sims` (at most [`Renderer::max_batch`]) for rendering.
     fn submit_views(sims: &mut [&mut Sim], renderer: &mut Renderer) -> Result<PendingViews, SimError> {
         for sim in sims.iter_mut() {
-            sim.prepare_instances();
+            sim.prepare_view();
         }
-        let descs: Vec<FrameDesc<'_>> = sims.iter().map(|s| s.frame_desc()).collect();
+        let descs: Vec<FrameDesc<'_>> = sims.iter().map(|s| s.view_desc()).collect();
         renderer.submit_batch(&descs)
     }
 

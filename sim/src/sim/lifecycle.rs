@@ -109,6 +109,9 @@ impl Sim {
             instances: Vec::new(),
             contacts: self.contacts.clone(),
             ground_truth: self.ground_truth,
+            shown: None,
+            commands: self.commands.clone(),
+            views: self.views.clone(),
         }
     }
 
@@ -260,6 +263,9 @@ impl Sim {
             instances: Vec::new(),
             contacts: Vec::new(),
             ground_truth: true,
+            shown: None,
+            commands: crate::latency::DelayLine::new(world.actuation_delay),
+            views: crate::latency::DelayLine::new(world.perception_delay + 1),
             world,
         };
         if !dynamic {

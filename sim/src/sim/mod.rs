@@ -114,6 +114,13 @@ pub struct Sim {
     instances: Vec<RenderInstance>,
     contacts: Vec<Contact>,
     ground_truth: bool,
+    /// The view shown by the last render when views are tracked ([`Sim::tracks_views`]).
+    shown: Option<CapturedView>,
+    /// Commands waiting out the actuation latency ([`crate::latency`]).
+    commands: crate::latency::DelayLine<Command>,
+    /// The states of the views waiting out the perception latency, and the one before them (for
+    /// the exposure's blur): a delay line one longer than the latency.
+    views: crate::latency::DelayLine<view::ViewState>,
 }
 
 impl std::fmt::Debug for Sim {

@@ -22,11 +22,23 @@ impl Sim {
     /// returns the contacts that started.
     pub(super) fn advance(&mut self, command: &Command) -> Result<Vec<Contact>, SimError> {
         command.validate()?;
-        self.command = *command;
-        let mut new_contacts = match self.world.physics {
-            PhysicsMode::Analytic => self.advance_analytic(command),
-            PhysicsMode::Dynamic => self.advance_dynamic(command),
+        // the view before the step enters the perception queue first (an episode's first frame
+        // fills it, whether or not it was observed)
+        self.sync_views();
+        // actuation latency: the command given now acts that many frames later
+        let command = if self.world.actuation_delay > 0 {
+            *self.commands.push(*command)
+        } else {
+            *command
         };
+        self.command = command;
+        let mut new_contacts = match self.world.physics {
+            PhysicsMode::Analytic => self.advance_analytic(&command),
+            PhysicsMode::Dynamic => self.advance_dynamic(&command),
+        };
+        // perception latency: every view enters the queue (physics-only replays included, so
+        // that a renderer attached later draws the delayed views)
+        self.sync_views();
         new_contacts.sort_by(|a, b| a.t_s.total_cmp(&b.t_s).then(a.object_id.cmp(&b.object_id)));
         self.contacts.extend(new_contacts.iter().cloned());
         Ok(new_contacts)

@@ -3,7 +3,39 @@
 use super::Sim;
 use crate::SimError;
 use crate::glam::DVec3;
-use crate::render::{FrameDesc, RenderInstance};
+use crate::render::{FrameDesc, PastView, RenderInstance, SensorFrame};
+use crate::sensor::Sensor;
+
+/// The view one camera period earlier, kept for the sensor's exposure blur ([`PastView`]).
+#[derive(Clone, Debug)]
+pub(super) struct PastViewOwned {
+    camera_position: DVec3,
+    camera_rotation: crate::glam::DQuat,
+    t_s: f64,
+    instances: Vec<RenderInstance>,
+}
+
+impl PastViewOwned {
+    fn view(&self) -> PastView<'_> {
+        PastView {
+            camera_position: self.camera_position,
+            camera_rotation: self.camera_rotation,
+            t_s: self.t_s,
+            instances: &self.instances,
+        }
+    }
+}
+
+/// What determines the view at one step, kept (cheaply) for a later frame: with a perception
+/// latency or an exposure ([`Sim::tracks_views`]).
+#[derive(Clone, Debug)]
+pub(super) struct ViewState {
+    step_index: u64,
+    t: f64,
+    robot_pose: crate::trajectory::Pose64,
+    /// The poses of the dynamic bodies (projectiles), in object order.
+    dynamic: Vec<crate::trajectory::Pose64>,
+}
 
 /// The robot's view at one moment, captured to be rendered later ([`Sim::capture_view`]): several
 /// frames of one open-loop pass can then be rendered in one batch ([`Renderer::render_batch`] of
@@ -21,6 +53,8 @@ pub struct CapturedView {
     ground: Option<crate::texture::ResolvedTexture>,
     t_s: f64,
     instances: Vec<RenderInstance>,
+    /// The sensor, its seed and this frame's index, and the view before (see [`SensorFrame`]).
+    sensor: Option<(Sensor, u64, u64, Option<PastViewOwned>)>,
 }
 
 impl CapturedView {
@@ -35,6 +69,15 @@ impl CapturedView {
             ground: self.ground.as_ref(),
             t_s: self.t_s,
             instances: &self.instances,
+            sensor: self
+                .sensor
+                .as_ref()
+                .map(|(sensor, seed, frame_index, past)| SensorFrame {
+                    sensor,
+                    seed: *seed,
+                    frame_index: *frame_index,
+                    previous: past.as_ref().map(PastViewOwned::view),
+                }),
         }
     }
 
@@ -65,9 +108,126 @@ impl Sim {
         self.instances = instances;
     }
 
-    /// Captures the current view (what [`Sim::observe`] would render now) to render it later,
-    /// e.g. in a batch with other moments of the same episode. Works without a renderer.
+    /// Captures the view [`Sim::observe`] would render now (with a perception latency, the view of
+    /// that many frames earlier: [`crate::latency`]) to render it later, e.g. in a batch with other
+    /// moments of the same episode. Works without a renderer.
     pub fn capture_view(&mut self) -> CapturedView {
+        if self.tracks_views() {
+            self.shown_view()
+        } else {
+            self.capture_current()
+        }
+    }
+
+    /// Whether the simulator keeps the states of past views: with a perception latency (the view
+    /// shown is an earlier one) or an exposure (a frame blurs from the view before it).
+    pub(super) fn tracks_views(&self) -> bool {
+        self.world.perception_delay > 0 || self.world.sensor.is_some_and(|s| s.views_per_frame() > 1)
+    }
+
+    /// Queues the current view's state unless it is queued already (cheap: the robot's pose and
+    /// the dynamic bodies' poses; the instances are computed when a view is rendered).
+    pub(super) fn sync_views(&mut self) {
+        if self.tracks_views() && self.views.back().is_none_or(|v| v.step_index != self.step_index) {
+            let state = ViewState {
+                step_index: self.step_index,
+                t: self.t,
+                robot_pose: self.robot_pose,
+                dynamic: self
+                    .objects
+                    .iter()
+                    .filter(|o| o.dynamic)
+                    .map(|o| super::pose64(self.physics.bodies[o.body].position()))
+                    .collect(),
+            };
+            self.views.push(state);
+        }
+    }
+
+    /// The parts to draw in the view of `state` (relative to its camera) into `out`; returns the
+    /// camera's pose then. The same as [`Self::prepare_instances`] at that moment.
+    fn instances_at(&self, state: &ViewState, out: &mut Vec<RenderInstance>) -> crate::trajectory::Pose64 {
+        let cam = self.world.camera.pose(&state.robot_pose, state.t);
+        out.clear();
+        let mut dynamic = state.dynamic.iter();
+        for o in &self.objects {
+            let pose = match (o.dynamic, dynamic.clone().next()) {
+                (true, Some(p)) => {
+                    dynamic.next();
+                    *p
+                }
+                _ => o.spec.trajectory.pose_at(state.t),
+            };
+            for p in &o.spec.parts {
+                out.push(RenderInstance {
+                    prim: p.prim.kind,
+                    position: (pose.transform_point(p.offset) - cam.position).as_vec3(),
+                    rotation: (pose.rotation * p.rotation).normalize().as_quat(),
+                    size: p.prim.size,
+                    texture: p.texture,
+                });
+            }
+        }
+        cam
+    }
+
+    /// The view shown now when views are tracked: the queued one of the perception latency's
+    /// frames earlier, with the view before it for the exposure's blur (none when the queue holds
+    /// nothing earlier: an episode's first frame).
+    fn shown_view(&mut self) -> CapturedView {
+        self.sync_views();
+        let shown = self.views.get(1).or(self.views.front_opt()).cloned().expect("synced");
+        let before = self
+            .views
+            .front_opt()
+            .filter(|b| b.step_index + 1 == shown.step_index)
+            .cloned();
+        let mut instances = Vec::new();
+        let cam = self.instances_at(&shown, &mut instances);
+        let blur = self.world.sensor.is_some_and(|s| s.views_per_frame() > 1);
+        let past = before.filter(|_| blur).map(|b| {
+            let mut inst = Vec::new();
+            let c = self.instances_at(&b, &mut inst);
+            PastViewOwned {
+                camera_position: c.position,
+                camera_rotation: c.rotation,
+                t_s: b.t,
+                instances: inst,
+            }
+        });
+        CapturedView {
+            camera_position: cam.position,
+            camera_rotation: cam.rotation,
+            fov_rad: self.world.camera.fov_rad,
+            near_m: self.world.camera.near_m,
+            sky: self.world.sky,
+            ground: self.world.ground,
+            t_s: shown.t,
+            instances,
+            sensor: self.world.sensor.map(|s| (s, self.seed, shown.step_index, past)),
+        }
+    }
+
+    /// Prepares the view to render now: the current instances, or with tracked views the shown
+    /// view ([`Self::view_desc`] describes it).
+    pub(super) fn prepare_view(&mut self) {
+        if self.tracks_views() {
+            self.shown = Some(self.shown_view());
+        } else {
+            self.prepare_instances();
+        }
+    }
+
+    /// The description of the view to render now (after [`Self::prepare_view`]).
+    pub(super) fn view_desc(&self) -> FrameDesc<'_> {
+        match &self.shown {
+            Some(v) if self.tracks_views() => v.desc(),
+            _ => self.frame_desc(),
+        }
+    }
+
+    /// The current view, captured.
+    fn capture_current(&mut self) -> CapturedView {
         self.prepare_instances();
         let d = self.frame_desc();
         CapturedView {
@@ -79,6 +239,7 @@ impl Sim {
             ground: d.ground.copied(),
             t_s: d.t_s,
             instances: d.instances.to_vec(),
+            sensor: self.world.sensor.map(|s| (s, self.seed, self.step_index, None)),
         }
     }
 
@@ -94,6 +255,12 @@ impl Sim {
             ground: self.world.ground.as_ref(),
             t_s: self.t,
             instances: &self.instances,
+            sensor: self.world.sensor.as_ref().map(|sensor| SensorFrame {
+                sensor,
+                seed: self.seed,
+                frame_index: self.step_index,
+                previous: None,
+            }),
         }
     }
 
@@ -102,9 +269,9 @@ impl Sim {
             self.frame.clear();
             return Ok(());
         };
-        self.prepare_instances();
+        self.prepare_view();
         let mut frame = std::mem::take(&mut self.frame);
-        let result = renderer.render(&self.frame_desc(), &mut frame);
+        let result = renderer.render(&self.view_desc(), &mut frame);
         self.frame = frame;
         self.renderer = Some(renderer);
         result
