@@ -49,16 +49,18 @@ CONTINUOUS_ACTION_NAMES: Tuple[str, ...] = tuple(_native.CONTINUOUS_ACTION_NAMES
 """Names of the continuous action components (each in [-1, 1]; Rust ``ContinuousAction::NAMES``)."""
 
 OBS_MODES: Tuple[str, ...] = tuple(_native.OBS_MODES)
-#: The camera sensor profiles (``sensor=``): ``ideal`` (a noiseless instantaneous camera) and
-#: ``robot`` (exposure blur, shot and read noise, gain, 8-bit quantisation, perception and actuation
-#: latency; docs/reference.md "Sensor profiles").
+"""Observation modes: ``"raw"`` (detector outputs as they are), ``"normalized"`` (bounded features) and
+``"privileged"`` (the true percept of the most threatening object: a learnability check)."""
+
 SENSOR_PROFILES: Tuple[str, ...] = tuple(_native.SENSOR_PROFILES)
+"""Camera sensor profiles (``sensor=``): ``"ideal"`` (noiseless, instantaneous) and ``"robot"`` (exposure
+blur, shot and read noise, gain, 8-bit quantisation, perception and actuation latency; Rust
+``loomlab_sim::SENSOR_PROFILES``, docs/reference.md "Sensor profiles")."""
 
 
 class SensorProfileError(ScenarioError, ValueError):
     """An unknown ``sensor`` profile name: a :class:`ScenarioError` that is also a ``ValueError``."""
-"""Observation modes: ``"raw"`` (detector outputs as they are), ``"normalized"`` (bounded features) and
-``"privileged"`` (the true percept of the most threatening object: a learnability check)."""
+
 
 _REWARD = _native.REWARD_DEFAULTS
 _ACTION = _native.ACTION_DEFAULTS
