@@ -357,9 +357,16 @@ fn detect_applies_the_sensor_profile_seeded() {
         std::fs::read_to_string(out.join("responses.csv")).unwrap()
     };
     let ideal = responses("ideal", &[]);
-    assert_eq!(ideal, responses("ideal_seed", &["--sensor", "ideal", "--seed", "5"]), "ideal: no noise");
+    assert_eq!(
+        ideal,
+        responses("ideal_seed", &["--sensor", "ideal", "--seed", "5"]),
+        "ideal: no noise"
+    );
     let robot_1 = responses("robot_1", &["--sensor", "robot", "--seed", "1"]);
-    assert_eq!(robot_1, responses("robot_1_again", &["--sensor", "robot", "--seed", "1"]));
+    assert_eq!(
+        robot_1,
+        responses("robot_1_again", &["--sensor", "robot", "--seed", "1"])
+    );
     let robot_2 = responses("robot_2", &["--sensor", "robot", "--seed", "2"]);
     assert_ne!(robot_1, robot_2, "another seed draws other noise");
     assert_ne!(robot_1, ideal, "the robot camera is noisy");

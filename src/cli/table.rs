@@ -72,7 +72,9 @@ pub fn run(args: TableArgs) -> anyhow::Result<i32> {
                     "{}: the generated block `{name}` disagrees with {}{}; regenerate it with `{REGENERATE}`",
                     file.display(),
                     args.report.display(),
-                    args.compare.as_ref().map_or(String::new(), |o| format!(" and {}", o.display()))
+                    args.compare
+                        .as_ref()
+                        .map_or(String::new(), |o| format!(" and {}", o.display()))
                 );
             }
             stale += names.len();
