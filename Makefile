@@ -188,10 +188,14 @@ bless: deps cli
 ## test `docs::generated_tables_match_the_baseline` (in rust-test) fails until this is run after a
 ## baseline changes.
 ## The held-out suite's blocks (`NAME@heldout`) are generated from its own baseline.
+## The `results-robot` block of docs/results.md sets the baseline beside the default suite's
+## report under the `robot` sensor profile (`loomlab run --sensor robot`), per row.
 DOC_TABLES = README.md docs/results.md
+ROBOT_BASELINE ?= scenarios/baseline/default-robot-report.json
 readme-table: cli
 	$(BIN) table $(BASELINE) $(addprefix --update ,$(DOC_TABLES))
 	$(BIN) table $(HELDOUT_BASELINE) --tag heldout $(addprefix --update ,$(DOC_TABLES))
+	$(BIN) table $(BASELINE) --compare $(ROBOT_BASELINE) --update docs/results.md
 
 ## The held-out suite (scenarios/suites/heldout: scenario families the default suite does not have,
 ## never tuned on; the default suite's detector rows): `make heldout` runs it into $(HELDOUT_OUT)

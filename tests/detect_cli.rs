@@ -341,3 +341,45 @@ fn detect_refuses_numbered_frames_with_a_gap() {
         .count();
     assert_eq!(rows, 1 + 5);
 }
+
+/// `--sensor robot` adds the profile's per-frame noise and 8-bit quantisation to the input frames,
+/// drawn from `--seed`; an unknown profile is a clear error and writes nothing.
+#[test]
+fn detect_applies_the_sensor_profile_seeded() {
+    let tmp = scratch("detect_cli_sensor");
+    let stim = tmp.join("stim.toml");
+    // a mid-grey background: shot noise of ~2 codes of 8 bits per pixel
+    std::fs::write(&stim, STIMULUS.replace("luminance = 0.0", "luminance = 0.5")).unwrap();
+    let responses = |name: &str, extra: &[&str]| {
+        let out = tmp.join(name);
+        let (code, err) = detect(&stim, &out, &[&["-d", "hopfield,soc"], extra].concat());
+        assert_eq!(code, Some(0), "{name}: {err}");
+        std::fs::read_to_string(out.join("responses.csv")).unwrap()
+    };
+    let ideal = responses("ideal", &[]);
+    assert_eq!(
+        ideal,
+        responses("ideal_seed", &["--sensor", "ideal", "--seed", "5"]),
+        "ideal: no noise"
+    );
+    let robot_1 = responses("robot_1", &["--sensor", "robot", "--seed", "1"]);
+    assert_eq!(
+        robot_1,
+        responses("robot_1_again", &["--sensor", "robot", "--seed", "1"])
+    );
+    let robot_2 = responses("robot_2", &["--sensor", "robot", "--seed", "2"]);
+    assert_ne!(robot_1, robot_2, "another seed draws other noise");
+    assert_ne!(robot_1, ideal, "the robot camera is noisy");
+    // the same rows and columns: only the detectors' outputs differ
+    assert_eq!(robot_1.lines().count(), ideal.lines().count());
+    assert_eq!(robot_1.lines().next(), ideal.lines().next());
+
+    let out = tmp.join("unknown");
+    let (code, err) = detect(&stim, &out, &["--sensor", "webcam"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("--sensor webcam") && err.contains("ideal, robot"),
+        "the error names the flag, the value and the known profiles: {err}"
+    );
+    assert!(!out.exists(), "nothing may be written");
+}

@@ -4,7 +4,9 @@
 
 use std::path::{Path, PathBuf};
 
-use loomlab_report::markdown::{REGENERATE, best_detector_row, stale_blocks, stale_tagged_blocks};
+use loomlab_report::markdown::{
+    REGENERATE, best_detector_row, render_compare_block, stale_blocks, stale_compare_blocks, stale_tagged_blocks,
+};
 use loomlab_scenarios::report::Report;
 
 use crate::common::{loomlab, s, text, tmp};
@@ -12,6 +14,9 @@ use crate::common::{loomlab, s, text, tmp};
 const BASELINE: &str = "scenarios/baseline/default-report.json";
 /// The held-out suite's committed report; its blocks are tagged `@heldout`.
 const HELDOUT_BASELINE: &str = "scenarios/suites/heldout/baseline/report.json";
+/// The default suite's committed report under the `robot` sensor profile (the `results-robot`
+/// block sets it beside [`BASELINE`]).
+const ROBOT_BASELINE: &str = "scenarios/baseline/default-robot-report.json";
 /// Documents with generated blocks (the Makefile's `DOC_TABLES`).
 const GENERATED: [&str; 2] = ["README.md", "docs/results.md"];
 
@@ -51,6 +56,43 @@ fn generated_tables_match_the_baseline() {
         );
     }
     assert!(!report.references.is_empty());
+}
+
+#[test]
+fn generated_robot_comparison_matches_both_baselines() {
+    let (ideal, robot) = (baseline(), Report::read_json(&root().join(ROBOT_BASELINE)).unwrap());
+    assert_eq!(robot.sensor_profile.as_deref(), Some("robot"), "{ROBOT_BASELINE}");
+    for doc in GENERATED {
+        let stale = stale_compare_blocks(&read(doc), &ideal, &robot).unwrap_or_else(|e| panic!("{doc}: {e}"));
+        assert!(
+            stale.is_empty(),
+            "{doc}: the block(s) {stale:?} disagree with {BASELINE} and {ROBOT_BASELINE}; regenerate them with \
+             `{REGENERATE}`"
+        );
+    }
+    let results = read("docs/results.md");
+    let begin = results
+        .find("<!-- results-robot:begin -->")
+        .expect("docs/results.md has the results-robot block");
+    let block = &results[begin..results.find("<!-- results-robot:end -->").unwrap()];
+    assert!(block.contains(&render_compare_block("results-robot", &ideal, &robot).unwrap()));
+    // every row, with both profiles' rates and the change in percentage points
+    for (label, s) in &ideal.detectors {
+        let line = block
+            .lines()
+            .find(|l| l.starts_with(&format!("| `{label}`")))
+            .unwrap_or_else(|| panic!("results-robot lacks the row {label}"));
+        let r = &robot.detectors[label];
+        if let (Some(a), Some(b)) = (s.evasion_rate, r.evasion_rate) {
+            assert!(
+                line.contains(&format!("| {a:.2} | {b:.2} | {:+.1} |", 100.0 * (b - a))),
+                "{label}: {line}"
+            );
+        }
+    }
+    // a stale block is found: the block with another report's numbers
+    let swapped = stale_compare_blocks(&results, &robot, &ideal).unwrap();
+    assert_eq!(swapped, ["results-robot"]);
 }
 
 #[test]

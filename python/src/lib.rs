@@ -634,6 +634,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         scales.set_item(k, v)?;
     }
     m.add("FEATURE_SCALES", scales)?;
+    m.add("SENSOR_PROFILES", PyTuple::new(py, loomlab_sim::SENSOR_PROFILES)?)?;
     m.add(
         "OBS_MODES",
         PyTuple::new(

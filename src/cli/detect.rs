@@ -4,7 +4,7 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, bail};
+use anyhow::{Context, anyhow, bail};
 use clap::{Args, ValueEnum};
 use loomlab_detector::hopfield::config::CAMERA_KEYS;
 use loomlab_detector::hopfield::{HopfieldConfig, Implementation};
@@ -13,6 +13,8 @@ use loomlab_detector::video::{frame_files, load_video};
 use loomlab_detector::{DetectorSet, Frame, MIN_FRAME_SIZE, NonSquare, parse_detector_list};
 
 use super::efference::{CameraMount, efference_copies, read_poses};
+use loomlab_sim::{SensorDesc, SensorProfile};
+
 use loomlab_report::plot::{LineChart, Series, line_chart};
 
 /// Implementation of the Hopfield detector (both give the same numbers to 1e-6).
@@ -81,6 +83,17 @@ pub struct DetectArgs {
     /// Pitch of the camera's optical axis above the horizontal for --efference (degrees).
     #[arg(long, value_name = "DEG", default_value_t = 0.0, requires = "efference")]
     pub camera_pitch_deg: f64,
+    /// Sensor profile applied to every input frame (`ideal`: the frames as read; `robot`: shot and
+    /// read noise, gain and 8-bit quantisation, docs/reference.md "Sensor profiles"). Only the
+    /// per-frame part applies: the profile's exposure blur needs the world between two frames and
+    /// its perception and actuation latencies a robot in a world, so neither is modelled here (use
+    /// `loomlab run --sensor` for the whole profile).
+    #[arg(long, value_name = "PROFILE", default_value = "ideal")]
+    pub sensor: String,
+    /// Seed of the --sensor noise: the same seed gives the same noisy frames (frame k draws from
+    /// stream k of this seed, as the simulator's frame k does).
+    #[arg(long, value_name = "SEED", default_value_t = 0)]
+    pub seed: u64,
     /// Output folder for responses.csv and responses.png (created if missing).
     #[arg(long, short, default_value = "out/detect")]
     pub out: PathBuf,
@@ -187,6 +200,28 @@ fn load_input(args: &DetectArgs) -> anyhow::Result<Input> {
     })
 }
 
+/// Applies the per-frame part of the `--sensor` profile (noise, gain, gamma, quantisation; not the
+/// exposure blur nor the latencies) to every input frame, frame k with noise stream k of `--seed`.
+fn apply_sensor(args: &DetectArgs, input: &mut Input) -> anyhow::Result<()> {
+    let profile = SensorProfile::named(&args.sensor).map_err(|reason| anyhow!("--sensor {}: {reason}", args.sensor))?;
+    let per_frame = SensorDesc {
+        exposure_s: 0.0,
+        ..profile.sensor
+    };
+    let Some(sensor) = per_frame
+        .build(1.0 / input.fps)
+        .with_context(|| format!("--sensor {}", args.sensor))?
+    else {
+        return Ok(());
+    };
+    for (k, frame) in input.frames.iter_mut().enumerate() {
+        let mut pixels = frame.data().to_vec();
+        sensor.apply(&mut pixels, args.seed, k as u64);
+        *frame = Frame::from_f32(frame.n(), pixels)?;
+    }
+    Ok(())
+}
+
 /// Refuses numbered frame files with a gap (`frame_8`, `frame_10`): frame k is shown at k / fps,
 /// so a missing file would shift every later frame's time. Files are numbered when every name
 /// ends in digits after the same prefix; the numbers must then step evenly.
@@ -236,7 +271,8 @@ struct Column {
 /// Runs `loomlab detect`.
 pub fn run(args: DetectArgs) -> anyhow::Result<i32> {
     let ids = parse_detector_list(&args.detector)?;
-    let input = load_input(&args)?;
+    let mut input = load_input(&args)?;
+    apply_sensor(&args, &mut input)?;
     let n = input.frames.first().map(Frame::n).context("the input has no frames")?;
 
     let hopfield = match &args.hopfield_config {

@@ -10,7 +10,10 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use clap::Args;
-use loomlab_report::markdown::{REGENERATE, render_block, stale_tagged_blocks, update_tagged_blocks, valid_tag};
+use loomlab_report::markdown::{
+    REGENERATE, render_block, stale_compare_blocks, stale_tagged_blocks, update_compare_blocks, update_tagged_blocks,
+    valid_tag,
+};
 use loomlab_scenarios::report::Report;
 
 /// Arguments of `loomlab table`.
@@ -32,6 +35,12 @@ pub struct TableArgs {
     /// the default suite's.
     #[arg(long, requires = "update", value_name = "TAG")]
     pub tag: Option<String>,
+    /// With --update: rewrite (or check) only the comparison blocks (`results-robot`: per row, the
+    /// evasion and false-alarm rates under REPORT.json's sensor and this report's, e.g. the
+    /// `robot` profile's scenarios/baseline/default-robot-report.json, and the change) instead of
+    /// REPORT.json's own blocks.
+    #[arg(long, requires = "update", conflicts_with = "tag", value_name = "OTHER.json")]
+    pub compare: Option<PathBuf>,
 }
 
 /// Runs `loomlab table`.
@@ -41,6 +50,7 @@ pub fn run(args: TableArgs) -> anyhow::Result<i32> {
     }
     let tag = args.tag.as_deref();
     let report = Report::read_json(&args.report)?;
+    let other = args.compare.as_deref().map(Report::read_json).transpose()?;
     if args.update.is_empty() {
         outln!(
             "{}",
@@ -52,20 +62,35 @@ pub fn run(args: TableArgs) -> anyhow::Result<i32> {
     for file in &args.update {
         let text = std::fs::read_to_string(file).with_context(|| format!("cannot read {}", file.display()))?;
         if args.check {
-            let names =
-                stale_tagged_blocks(&text, &report, tag).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+            let names = match &other {
+                Some(other) => stale_compare_blocks(&text, &report, other),
+                None => stale_tagged_blocks(&text, &report, tag),
+            }
+            .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
             for name in &names {
                 errln!(
-                    "{}: the generated block `{name}` disagrees with {}; regenerate it with `{REGENERATE}`",
+                    "{}: the generated block `{name}` disagrees with {}{}; regenerate it with `{REGENERATE}`",
                     file.display(),
-                    args.report.display()
+                    args.report.display(),
+                    args.compare
+                        .as_ref()
+                        .map_or(String::new(), |o| format!(" and {}", o.display()))
                 );
             }
             stale += names.len();
             continue;
         }
-        let (new, blocks) =
-            update_tagged_blocks(&text, &report, tag).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+        let (new, blocks) = match &other {
+            Some(other) => update_compare_blocks(&text, &report, other),
+            None => update_tagged_blocks(&text, &report, tag),
+        }
+        .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+        if blocks == 0 && other.is_some() {
+            bail!(
+                "{}: no comparison block (`<!-- results-robot:begin -->` … `:end -->`) for --compare",
+                file.display()
+            );
+        }
         if blocks == 0 {
             bail!(
                 "{}: no generated block (`<!-- results-table:begin -->` … `:end -->`)",

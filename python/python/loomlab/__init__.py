@@ -42,7 +42,7 @@ from ._native import (
     SweepError,
 )
 from .detectors import PythonDetector
-from .env import ActionConfig, EscapeEnv, RewardConfig
+from .env import SENSOR_PROFILES, ActionConfig, EscapeEnv, RewardConfig, SensorProfileError
 from .vector import EscapeVectorEnv
 
 __version__ = _native.__version__
@@ -57,7 +57,9 @@ __all__ = [
     "PythonDetector",
     "RenderError",
     "RewardConfig",
+    "SENSOR_PROFILES",
     "ScenarioError",
+    "SensorProfileError",
     "SweepError",
     "detector_ids",
     "evaluate",

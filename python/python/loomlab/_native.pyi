@@ -38,6 +38,7 @@ __all__ = [
     "CONTINUOUS_ACTION_NAMES",
     "FEATURE_SCALES",
     "OBS_MODES",
+    "SENSOR_PROFILES",
     "AGENT_LABEL",
     "__version__",
 ]
@@ -52,6 +53,7 @@ DISCRETE_ACTIONS: Tuple[str, ...]
 CONTINUOUS_ACTION_NAMES: Tuple[str, ...]
 FEATURE_SCALES: Dict[str, float]
 OBS_MODES: Tuple[str, ...]
+SENSOR_PROFILES: Tuple[str, ...]
 AGENT_LABEL: str
 
 class LoomlabError(Exception):

@@ -52,6 +52,16 @@ OBS_MODES: Tuple[str, ...] = tuple(_native.OBS_MODES)
 """Observation modes: ``"raw"`` (detector outputs as they are), ``"normalized"`` (bounded features) and
 ``"privileged"`` (the true percept of the most threatening object: a learnability check)."""
 
+SENSOR_PROFILES: Tuple[str, ...] = tuple(_native.SENSOR_PROFILES)
+"""Camera sensor profiles (``sensor=``): ``"ideal"`` (noiseless, instantaneous) and ``"robot"`` (exposure
+blur, shot and read noise, gain, 8-bit quantisation, perception and actuation latency; Rust
+``loomlab_sim::SENSOR_PROFILES``, docs/reference.md "Sensor profiles")."""
+
+
+class SensorProfileError(ScenarioError, ValueError):
+    """An unknown ``sensor`` profile name: a :class:`ScenarioError` that is also a ``ValueError``."""
+
+
 _REWARD = _native.REWARD_DEFAULTS
 _ACTION = _native.ACTION_DEFAULTS
 
@@ -157,6 +167,7 @@ def build_options(
     obs_mode: str = "raw",
     action_repeat: int = 1,
     dodge_hold_s: float = 0.0,
+    sensor: Optional[str] = None,
 ) -> Dict[str, Any]:
     """The options dict passed (as JSON, :func:`options_json`) to the native environment.
 
@@ -186,6 +197,13 @@ def build_options(
         "action_repeat": _json_option("action_repeat", action_repeat),
         "dodge_hold_s": _json_option("dodge_hold_s", dodge_hold_s),
     }
+    if sensor is not None:
+        if not isinstance(sensor, str) or sensor not in SENSOR_PROFILES:
+            raise SensorProfileError(
+                f"invalid environment option `sensor` = {sensor!r}: must be one of "
+                f"{', '.join(map(repr, SENSOR_PROFILES))} (or None: the scenario file's own sensor keys)"
+            )
+        opts["sensor"] = sensor
     if action_config is not None:
         opts["action"] = _json_option("action_config", _as_dict(action_config))
     if reward is not None:
@@ -242,6 +260,7 @@ _OPTION_KEYS = (
     "obs_mode",
     "action_repeat",
     "dodge_hold_s",
+    "sensor",
 )
 
 
@@ -408,6 +427,12 @@ class EscapeEnv(gym.Env):
         dodge_hold_s: discrete actions: a dodge or stop is held this long in one step (s; default 0:
             ``action_repeat`` periods like every action; ``python -m loomlab.train`` uses 0.6, the
             escape controller's manoeuvre): a dodge is one decision with one outcome.
+        sensor: the camera sensor profile every episode runs under: ``"ideal"`` (noiseless,
+            instantaneous) or ``"robot"`` (a 4 ms exposure's motion blur, shot and read noise, gain,
+            8-bit quantisation, and the perception and actuation latencies of a real robot; the
+            detectors, the frames of ``observe_frames`` and the policy all see this camera); default
+            ``None``: the scenario file's own sensor keys (``ideal`` unless it sets them). An unknown
+            name raises :class:`SensorProfileError` (a ``ValueError``).
         render_mode: ``"rgb_array"`` or ``None``.
     """
 
@@ -430,6 +455,7 @@ class EscapeEnv(gym.Env):
         obs_mode: str = "raw",
         action_repeat: int = 1,
         dodge_hold_s: float = 0.0,
+        sensor: Optional[str] = None,
         render_mode: Optional[str] = None,
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -449,6 +475,7 @@ class EscapeEnv(gym.Env):
             obs_mode=obs_mode,
             action_repeat=action_repeat,
             dodge_hold_s=dodge_hold_s,
+            sensor=sensor,
             render_mode=render_mode,
         )
         self._native = _native.EscapeEnv(self._kwargs["scenario"], scenario_toml, _native_options(self._kwargs))

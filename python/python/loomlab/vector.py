@@ -68,6 +68,7 @@ class EscapeVectorEnv(VectorEnv):
         obs_mode: str = "raw",
         action_repeat: int = 1,
         dodge_hold_s: float = 0.0,
+        sensor: Optional[str] = None,
         render_mode: Optional[str] = None,
     ) -> None:
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
@@ -91,6 +92,7 @@ class EscapeVectorEnv(VectorEnv):
                 obs_mode=obs_mode,
                 action_repeat=action_repeat,
                 dodge_hold_s=dodge_hold_s,
+                sensor=sensor,
                 render_mode=render_mode,
             ),
         )
