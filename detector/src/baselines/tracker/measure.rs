@@ -61,7 +61,8 @@ impl Tracker {
         if i0 == 0 || j0 == 0 || i1 + 1 >= n || j1 + 1 >= n {
             return None;
         }
-        let marked = |i: usize, j: usize| marked(i * n + j);
+        // a neighbour outside the image (i − 1 or j − 1 of the border, wrapped) is not marked
+        let marked = |i: usize, j: usize| i < n && j < n && marked(i * n + j);
         let (mut count, mut sum_i, mut sum_j) = (0.0, 0.0, 0.0);
         // edge pixels: marked ones with an unmarked 4-neighbour, unmarked ones with a marked
         // 8-neighbour (the farthest marked and the nearest unmarked centres are among them)
@@ -72,7 +73,8 @@ impl Tracker {
                     count += 1.0;
                     sum_i += i as f64;
                     sum_j += j as f64;
-                    if !(marked(i - 1, j) && marked(i + 1, j) && marked(i, j - 1) && marked(i, j + 1)) {
+                    let (up, left) = (i.wrapping_sub(1), j.wrapping_sub(1));
+                    if !(marked(up, j) && marked(i + 1, j) && marked(i, left) && marked(i, j + 1)) {
                         inside.push([i as f64, j as f64]);
                     }
                 } else if (i.saturating_sub(1)..=(i + 1).min(n - 1))
