@@ -80,7 +80,12 @@ fn tiny_suite_writes_report_csv_plots_and_checks_regressions() {
     assert!(csv.starts_with("scenario,episode,seed,params,detector,threat,"));
     // two detectors and the five reference rows (null, oracle, ideal_theta, ideal_tau, ideal_course)
     assert_eq!(csv.lines().count(), 1 + 4 * (2 + 5));
-    assert!(csv.lines().next().unwrap().ends_with(",impulse_ns,theta_required_deg,collision_caused"));
+    assert!(
+        csv.lines()
+            .next()
+            .unwrap()
+            .ends_with(",impulse_ns,theta_required_deg,collision_caused")
+    );
     assert_eq!(
         report["references"],
         serde_json::json!(["null", "oracle", "ideal_theta", "ideal_tau", "ideal_course"])
