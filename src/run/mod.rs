@@ -73,6 +73,8 @@ pub struct RunContext {
 
 /// How a session ended.
 #[derive(Debug)]
+// returned once per run: its size does not matter, and boxing the report would only add noise
+#[allow(clippy::large_enum_variant)]
 pub enum RunEnd {
     /// Every episode done and every output written.
     Complete {
