@@ -409,17 +409,21 @@ impl Planner {
         if self.objects.is_empty() {
             return None;
         }
-        let capped = |c: Candidate| self.score(c, ctx);
         let mut best: Option<(Candidate, f64)> = None;
+        // the running candidate's score, taken from the scan when it is among the preferences
+        let mut running_score = None;
         for &c in preference {
-            let score = capped(c);
+            let score = self.score(c, ctx);
+            if running.is_some_and(|r| r.same_as(&c)) {
+                running_score = Some(score);
+            }
             if best.is_none_or(|(_, b)| score > b + 1e-9) {
                 best = Some((c, score));
             }
         }
         let (best, score) = best?;
         match running {
-            Some(r) if capped(r) + SWITCH_MARGIN_M >= score => Some(r),
+            Some(r) if running_score.unwrap_or_else(|| self.score(r, ctx)) + SWITCH_MARGIN_M >= score => Some(r),
             _ => Some(best),
         }
     }
