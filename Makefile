@@ -195,7 +195,7 @@ ROBOT_BASELINE ?= scenarios/baseline/default-robot-report.json
 readme-table: cli
 	$(BIN) table $(BASELINE) $(addprefix --update ,$(DOC_TABLES))
 	$(BIN) table $(HELDOUT_BASELINE) --tag heldout $(addprefix --update ,$(DOC_TABLES))
-	$(BIN) table $(BASELINE) --compare $(ROBOT_BASELINE) --update docs/results.md
+	$(BIN) table $(BASELINE) --compare $(ROBOT_BASELINE) $(addprefix --update ,$(DOC_TABLES))
 
 ## The held-out suite (scenarios/suites/heldout: scenario families the default suite does not have,
 ## never tuned on; the default suite's detector rows): `make heldout` runs it into $(HELDOUT_OUT)

@@ -754,16 +754,16 @@ fn a_resume_after_the_suite_changed_suggests_what_works() {
 
 #[test]
 fn a_resume_of_a_huge_suite_starts_at_once_and_its_check_can_be_interrupted() {
-    // 300 000 episodes (one random draw each): a fresh run checks every one before it starts
+    // 100 000 episodes (one random draw each): a fresh run checks every one before it starts
     // (seconds; 10 s for a million); a resume of the same suite continues without that check
     let dir = tmp("huge");
     let suite = dir.join("huge");
     std::fs::create_dir_all(&suite).unwrap();
     let huge = BALL.replace(
         "[sweep]\n\"world.projectiles.0.miss_distance_m\" = [0.0, 0.1, 0.6, 1.0, 1.5, 2.0]",
-        "[random]\nsamples = 300000\n\"world.projectiles.0.miss_distance_m\" = { min = 0.0, max = 2.0 }",
+        "[random]\nsamples = 100000\n\"world.projectiles.0.miss_distance_m\" = { min = 0.0, max = 2.0 }",
     );
-    assert!(huge.contains("samples = 300000"));
+    assert!(huge.contains("samples = 100000"));
     std::fs::write(suite.join("huge.toml"), huge).unwrap();
     let out = dir.join("out");
     let args = quick_args(&suite, &out);
@@ -814,7 +814,7 @@ fn a_resume_of_a_huge_suite_starts_at_once_and_its_check_can_be_interrupted() {
     assert_eq!(o.status.code(), Some(130), "{e}");
     assert!(e.contains("interrupted:") && e.contains("--resume"), "{e}");
     assert!(
-        e.contains("its 300000 episodes were checked then, not again") && !e.contains("checking"),
+        e.contains("its 100000 episodes were checked then, not again") && !e.contains("checking"),
         "{e}"
     );
     let _ = std::fs::remove_dir_all(&dir);

@@ -191,7 +191,7 @@ impl EscapeAgent {
     fn efference_copy(&mut self, t_s: f64, cruise: VelocityCommand, camera: Option<&SensedCamera>) -> EfferenceCopy {
         let applied = self.applied.unwrap_or(cruise);
         match camera {
-            Some(camera) => self.efference_sensor.sense(applied, t_s, &camera.pose),
+            Some(camera) => self.efference_sensor.sense_frame(t_s, applied, camera),
             None => applied.efference_copy(),
         }
     }

@@ -10,6 +10,8 @@
 //! [`SensedCamera`], whose shake also reaches the decider ([`crate::SelfMotion`]). Only the
 //! robot's own camera enters it: never anything about other objects.
 
+use std::collections::VecDeque;
+
 use loomlab_detector::EfferenceCopy;
 use loomlab_sim::glam::DVec3;
 use loomlab_sim::trajectory::Pose64;
@@ -21,7 +23,10 @@ use crate::VelocityCommand;
 /// camera's shake; zero for a rigidly mounted camera).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SensedCamera {
-    /// The camera's world pose (x = optical axis, z = up; the shake included).
+    /// When the frame the robot is given was taken (s): the simulation time less the perception
+    /// latency (the same as the time without one).
+    pub t_s: f64,
+    /// The camera's world pose then (x = optical axis, z = up; the shake included).
     pub pose: Pose64,
     /// The camera's rotation relative to its mount, `[yaw, pitch, roll]` (rad; yaw positive = left,
     /// pitch positive = up).
@@ -29,11 +34,15 @@ pub struct SensedCamera {
 }
 
 impl SensedCamera {
-    /// The camera of `sim` now (where its last frame was taken from).
+    /// The camera of `sim` when the frame it shows now was taken ([`loomlab_sim::Sim::shown_camera`]:
+    /// under a perception latency, that many frames ago; the robot's odometry and inertial sensor
+    /// are time-stamped, so the robot knows where its camera was then).
     pub fn of(sim: &loomlab_sim::Sim) -> Self {
+        let (t_s, pose) = sim.shown_camera();
         Self {
-            pose: sim.camera_pose(),
-            shake_rad: sim.camera().shake_rotation(sim.time()),
+            t_s,
+            pose,
+            shake_rad: sim.camera().shake_rotation(t_s),
         }
     }
 }
@@ -43,12 +52,31 @@ impl SensedCamera {
 #[derive(Debug, Clone, Default)]
 pub struct CameraMotionSensor {
     previous: Option<(f64, Pose64)>,
+    /// The commands applied in the periods from the shown frame's to now, `(end of period (s),
+    /// command)`: with a perception latency a frame's copy holds the command of its own period.
+    commands: VecDeque<(f64, VelocityCommand)>,
 }
 
 impl CameraMotionSensor {
-    /// Forgets the previous pose (a new episode: the next copy has no motion).
+    /// Forgets the previous pose and commands (a new episode: the next copy has no motion).
     pub fn reset(&mut self) {
         self.previous = None;
+        self.commands.clear();
+    }
+
+    /// The efference copy of the frame the robot is given now (taken at `camera.t_s`), with
+    /// `command` the command applied during the period that ends now at `now_s`: the camera's
+    /// motion between the frames shown and the command of the shown frame's period (under a
+    /// perception latency an earlier one; without one, `command`). Bounded: only the commands
+    /// since the shown frame are kept.
+    pub fn sense_frame(&mut self, now_s: f64, command: VelocityCommand, camera: &SensedCamera) -> EfferenceCopy {
+        const SAME_TIME_S: f64 = 1e-9;
+        self.commands.push_back((now_s, command));
+        while self.commands.len() > 1 && self.commands[0].0 < camera.t_s - SAME_TIME_S {
+            self.commands.pop_front();
+        }
+        let applied = self.commands[0].1;
+        self.sense(applied, camera.t_s, &camera.pose)
     }
 
     /// The efference copy of the camera period ending at time `t_s`, during which `command` was

@@ -321,33 +321,60 @@ pub struct SensorProfile {
     pub actuation_latency_s: f32,
 }
 
-/// The names of the sensor profiles ([`SensorProfile::named`]).
-pub const SENSOR_PROFILES: [&str; 2] = ["ideal", "robot"];
+/// The names of the sensor profiles ([`SensorProfile::named`]): `ideal`, `robot`, and `robot`'s
+/// three parts alone (to tell their effects apart): `robot-noise` (its shot and read noise and
+/// 8-bit output), `robot-blur` (its exposure), `robot-latency` (its perception and actuation
+/// latency).
+pub const SENSOR_PROFILES: [&str; 5] = ["ideal", "robot", "robot-noise", "robot-blur", "robot-latency"];
 
 impl SensorProfile {
     /// The profile called `name` (one of [`SENSOR_PROFILES`]); an error lists them.
     pub fn named(name: &str) -> Result<SensorProfile, String> {
+        let robot = SensorProfile {
+            name: "robot",
+            sensor: SensorDesc {
+                exposure_s: 0.004,
+                // two views: under a pixel of blur for most objects at 120 Hz (see above)
+                subframes: 2,
+                full_well_e: 6000.0,
+                read_noise_e: 3.0,
+                gain: 1.0,
+                bits: 8,
+                gamma: 1.0,
+            },
+            perception_latency_s: 0.025,
+            actuation_latency_s: 0.010,
+        };
+        let ideal = SensorProfile {
+            name: "ideal",
+            sensor: SensorDesc::default(),
+            perception_latency_s: 0.0,
+            actuation_latency_s: 0.0,
+        };
         match name {
-            "ideal" => Ok(SensorProfile {
-                name: "ideal",
-                sensor: SensorDesc::default(),
-                perception_latency_s: 0.0,
-                actuation_latency_s: 0.0,
-            }),
-            "robot" => Ok(SensorProfile {
-                name: "robot",
+            "ideal" => Ok(ideal),
+            "robot" => Ok(robot),
+            "robot-noise" => Ok(SensorProfile {
+                name: "robot-noise",
                 sensor: SensorDesc {
-                    exposure_s: 0.004,
-                    // two views: under a pixel of blur for most objects at 120 Hz (see above)
-                    subframes: 2,
-                    full_well_e: 6000.0,
-                    read_noise_e: 3.0,
-                    gain: 1.0,
-                    bits: 8,
-                    gamma: 1.0,
+                    exposure_s: 0.0,
+                    ..robot.sensor
                 },
-                perception_latency_s: 0.025,
-                actuation_latency_s: 0.010,
+                ..ideal
+            }),
+            "robot-blur" => Ok(SensorProfile {
+                name: "robot-blur",
+                sensor: SensorDesc {
+                    exposure_s: robot.sensor.exposure_s,
+                    subframes: robot.sensor.subframes,
+                    ..SensorDesc::default()
+                },
+                ..ideal
+            }),
+            "robot-latency" => Ok(SensorProfile {
+                name: "robot-latency",
+                sensor: SensorDesc::default(),
+                ..robot
             }),
             other => Err(format!(
                 "unknown sensor profile `{other}`; known profiles: {}",
@@ -367,6 +394,36 @@ impl SensorProfile {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_robot_profiles_parts_add_up_to_it() {
+        let named = |n| SensorProfile::named(n).unwrap();
+        let (robot, noise, blur, latency) = (
+            named("robot"),
+            named("robot-noise"),
+            named("robot-blur"),
+            named("robot-latency"),
+        );
+        let joined = SensorDesc {
+            exposure_s: blur.sensor.exposure_s,
+            subframes: blur.sensor.subframes,
+            ..noise.sensor
+        };
+        assert_eq!(joined, robot.sensor);
+        assert_eq!(noise.sensor.exposure_s, 0.0);
+        assert!(latency.sensor.is_ideal());
+        assert_eq!(
+            (latency.perception_latency_s, latency.actuation_latency_s),
+            (robot.perception_latency_s, robot.actuation_latency_s)
+        );
+        for part in [&noise, &blur] {
+            assert_eq!((part.perception_latency_s, part.actuation_latency_s), (0.0, 0.0));
+        }
+        for name in SENSOR_PROFILES {
+            assert_eq!(named(name).name, name);
+        }
+        assert!(SensorProfile::named("robot-fast").unwrap_err().contains("robot-latency"));
+    }
 
     #[test]
     fn defaults_are_ideal_and_build_to_nothing() {

@@ -1,7 +1,7 @@
 //! Step 1 of an episode, the open-loop pass: render once while the robot cruises, every detector
 //! on the same frames, each stateful row's decider on its detector's percepts; ground truth.
 
-use loomlab_agents::{CameraMotionSensor, Decider, LoomingSideEstimator, SelfMotion};
+use loomlab_agents::{CameraMotionSensor, Decider, LoomingSideEstimator, SelfMotion, SensedCamera};
 use loomlab_detector::{Detector, Frame, ImageRegion, Signals};
 use loomlab_sim::{ObjectTruth, Sim};
 
@@ -179,7 +179,7 @@ impl Runner {
                 let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
                 steps += 1;
                 let collided = out.first_collision().is_some();
-                ahead.push((cmd, out, sim.camera_pose(), sim.capture_view()));
+                ahead.push((cmd, out, SensedCamera::of(&sim), sim.capture_view()));
                 if collided {
                     break;
                 }
@@ -189,7 +189,7 @@ impl Runner {
             renderer
                 .render_batch(&descs, &mut pixels[..descs.len()])
                 .map_err(|e| c.sim(e))?;
-            for ((cmd, mut out, camera_pose, _), px) in ahead.drain(..).zip(pixels.iter_mut()) {
+            for ((cmd, mut out, camera, _), px) in ahead.drain(..).zip(pixels.iter_mut()) {
                 if self.cancelled() {
                     return Err(RunError::Interrupted);
                 }
@@ -197,7 +197,7 @@ impl Runner {
                 // the efference copy: the command applied during this period and the camera's
                 // motion and pose, as the escape agent passes it in the closed loop (the same up
                 // to the first alarm)
-                let efference = state.efference_sensor.sense(cmd, out.t_s, &camera_pose);
+                let efference = state.efference_sensor.sense_frame(out.t_s, cmd, &camera);
                 for (i, d) in instances.built.iter_mut().enumerate() {
                     instances.stepped[i] = match d {
                         Some(d) => d.step_moving(&frame, &efference).map_err(|e| c.det(e))?,
@@ -207,7 +207,7 @@ impl Runner {
                 pass.t_s.push(out.t_s);
                 pass.sides.push(state.side.update(&frame));
                 pass.motion
-                    .push(open_loop_motion(ep, &pass.t_s, pass.t_s.len() - 1, Some(sim.camera())));
+                    .push(open_loop_motion(ep, &pass.t_s, pass.t_s.len() - 1, camera.shake_rad));
                 open_loop_decisions(ep, instances, pass);
                 pass.frames.push(frame);
                 let contact = recorder.record(&out).is_some();

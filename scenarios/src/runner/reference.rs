@@ -4,7 +4,7 @@ use loomlab_agents::{DecisionRule, EscapeAgent, SelfMotion, TriggerSignal, Veloc
 use loomlab_sim::{ObjectTruth, Sim};
 
 use super::Ctx;
-use super::motion::open_loop_motion;
+use super::motion::{open_loop_motion, shake_at};
 use super::rows::{Row, Tail};
 use super::trace::ClosedLoop;
 use crate::deadline::EscapeDeadline;
@@ -145,7 +145,7 @@ pub(super) fn reference_rows<'a>(
             let mut observer = observer();
             (0..frames)
                 .map(|k| {
-                    let motion = open_loop_motion(ep, t_s, k, camera.as_ref());
+                    let motion = open_loop_motion(ep, t_s, k, shake_at(camera.as_ref(), t_s[k]));
                     let objects = match only {
                         Some(id) => truth[k]
                             .iter()

@@ -119,6 +119,19 @@ impl Sim {
         }
     }
 
+    /// When the frame the robot sees now was taken and the camera's world pose then: with a
+    /// perception latency ([`crate::latency`]) the shown view's time and pose, which lag
+    /// [`Self::time`] and [`Self::camera_pose`] by the latency; without one, exactly those. What the
+    /// robot's time-stamped odometry and inertial sensor report for the frame it is given.
+    pub fn shown_camera(&self) -> (f64, crate::trajectory::Pose64) {
+        if self.world.perception_delay > 0
+            && let Some(shown) = self.views.get(1).or(self.views.front_opt())
+        {
+            return (shown.t, self.world.camera.pose(&shown.robot_pose, shown.t));
+        }
+        (self.t, self.camera_pose())
+    }
+
     /// Whether the simulator keeps the states of past views: with a perception latency (the view
     /// shown is an earlier one) or an exposure (a frame blurs from the view before it).
     pub(super) fn tracks_views(&self) -> bool {
