@@ -403,7 +403,7 @@ fn the_backward_search_finds_an_unavoidable_threat_as_the_scan_does() {
 
 #[test]
 fn a_long_episode_with_a_late_contact_gets_the_exhaustive_deadline() {
-    // 60 s, the ball launched 33 s in from 4 m at 1.1 m/s: contact at about 36 s. The backward
+    // 37 s, the ball launched 33 s in from 4 m at 1.1 m/s: contact at about 36 s. The backward
     // search replays only the frames between the deadline and the contact; the exhaustive scan
     // (every frame before contact, about 2200 at 60 Hz, each replayed from t = 0) gives the same
     // deadline. More frames than MAX_CHECKPOINTS × CHECKPOINT_INTERVAL (2048): the checkpoints
@@ -411,7 +411,8 @@ fn a_long_episode_with_a_late_contact_gets_the_exhaustive_deadline() {
     let mut ep = episode(0.15, 1.1, 4.0, 1);
     ep.world.projectiles[0].launch_time_s = Some(33.0);
     ep.world.camera_hz = 60.0;
-    ep.duration_s = 60.0;
+    // every replay runs to the episode's end: the episode ends soon after the contact
+    ep.duration_s = 37.0;
     let (fast, all) = both(&ep, |_| Some(0.5));
     let t_c = open_loop_truth(&ep, ep.seed).unwrap().contact.unwrap().t_s;
     assert!((35.0..37.0).contains(&t_c), "t_c = {t_c}");
