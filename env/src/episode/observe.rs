@@ -8,7 +8,8 @@ use loomlab_sim::StepOutput;
 
 use super::step::deviation;
 use super::{AGENT_LABEL, EpisodeSummary, EscapeEnv, Observation, ROBOT_LIMIT, SIGNAL_LIMIT, StepInfo};
-use crate::features::ObsMode;
+use crate::features::{DecisionFrame, ObsMode, RowDecision, decision_features};
+use loomlab_detector::{ImageRegion, PerceivedObject};
 use crate::{EnvError, RewardTerms};
 
 /// A detector value for the observation: finite, clamped into ±[`SIGNAL_LIMIT`] (non-finite: 0).
@@ -51,12 +52,19 @@ impl EscapeEnv {
         let mut alarm = Vec::with_capacity(nd);
         let mut theta_hat = None;
         let mut looming_side = None;
+        let decision_mode = self.options.obs_mode == ObsMode::Decision;
+        let mut rows: Vec<RowDecision> = Vec::new();
+        let mut track: Option<ImageRegion> = None;
+        let mut objects: Vec<PerceivedObject> = Vec::new();
         let (controller_continuous, controller_discrete);
         if out.frame_index == 0 {
             // the reset frame: detectors see their first frame in the first step
-            for names in &self.signal_names {
+            for (names, d) in self.signal_names.iter().zip(&self.detectors) {
                 signals.push(vec![0.0; names.len()]);
                 alarm.push(false);
+                if decision_mode {
+                    rows.push(RowDecision::idle(d.threshold));
+                }
             }
             controller_continuous = self.normalised(cruise_now);
             controller_discrete = DiscreteAction::None;
@@ -69,15 +77,26 @@ impl EscapeEnv {
             for (d, s) in self.detectors.iter_mut().zip(&step.signals) {
                 let raw = d.trigger.value(s).unwrap_or(f64::NAN);
                 // a stateful row's value is its decider's, as the agent computes it
-                let value = match &mut d.decider {
-                    Some(decider) => {
-                        decider
-                            .decide_on_detector(out.t_s, raw, step.looming_side, s.region.as_ref(), motion)
-                            .value
-                    }
-                    None => raw,
-                };
+                let decided = d.decider.as_mut().map(|decider| {
+                    let decision =
+                        decider.decide_on_detector(out.t_s, raw, step.looming_side, s.region.as_ref(), motion);
+                    (decision, decider.confirmations())
+                });
+                let value = decided.map_or(raw, |(decision, _)| decision.value);
                 alarm.push(value >= d.threshold);
+                if decision_mode {
+                    rows.push(RowDecision {
+                        value,
+                        threshold: d.threshold,
+                        theta_hat_deg: s.angular_size_deg,
+                        decision: decided.map(|(decision, _)| decision),
+                        confirmations: decided.and_then(|(_, c)| c),
+                    });
+                    if track.is_none() && s.region.is_some() {
+                        track = s.region;
+                        objects.clone_from(&s.objects);
+                    }
+                }
                 d.trace.push(TraceSample {
                     t_s: out.t_s,
                     signal: value,
@@ -132,6 +151,21 @@ impl EscapeEnv {
                 let features = self
                     .privileged
                     .features(&out.truth, &obs, dt, duration_s, &self.options.action, cmd);
+                Observation {
+                    features: Some(features),
+                    ..obs
+                }
+            }
+            ObsMode::Decision => {
+                let dt = r.spec.world.dt();
+                let duration_s = r.frames as f64 * dt;
+                let frame = DecisionFrame {
+                    t_s: out.t_s,
+                    track: track.as_ref(),
+                    objects: &objects,
+                    looming_side,
+                };
+                let features = decision_features(&rows, &frame, &obs, duration_s, &self.options.action, cmd);
                 Observation {
                     features: Some(features),
                     ..obs
@@ -205,6 +239,7 @@ impl EscapeEnv {
             r.last_t_s = out.t_s;
             r.last_ttc_s = ttc_s;
             r.last_angular_size_deg = angular_size_deg.filter(|v| v.is_finite());
+            r.last_looming_side = looming_side;
         }
         Ok((obs, info))
     }

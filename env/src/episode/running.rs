@@ -41,6 +41,9 @@ pub(super) struct Running {
     pub(super) last_t_s: f64,
     pub(super) last_ttc_s: Option<f64>,
     pub(super) last_angular_size_deg: Option<f64>,
+    /// The looming side of the last observation (image x; what the manoeuvre actions dodge away
+    /// from).
+    pub(super) last_looming_side: Option<f32>,
 }
 
 impl EscapeEnv {
@@ -156,6 +159,7 @@ impl EscapeEnv {
             last_t_s: 0.0,
             last_ttc_s: None,
             last_angular_size_deg: None,
+            last_looming_side: None,
         });
         self.normalizer.reset(self.detectors.len());
         self.privileged.reset();
