@@ -131,3 +131,6 @@ impl EpisodeRng {
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod tests_rl;

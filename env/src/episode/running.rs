@@ -44,6 +44,8 @@ pub(super) struct Running {
     /// The looming side of the last observation (image x; what the manoeuvre actions dodge away
     /// from).
     pub(super) last_looming_side: Option<f32>,
+    /// The simulator seed the episode runs with.
+    pub(super) sim_seed: u64,
 }
 
 impl EscapeEnv {
@@ -160,6 +162,7 @@ impl EscapeEnv {
             last_ttc_s: None,
             last_angular_size_deg: None,
             last_looming_side: None,
+            sim_seed,
         });
         self.normalizer.reset(self.detectors.len());
         self.privileged.reset();
