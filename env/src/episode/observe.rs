@@ -30,11 +30,31 @@ fn to_u8(v: f32) -> u8 {
     (v.clamp(0.0, 1.0) * 255.0).round() as u8
 }
 
+/// The manoeuvre action ([`crate::MANOEUVRE_ACTIONS`]) closest in meaning to `command` given the
+/// cruise command: cruise, a dodge by the side it moves or turns to, reverse when it drives
+/// backwards, else stop.
+fn manoeuvre_index(command: VelocityCommand, cruise: VelocityCommand) -> usize {
+    const EPS: f64 = 1e-9;
+    if command == cruise {
+        0
+    } else if command.lateral_mps > cruise.lateral_mps + EPS || command.yaw_rate_rps > cruise.yaw_rate_rps + EPS {
+        1
+    } else if command.lateral_mps < cruise.lateral_mps - EPS || command.yaw_rate_rps < cruise.yaw_rate_rps - EPS {
+        2
+    } else if command.forward_mps < -EPS {
+        4
+    } else {
+        3
+    }
+}
+
 impl EscapeEnv {
     /// Steps the detectors (not on the reset frame), the shadow controller and the bookkeeping.
+    /// The frame's pixels are moved into the detectors' frame (no copy): `out.frame` is empty
+    /// afterwards.
     pub(super) fn process(
         &mut self,
-        out: &StepOutput,
+        out: &mut StepOutput,
         done: bool,
         terms: RewardTerms,
     ) -> Result<(Observation, StepInfo), EnvError> {
@@ -56,7 +76,12 @@ impl EscapeEnv {
         let mut rows: Vec<RowDecision> = Vec::new();
         let mut track: Option<ImageRegion> = None;
         let mut objects: Vec<PerceivedObject> = Vec::new();
-        let (controller_continuous, controller_discrete);
+        let (controller_continuous, controller_discrete, controller_manoeuvre);
+        // the observed frame (when asked for) before the pixels move into the detectors' frame
+        let frame_u8: Option<Vec<u8>> = self
+            .options
+            .observe_frames
+            .then(|| out.frame.iter().map(|&v| to_u8(v)).collect());
         if out.frame_index == 0 {
             // the reset frame: detectors see their first frame in the first step
             for (names, d) in self.signal_names.iter().zip(&self.detectors) {
@@ -68,8 +93,9 @@ impl EscapeEnv {
             }
             controller_continuous = self.normalised(cruise_now);
             controller_discrete = DiscreteAction::None;
+            controller_manoeuvre = 0;
         } else {
-            let frame = Frame::from_f32(n, out.frame.clone())?;
+            let frame = Frame::from_f32(n, std::mem::take(&mut out.frame))?;
             // the robot's own motion during the last period, as the agent's controller sees it
             let last = self.agent.controller().last_command().unwrap_or(cruise_now);
             let motion = SelfMotion::of(last, camera.shake_rad);
@@ -114,6 +140,7 @@ impl EscapeEnv {
             looming_side = step.looming_side;
             controller_continuous = self.normalised(step.command);
             controller_discrete = DiscreteAction::from_command(step.command, cruise_now);
+            controller_manoeuvre = manoeuvre_index(step.command, cruise_now);
         }
         let r = self.running.as_ref().expect("process() runs inside an episode");
         let (dx, dy) = (out.robot.x_m - r.start.x_m, out.robot.y_m - r.start.y_m);
@@ -137,10 +164,7 @@ impl EscapeEnv {
             theta_hat_deg: theta_hat.map(finite_or_zero).unwrap_or(0.0),
             alarm,
             robot,
-            frame: self
-                .options
-                .observe_frames
-                .then(|| out.frame.iter().map(|&v| to_u8(v)).collect()),
+            frame: frame_u8,
             features: None,
         };
         let obs = match self.options.obs_mode {
@@ -232,6 +256,7 @@ impl EscapeEnv {
             dodging,
             controller_continuous,
             controller_discrete,
+            controller_manoeuvre,
             reward_terms: terms,
             outcome,
         };

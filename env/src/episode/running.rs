@@ -136,7 +136,7 @@ impl EscapeEnv {
         self.agent
             .set_controller(self.detectors[0].controller.clone(), spec.facts)?;
         self.agent.reset();
-        let first = sim.observe()?;
+        let mut first = sim.observe()?;
         let start = first.robot;
         let cruise = spec.cruise.command_at(0.0);
         self.running = Some(Running {
@@ -166,6 +166,6 @@ impl EscapeEnv {
         });
         self.normalizer.reset(self.detectors.len());
         self.privileged.reset();
-        self.process(&first, false, RewardTerms::default())
+        self.process(&mut first, false, RewardTerms::default())
     }
 }

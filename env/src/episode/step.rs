@@ -196,7 +196,7 @@ impl EscapeEnv {
         &mut self,
         command: VelocityCommand,
         cruise: VelocityCommand,
-        out: StepOutput,
+        mut out: StepOutput,
     ) -> Result<StepResult, EnvError> {
         let max_steps = self.options.max_episode_steps;
         let Some(r) = self.running.as_mut() else {
@@ -237,7 +237,7 @@ impl EscapeEnv {
         let truncated = !terminated && max_steps.is_some_and(|m| r.steps >= m);
         r.done = terminated || truncated;
         let done = r.done;
-        let (obs, info) = self.process(&out, done, terms)?;
+        let (obs, info) = self.process(&mut out, done, terms)?;
         Ok(StepResult {
             obs,
             reward: terms.total(),

@@ -53,7 +53,7 @@ class EscapeVectorEnv(VectorEnv):
     def __init__(
         self,
         num_envs: int = 1,
-        scenario: Union[str, os.PathLike, None] = None,
+        scenario: Union[str, os.PathLike, Sequence[str], None] = None,
         *,
         scenario_toml: Optional[str] = None,
         detectors: Union[str, Sequence[str], None] = None,
@@ -69,6 +69,8 @@ class EscapeVectorEnv(VectorEnv):
         action_repeat: int = 1,
         dodge_hold_s: float = 0.0,
         sensor: Optional[str] = None,
+        tiers: Optional[Sequence[int]] = None,
+        seed_stream: Optional[str] = None,
         render_mode: Optional[str] = None,
     ) -> None:
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
@@ -93,6 +95,8 @@ class EscapeVectorEnv(VectorEnv):
                 action_repeat=action_repeat,
                 dodge_hold_s=dodge_hold_s,
                 sensor=sensor,
+                tiers=tiers,
+                seed_stream=seed_stream,
                 render_mode=render_mode,
             ),
         )
@@ -106,9 +110,9 @@ class EscapeVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=int(round(1.0 / self._native.dt)))
-        self._discrete = self._native.action_kind == "discrete"
+        self._discrete = self._native.action_kind in ("discrete", "manoeuvre")
         # a feature vector without frames: one array (the native side batches it as a dict)
-        self._flat = self._native.obs_mode in ("normalized", "privileged") and not self._native.observe_frames
+        self._flat = self._native.obs_mode in ("normalized", "privileged", "decision") and not self._native.observe_frames
 
     @property
     def detector_ids(self) -> list:
