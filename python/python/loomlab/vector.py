@@ -177,6 +177,38 @@ class EscapeVectorEnv(VectorEnv):
         obs, reward, terminated, truncated, info = result
         return self._obs(obs), reward, terminated, truncated, self._merge_outcomes(info)
 
+    @property
+    def trains_fast(self) -> bool:
+        """Whether :meth:`step_train` is available: one feature vector per observation (obs_mode
+        ``normalized``, ``privileged`` or ``decision``) and no frames."""
+        return bool(self._flat)
+
+    def step_train(self, actions: Any):
+        """The training step: :meth:`step` with **same-step** auto-reset in one native call, flat
+        arrays only (no info dicts): what a training loop needs per decision.
+
+        Returns:
+            ``(observations, rewards, terminations, truncations, final_observations, outcomes)``: the
+            next observations ``(num_envs, F)`` float32 (the new episode's first one where an episode
+            ended), float32 rewards, the flags, the observations the step ended on (an ended
+            episode's last one; the others equal ``observations``) and ``[(index, outcome)]`` of the
+            episodes that ended (``info["outcome"]`` of :meth:`step`).
+
+        Raises:
+            ActionError: the actions are malformed, or the observation is not one feature vector.
+        """
+        self._check_open("step_train()")
+        if self._discrete:
+            a = np.asarray(actions)
+            if a.shape != (self.num_envs,) or not np.issubdtype(a.dtype, np.integer):
+                raise ActionError(
+                    f"discrete actions must be an integer array of shape ({self.num_envs},), got "
+                    f"{a.dtype} array of shape {a.shape}"
+                )
+            return self._native.step_train(np.ascontiguousarray(a, dtype=np.int64))
+        a = _real_array(actions, f"continuous actions must be a ({self.num_envs}, 3) float array")
+        return self._native.step_train(np.ascontiguousarray(a, dtype=np.float32))
+
     def _obs(self, obs: Dict[str, Any]) -> Any:
         return obs["features"] if self._flat else obs
 
