@@ -235,7 +235,7 @@ fn manoeuvre_actions_run_the_controllers_manoeuvres() {
     }
     assert!(expected[4].forward_mps < 0.0, "reverse drives backwards");
     let err = env.command_for(Action::Discrete(6)).unwrap_err().to_string();
-    assert!(err.contains("action") && err.contains("5 plan"), "{err}");
+    assert!(err.contains("manoeuvre action index 6") && err.contains("plan"), "{err}");
     // each action moves the robot as named (robot = [x, y, yaw, …] from the start pose)
     let moved = |env: &mut EscapeEnv, i: i64| {
         env.reset(Some(3)).unwrap();

@@ -35,7 +35,13 @@ CONFIGS: List[Tuple[str, Dict[str, Any]]] = [
     ),
     (
         "default suite tier 0, n = 96, 14 rows, decision, manoeuvre",
-        {"scenario": "suite:default", "frame_size": None, "obs_mode": "decision", "action_type": "manoeuvre", "tiers": [0]},
+        {
+            "scenario": "suite:default",
+            "frame_size": None,
+            "obs_mode": "decision",
+            "action_type": "manoeuvre",
+            "tiers": [0],
+        },
     ),
 ]
 
@@ -71,7 +77,10 @@ def new_path(venv: EscapeVectorEnv, actions: np.ndarray) -> np.ndarray:
     return rew
 
 
-def measure(kwargs: Dict[str, Any], step: Callable[[EscapeVectorEnv, np.ndarray], np.ndarray], args: argparse.Namespace):
+Step = Callable[[EscapeVectorEnv, np.ndarray], np.ndarray]
+
+
+def measure(kwargs: Dict[str, Any], step: Step, args: argparse.Namespace) -> Tuple[float, np.ndarray]:
     venv = EscapeVectorEnv(args.n_envs, action_repeat=8, dodge_hold_s=0.6, **kwargs)
     try:
         venv.reset(seed=args.seed)

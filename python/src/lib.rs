@@ -254,6 +254,20 @@ impl PyEscapeEnv {
         })
     }
 
+    /// The simulator seed of the current episode (`None` before the first reset).
+    #[getter]
+    fn episode_seed(&self, py: Python<'_>) -> PyResult<Option<u64>> {
+        with_open(py, &self.inner, "episode_seed", |env| Ok(env.episode_seed()))
+    }
+
+    /// The scenario of the current episode (`None` before the first reset).
+    #[getter]
+    fn episode_scenario(&self, py: Python<'_>) -> PyResult<Option<String>> {
+        with_open(py, &self.inner, "episode_scenario", |env| {
+            Ok(env.episode_spec().map(|s| s.scenario.clone()))
+        })
+    }
+
     /// Number of expanded episodes (`reset_to_episode` indices).
     #[getter]
     fn num_episodes(&self, py: Python<'_>) -> PyResult<usize> {

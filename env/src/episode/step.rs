@@ -109,19 +109,7 @@ impl EscapeEnv {
         let cruise = self.cruise();
         let count = crate::MANOEUVRE_ACTIONS.len();
         let Some(i) = usize::try_from(index).ok().filter(|&i| i < count) else {
-            return Err(EnvError::option(
-                "action",
-                index,
-                format!(
-                    "manoeuvre actions are 0..{count}: {}",
-                    crate::MANOEUVRE_ACTIONS
-                        .iter()
-                        .enumerate()
-                        .map(|(i, n)| format!("{i} {n}"))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            ));
+            return Err(EnvError::InvalidManoeuvre { index });
         };
         let controller = self.agent.controller();
         let config = controller.config();

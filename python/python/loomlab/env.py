@@ -92,6 +92,7 @@ def suite_path(name: str) -> str:
         "LOOMLAB_SUITES to the folder holding the suite folders, or pass scenario= a suite folder or file"
     )
 
+
 SENSOR_PROFILES: Tuple[str, ...] = tuple(_native.SENSOR_PROFILES)
 """Camera sensor profiles (``sensor=``): ``"ideal"`` (noiseless, instantaneous) and ``"robot"`` (exposure
 blur, shot and read noise, gain, 8-bit quantisation, perception and actuation latency; Rust

@@ -112,7 +112,8 @@ class EscapeVectorEnv(VectorEnv):
         self.metadata = dict(self.metadata, render_fps=int(round(1.0 / self._native.dt)))
         self._discrete = self._native.action_kind in ("discrete", "manoeuvre")
         # a feature vector without frames: one array (the native side batches it as a dict)
-        self._flat = self._native.obs_mode in ("normalized", "privileged", "decision") and not self._native.observe_frames
+        vector_obs = self._native.obs_mode in ("normalized", "privileged", "decision")
+        self._flat = vector_obs and not self._native.observe_frames
 
     @property
     def detector_ids(self) -> list:
