@@ -73,7 +73,7 @@ def test_check_env_passes_for_the_discrete_variant(short_kwargs):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         check_env(env)
-    assert env.action_space == gym.spaces.Discrete(4)
+    assert env.action_space == gym.spaces.Discrete(6)  # the manoeuvres
 
 
 def test_seeded_rollout_repeats_exactly(short_kwargs):
