@@ -758,6 +758,11 @@ def main(argv: Optional[Sequence[str]] = None) -> None:
             raise SystemExit(f"--{key.replace('_', '-')} must be >= 1, got {getattr(args, key)}")
     if args.n_envs > 256:
         raise SystemExit(f"--n-envs must be <= 256, got {args.n_envs}")
+    if args.scenario is not None and args.scenario.startswith("suite:"):
+        from .env import suite_path
+
+        # the folder itself: the held-out evaluation (EscapeEnv.from_suite) expands it as loomlab run does
+        args.scenario = suite_path(args.scenario[len("suite:") :])
     if args.out is None:
         args.out = os.path.join("out", "train", f"{args.env}-{args.algo}-seed{args.seed}")
     row = train(args)
