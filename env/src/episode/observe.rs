@@ -100,7 +100,8 @@ impl EscapeEnv {
             let last = self.agent.controller().last_command().unwrap_or(cruise_now);
             let motion = SelfMotion::of(last, camera.shake_rad);
             let step = self.agent.step_posed(out.t_s, &frame, cruise_now, Some(&camera))?;
-            for (d, s) in self.detectors.iter_mut().zip(&step.signals) {
+            for d in self.detectors.iter_mut() {
+                let s = &step.signals[d.instance];
                 let raw = d.trigger.value(s).unwrap_or(f64::NAN);
                 // a stateful row's value is its decider's, as the agent computes it
                 let decided = d.decider.as_mut().map(|decider| {
