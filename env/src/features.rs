@@ -320,7 +320,11 @@ pub fn decision_features(
     let mut f = Vec::with_capacity(ROW_DECISION_FEATURES.len() * rows.len() + 30);
     for r in rows {
         let alarm = r.value >= r.threshold;
-        let ratio = if r.threshold != 0.0 { r.value / r.threshold.abs() } else { r.value };
+        let ratio = if r.threshold != 0.0 {
+            r.value / r.threshold.abs()
+        } else {
+            r.value
+        };
         f.push(if ratio.is_finite() {
             ratio.clamp(-VALUE_RATIO_LIMIT, VALUE_RATIO_LIMIT) as f32
         } else {

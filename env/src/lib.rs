@@ -61,7 +61,7 @@ pub use episode::{
 pub use error::{EnvError, ErrorKind};
 pub use features::{FeatureSpec, ObsMode, feature_specs, mode_feature_specs};
 pub use options::{
-    ActionKind, EnvOptions, MAX_ACTION_REPEAT, MAX_ACTION_SCALE, MAX_FRAME_SIZE, MANOEUVRE_ACTIONS, SeedStream,
+    ActionKind, EnvOptions, MANOEUVRE_ACTIONS, MAX_ACTION_REPEAT, MAX_ACTION_SCALE, MAX_FRAME_SIZE, SeedStream,
 };
 pub use reward::{DODGE_TOLERANCE, RewardConfig, RewardTerms};
 pub use scenario::{EnvScenario, ScenarioEpisodes};

@@ -222,7 +222,11 @@ impl EnvOptions {
         }
         if let Some(tiers) = &self.tiers {
             if tiers.is_empty() {
-                return Err(EnvError::option("tiers", "[]", "name at least one tier (0 to 3), or leave tiers out"));
+                return Err(EnvError::option(
+                    "tiers",
+                    "[]",
+                    "name at least one tier (0 to 3), or leave tiers out",
+                ));
             }
             if let Some(t) = tiers.iter().find(|&&t| t > loomlab_scenarios::tier::MAX_TIER) {
                 return Err(EnvError::option(

@@ -50,9 +50,15 @@ fn a_suite_folder_loads_every_scenario_and_the_tier_filter_keeps_its_tiers() {
         default_suite().join("head_on_ball.toml"),
         default_suite().join("near_miss_ball.toml"),
     ];
-    let two = EnvScenario::from_suite(files).unwrap().load(&suite_options(None, None), 0).unwrap();
+    let two = EnvScenario::from_suite(files)
+        .unwrap()
+        .load(&suite_options(None, None), 0)
+        .unwrap();
     let names: std::collections::BTreeSet<_> = two.episodes.iter().map(|e| e.scenario.as_str()).collect();
-    assert_eq!(names.into_iter().collect::<Vec<_>>(), ["head_on_ball", "near_miss_ball"]);
+    assert_eq!(
+        names.into_iter().collect::<Vec<_>>(),
+        ["head_on_ball", "near_miss_ball"]
+    );
 }
 
 #[test]
@@ -65,10 +71,16 @@ fn bad_suite_input_is_an_error_naming_the_key() {
     };
     assert!(err.to_string().contains("tiers"), "{err}");
     let err = EscapeEnv::new(suite.clone(), suite_options(Some(vec![7]), None)).unwrap_err();
-    assert!(err.to_string().contains("tiers") && err.to_string().contains('7'), "{err}");
+    assert!(
+        err.to_string().contains("tiers") && err.to_string().contains('7'),
+        "{err}"
+    );
     let one = EnvScenario::from_file(&default_suite().join("head_on_ball.toml")).unwrap();
     let err = EscapeEnv::new(one, suite_options(Some(vec![0]), None)).unwrap_err();
-    assert!(err.to_string().contains("tiers") && err.to_string().contains("suite"), "{err}");
+    assert!(
+        err.to_string().contains("tiers") && err.to_string().contains("suite"),
+        "{err}"
+    );
     let err = EnvScenario::from_suite(vec![PathBuf::from("/no/such/suite")]).unwrap_err();
     assert!(err.to_string().contains("/no/such/suite"), "{err}");
     assert!(EnvOptions::from_json(r#"{"seed_stream": "test"}"#).is_err());
@@ -166,11 +178,22 @@ fn decision_features_hold_each_rows_decision_step() {
         let r = env.step(Action::Continuous([1.0 / 3.0, 0.0, 0.0])).unwrap();
         let f = r.obs.features.clone().unwrap();
         for (i, s) in specs.iter().enumerate() {
-            assert!(f[i] >= s.low && f[i] <= s.high, "{} = {} outside [{}, {}]", s.name, f[i], s.low, s.high);
+            assert!(
+                f[i] >= s.low && f[i] <= s.high,
+                "{} = {} outside [{}, {}]",
+                s.name,
+                f[i],
+                s.low,
+                s.high
+            );
         }
         for (row, label) in labels.iter().enumerate() {
             // the alarm is the row's decision (the one the scoring reads)
-            assert_eq!(feature(&env, &f, &format!("{label}.alarm")) == 1.0, r.obs.alarm[row], "{label}");
+            assert_eq!(
+                feature(&env, &f, &format!("{label}.alarm")) == 1.0,
+                r.obs.alarm[row],
+                "{label}"
+            );
         }
         // the 2-of-3 row alarms exactly when 2 of its last 3 values reached the threshold
         let alarm = feature(&env, &f, "tracker_tau_2of3.alarm");
@@ -194,7 +217,10 @@ fn decision_features_hold_each_rows_decision_step() {
             break;
         }
     }
-    assert!(alarms > 0 && estimated > 0 && boxes > 0, "alarms {alarms}, τ̂ {estimated}, boxes {boxes}");
+    assert!(
+        alarms > 0 && estimated > 0 && boxes > 0,
+        "alarms {alarms}, τ̂ {estimated}, boxes {boxes}"
+    );
     // the observation mode changes nothing of the episode, and a seed repeats it exactly
     let mut raw = EscapeEnv::new(scenario, options(ObsMode::Raw)).unwrap();
     raw.reset(Some(3)).unwrap();
@@ -203,7 +229,10 @@ fn decision_features_hold_each_rows_decision_step() {
         let a = Action::Continuous([1.0 / 3.0, 0.0, 0.0]);
         let (x, y) = (env.step(a).unwrap(), raw.step(a).unwrap());
         assert_eq!(x.obs.features.as_ref(), Some(f));
-        assert_eq!((x.reward, x.terminated, &x.obs.alarm), (y.reward, y.terminated, &y.obs.alarm));
+        assert_eq!(
+            (x.reward, x.terminated, &x.obs.alarm),
+            (y.reward, y.terminated, &y.obs.alarm)
+        );
         assert_eq!(x.info.outcome, y.info.outcome);
     }
 }
@@ -231,11 +260,18 @@ fn manoeuvre_actions_run_the_controllers_manoeuvres() {
         config.command(config.fixed_candidate(config.default_side), cruise, base),
     ];
     for (i, want) in expected.iter().enumerate() {
-        assert_eq!(env.command_for(Action::Discrete(i as i64)).unwrap(), *want, "action {i}");
+        assert_eq!(
+            env.command_for(Action::Discrete(i as i64)).unwrap(),
+            *want,
+            "action {i}"
+        );
     }
     assert!(expected[4].forward_mps < 0.0, "reverse drives backwards");
     let err = env.command_for(Action::Discrete(6)).unwrap_err().to_string();
-    assert!(err.contains("manoeuvre action index 6") && err.contains("plan"), "{err}");
+    assert!(
+        err.contains("manoeuvre action index 6") && err.contains("plan"),
+        "{err}"
+    );
     // each action moves the robot as named (robot = [x, y, yaw, …] from the start pose)
     let moved = |env: &mut EscapeEnv, i: i64| {
         env.reset(Some(3)).unwrap();
@@ -247,7 +283,10 @@ fn manoeuvre_actions_run_the_controllers_manoeuvres() {
     };
     let [cruised, left, right, stopped, reversed] = [0, 1, 2, 3, 4].map(|i| moved(&mut env, i));
     assert!(left[1] > 0.02 && right[1] < -0.02, "sidesteps: {left:?} {right:?}");
-    assert!(stopped[0] < cruised[0] && reversed[0] < stopped[0], "{cruised:?} {stopped:?} {reversed:?}");
+    assert!(
+        stopped[0] < cruised[0] && reversed[0] < stopped[0],
+        "{cruised:?} {stopped:?} {reversed:?}"
+    );
     // the same seed and actions repeat exactly
     assert_eq!(moved(&mut env, 5), moved(&mut env, 5));
 }

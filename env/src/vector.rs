@@ -281,7 +281,10 @@ impl EscapeVectorEnv {
     /// continuing its seed stream). Returns the step's results (an ended environment's holds its
     /// last observation and its outcome) and, per environment, the first observation of its new
     /// episode (`None` for those still running). No auto-reset is left pending.
-    pub fn step_resetting(&mut self, actions: &[Action]) -> Result<(Vec<StepResult>, Vec<Option<Observation>>), EnvError> {
+    pub fn step_resetting(
+        &mut self,
+        actions: &[Action],
+    ) -> Result<(Vec<StepResult>, Vec<Option<Observation>>), EnvError> {
         let results = self.step(actions)?;
         let fresh = self
             .envs

@@ -14,8 +14,9 @@ Run from the repository root (the suites are found there)::
     .venv/bin/python python/bench/vector_throughput.py            # ~3 min on 2 CPU cores
     .venv/bin/python python/bench/vector_throughput.py --decisions 64 --quick
 
-It prints one Markdown table (docs/benchmarks.md quotes it). The two paths give the same episodes
-(checked: the rewards of every decision are equal).
+It prints one Markdown table (docs/benchmarks.md quotes it): each path's rate in every round (the
+paths alternate, so a change in the machine's load hits both) and the ratio of the medians. The two
+paths give the same episodes (checked: the rewards of every decision are equal).
 """
 
 from __future__ import annotations
@@ -103,15 +104,24 @@ def main() -> None:
     p.add_argument("--decisions", type=int, default=512, help="decisions measured per path (default 512)")
     p.add_argument("--warmup", type=int, default=4, help="vector steps before the clock starts (default 4)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--rounds", type=int, default=3, help="alternating rounds of each path; medians (default 3)")
     p.add_argument("--quick", action="store_true", help="the first configuration only")
     args = p.parse_args()
-    print("| configuration | step + reset_envs (decisions/s) | step_train (decisions/s) | ratio |")
+    print("| configuration | step + reset_envs (decisions/s) | step_train (decisions/s) | ratio of medians |")
     print("|---|---|---|---|")
     for name, kwargs in CONFIGS[:1] if args.quick else CONFIGS:
-        before, r0 = measure(kwargs, old_path, args)
-        after, r1 = measure(kwargs, new_path, args)
-        same = "" if np.array_equal(r0, r1) else " (rewards differ!)"
-        print(f"| {name} | {before:.1f} | {after:.1f} | {after / before:.2f}×{same} |", flush=True)
+        rates: Dict[str, List[float]] = {"before": [], "after": []}
+        same = True
+        for _ in range(args.rounds):
+            before, r0 = measure(kwargs, old_path, args)
+            after, r1 = measure(kwargs, new_path, args)
+            rates["before"].append(before)
+            rates["after"].append(after)
+            same &= bool(np.array_equal(r0, r1))
+        b, a = (float(np.median(rates[k])) for k in ("before", "after"))
+        shown = {k: " / ".join(f"{v:.1f}" for v in rates[k]) for k in rates}
+        flag = "" if same else " (rewards differ!)"
+        print(f"| {name} | {shown['before']} | {shown['after']} | {a / b:.2f}×{flag} |", flush=True)
 
 
 if __name__ == "__main__":

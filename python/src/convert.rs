@@ -241,10 +241,7 @@ impl<'py> Batch<'py> {
                 PyArray1::from_vec(py, v).into_any()
             }
             ActionKind::Manoeuvre => {
-                let v: Vec<i64> = results
-                    .iter()
-                    .map(|r| r.info.controller_manoeuvre as i64)
-                    .collect();
+                let v: Vec<i64> = results.iter().map(|r| r.info.controller_manoeuvre as i64).collect();
                 PyArray1::from_vec(py, v).into_any()
             }
         };

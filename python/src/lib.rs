@@ -511,7 +511,10 @@ impl PyEscapeVectorEnv {
                     view.shape()
                 )));
             }
-            view.rows().into_iter().map(|r| Action::Continuous([r[0], r[1], r[2]])).collect()
+            view.rows()
+                .into_iter()
+                .map(|r| Action::Continuous([r[0], r[1], r[2]]))
+                .collect()
         } else {
             let a: PyReadonlyArray1<'py, i64> = actions.extract()?;
             let view = a.as_array();
@@ -526,7 +529,11 @@ impl PyEscapeVectorEnv {
         };
         let (results, fresh) = with_open(py, &self.inner, "step_train()", |vec| vec.step_resetting(&acts))?;
         let width = self.meta.feature_names.len();
-        let (m, mut next, mut last) = (results.len(), Vec::with_capacity(results.len() * width), Vec::with_capacity(results.len() * width));
+        let (m, mut next, mut last) = (
+            results.len(),
+            Vec::with_capacity(results.len() * width),
+            Vec::with_capacity(results.len() * width),
+        );
         let row = |o: &loomlab_env::Observation, out: &mut Vec<f32>| match &o.features {
             Some(f) => out.extend_from_slice(f),
             None => out.resize(out.len() + width, 0.0),

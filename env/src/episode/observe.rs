@@ -9,8 +9,8 @@ use loomlab_sim::StepOutput;
 use super::step::deviation;
 use super::{AGENT_LABEL, EpisodeSummary, EscapeEnv, Observation, ROBOT_LIMIT, SIGNAL_LIMIT, StepInfo};
 use crate::features::{DecisionFrame, ObsMode, RowDecision, decision_features};
-use loomlab_detector::{ImageRegion, PerceivedObject};
 use crate::{EnvError, RewardTerms};
+use loomlab_detector::{ImageRegion, PerceivedObject};
 
 /// A detector value for the observation: finite, clamped into ±[`SIGNAL_LIMIT`] (non-finite: 0).
 fn finite_or_zero(v: f64) -> f32 {

@@ -135,7 +135,8 @@ impl EscapeEnv {
         } else {
             for (k, &row) in owners.iter().enumerate() {
                 if self.detectors[row].params != spec.detectors[row].params {
-                    self.agent.replace_detector(k, spec.detectors[row].build(self.n as usize)?);
+                    self.agent
+                        .replace_detector(k, spec.detectors[row].build(self.n as usize)?);
                 }
             }
         }

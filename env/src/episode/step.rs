@@ -1,8 +1,8 @@
 //! Stepping: actions to velocity commands, one camera period, reward and termination.
 
-use loomlab_agents::{Candidate, ContinuousAction, DiscreteAction, DodgeSide, VelocityCommand};
 #[cfg(doc)]
 use loomlab_agents::EscapeConfig;
+use loomlab_agents::{Candidate, ContinuousAction, DiscreteAction, DodgeSide, VelocityCommand};
 use loomlab_scenarios::metrics::{TIME_EPS_S, TraceSample};
 use loomlab_scenarios::reference::INDICATOR_THRESHOLD;
 use loomlab_sim::{Sim, StepOutput};
