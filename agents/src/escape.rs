@@ -568,6 +568,17 @@ impl EscapeController {
         self.planner.choose(&ctx, &preference, running)
     }
 
+    /// The manoeuvre the planner would choose now at `t_s` (`manoeuvre = "plan"`), preferring the
+    /// dodge to `side`, then the other dodge, stopping, reversing, from the forecasts of the objects
+    /// it was told about ([`Self::observe`]); without any forecast (or with another manoeuvre),
+    /// the configuration's fixed candidate towards `side`. Read-only: what an external agent's
+    /// "plan" action runs (the Gymnasium env's manoeuvre actions); the controller's own phase,
+    /// odometry and planner are not changed.
+    pub fn planned_candidate(&self, t_s: f64, side: DodgeSide, cruise: VelocityCommand) -> Candidate {
+        self.plan(t_s, side, cruise, None)
+            .unwrap_or_else(|| self.config.fixed_candidate(side))
+    }
+
     /// Which object the next [`Self::step`]'s value comes from (`None`: unknown, e.g. a detector's
     /// whole-image θ̂). A re-trigger keeps the previous side only for the same object (or when
     /// either is unknown) — a different object is dodged afresh.

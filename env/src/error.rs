@@ -46,6 +46,15 @@ pub enum EnvError {
         /// Number of actions given.
         got: usize,
     },
+    /// A manoeuvre action index out of range ([`crate::MANOEUVRE_ACTIONS`]).
+    #[error(
+        "manoeuvre action index {index} is invalid: valid indices are 0..6 (cruise, sidestep_left, sidestep_right, \
+         stop, reverse, plan)"
+    )]
+    InvalidManoeuvre {
+        /// The offending index.
+        index: i64,
+    },
     /// An action of the wrong kind (continuous vs discrete) for this environment.
     #[error("this environment takes {expected} actions, got a {got} action")]
     ActionKind {
@@ -103,7 +112,10 @@ impl EnvError {
             EnvError::Sim(SimError::InvalidDesc { .. }) => ErrorKind::Scenario,
             EnvError::Sim(_) => ErrorKind::Render,
             EnvError::Detector(_) => ErrorKind::Detector,
-            EnvError::Action(_) | EnvError::ActionCount { .. } | EnvError::ActionKind { .. } => ErrorKind::Action,
+            EnvError::Action(_)
+            | EnvError::ActionCount { .. }
+            | EnvError::ActionKind { .. }
+            | EnvError::InvalidManoeuvre { .. } => ErrorKind::Action,
             EnvError::Seed { .. } => ErrorKind::Seed,
             EnvError::InEnv { source, .. } => source.kind(),
             EnvError::Scoring(_) | EnvError::State(_) => ErrorKind::Other,

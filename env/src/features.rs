@@ -47,11 +47,46 @@
 //! | `threat.left_deg`, `threat.right_deg` | azimuths of its image edges / 90° (positive right), clamped | [−1, 1] |
 //! | `threat.bottom_deg`, `threat.top_deg` | elevations of its image edges / 90° (positive up), clamped | [−1, 1] |
 //! | `robot.*` | the normalized mode's 7 robot features | as above |
+//!
+//! # The decision feature vector
+//! [`ObsMode::Decision`] holds, per row (`R` rows, in
+//! [`EscapeEnv::detector_labels`](crate::EscapeEnv::detector_labels) order), the quantities its
+//! decision step uses, taken from the row's decider ([`loomlab_agents::Decider`],
+//! `agents/src/decision/`: the same [`loomlab_agents::Decision`] the escape controller and the runner
+//! read, never recomputed here), then the driving track's box and the most urgent other tracks of
+//! the first row whose detector localises objects (`tracker`), the looming side and the robot. A
+//! stateless row (θ̂ or output against a threshold, no gate, no persistence) estimates nothing:
+//! its τ̂, course and arrival features stay at their "unknown" values. Nothing comes from ground
+//! truth. In order:
+//!
+//! | feature | definition | bounds |
+//! |---|---|---|
+//! | `{label}.value` (× R) | the decision value over the row's alarm threshold (θ̂ / threshold, output / threshold or urgency 1/τ̂ × `tau_threshold_s`), clamped; NaN → 0 | [−2, 2] |
+//! | `{label}.alarm` (× R) | 1 when the decision value is at or above the threshold | {0, 1} |
+//! | `{label}.theta_hat_rad` (× R) | the row's detector's θ̂ (rad), 0 when it gives none | [0, π] |
+//! | `{label}.inv_tau_ps` (× R) | 1/τ̂ of the decider's τ estimator (s⁻¹), 0 when not estimated or τ̂ ≤ 0, clamped into [0, [`INV_TAU_LIMIT_PS`]] | [0, 20] |
+//! | `{label}.gate_open` (× R) | the collision-course gate's state (1 with `course = "off"`) | {0, 1} |
+//! | `{label}.miss_radii` (× R) | the gate's predicted lateral miss μ (object radii, + right) / [`MISS_RADII_LIMIT`], clamped; 0 when not estimated | [−1, 1] |
+//! | `{label}.pass_side` (× R) | the predicted arrival side (−1 left, +1 right), 0 when none | [−1, 1] |
+//! | `{label}.arrival_s` (× R) | time until the predicted arrival / [`ARRIVAL_SCALE_S`], clamped: the course forecast's τ at its time less the time since, else τ̂; 1 when unknown | [0, 1] |
+//! | `{label}.arrival_lateral` (× R) | the middle of the predicted arrival extent (m, + right) / [`ARRIVAL_LATERAL_SCALE_M`], clamped; 0 when unknown | [−1, 1] |
+//! | `{label}.confirmations` (× R) | the K-of-M count: values at or above the threshold among the last M, over K, clamped (`Decider::confirmations`); without a window, the alarm | [0, 1] |
+//! | `track.seen` | 1 when a row's detector gives the driving track's image box | {0, 1} |
+//! | `track.left`, `track.right`, `track.bottom`, `track.top` | that box's edges (image x and y, −1 … 1), 0 when none | [−1, 1] |
+//! | `objects.{i}.theta_rad` (i < [`DECISION_OBJECTS`]) | θ̂ of the detector's i-th most urgent other track (`Signals::objects`, the driving track left out; by the detector's τ̂ when it gives one, else the largest θ̂ first), 0 when fewer | [0, π] |
+//! | `objects.{i}.inv_tau_ps` | its 1/τ̂ when the detector gives one (s⁻¹, clamped), else 0 | [0, 20] |
+//! | `objects.{i}.left`, `.right`, `.bottom`, `.top` | its image box | [−1, 1] |
+//! | `looming_side` | as in the normalized mode | [−1, 1] |
+//! | `robot.*` | the normalized mode's 7 robot features | as above |
+//!
+//! A row's decider steps on the row's detector's θ̂ (or output) with the self-motion of the
+//! shadow escape controller's last command, as in the normalized mode's alarms.
 
 use serde::{Deserialize, Serialize};
 
 use super::{Observation, SIGNAL_LIMIT};
-use loomlab_agents::{ActionConfig, ContinuousAction, VelocityCommand};
+use loomlab_agents::{ActionConfig, ContinuousAction, Decision, VelocityCommand};
+use loomlab_detector::{ImageRegion, PerceivedObject};
 use loomlab_sim::ObjectTruth;
 
 /// What an observation holds.
@@ -68,6 +103,10 @@ pub enum ObsMode {
     /// the module docs): ground truth, the reference a policy on detector features is measured
     /// against, like the ideal rows.
     Privileged,
+    /// One vector of every row's decision quantities (τ̂, the gate, the predicted arrival, the
+    /// K-of-M count, the alarm), the driving track's box and the most urgent other tracks (see the
+    /// module docs): what the rows decide on, from the one decision pipeline.
+    Decision,
 }
 
 impl ObsMode {
@@ -77,12 +116,13 @@ impl ObsMode {
             ObsMode::Raw => "raw",
             ObsMode::Normalized => "normalized",
             ObsMode::Privileged => "privileged",
+            ObsMode::Decision => "decision",
         }
     }
 
-    /// Whether the observation is one feature vector (normalized or privileged).
+    /// Whether the observation is one feature vector (normalized, privileged or decision).
     pub fn is_vector(self) -> bool {
-        matches!(self, ObsMode::Normalized | ObsMode::Privileged)
+        matches!(self, ObsMode::Normalized | ObsMode::Privileged | ObsMode::Decision)
     }
 }
 
@@ -100,8 +140,17 @@ pub const BEARING_RATE_SCALE_PS: f64 = 4.0;
 /// Image-edge angles of the privileged features are divided by this (degrees).
 pub const EDGE_SCALE_DEG: f64 = 90.0;
 
+/// The decision mode's time until the predicted arrival that maps to 1 (s).
+pub const ARRIVAL_SCALE_S: f64 = 4.0;
+/// The decision mode's predicted arrival offset that maps to ±1 (m).
+pub const ARRIVAL_LATERAL_SCALE_M: f64 = 2.0;
+/// How many other tracks the decision mode lists (`objects.{i}.*`).
+pub const DECISION_OBJECTS: usize = 3;
+/// The decision mode's value over threshold is clamped into ±this.
+pub const VALUE_RATIO_LIMIT: f64 = 2.0;
+
 /// The scales of the normalized features, by name (exported to Python as `FEATURE_SCALES`).
-pub const FEATURE_SCALES: [(&str, f64); 7] = [
+pub const FEATURE_SCALES: [(&str, f64); 10] = [
     ("signal_limit", SIGNAL_LIMIT as f64),
     ("log_rate_scale_per_s", LOG_RATE_SCALE_PER_S),
     ("theta_rate_limit_rps", THETA_RATE_LIMIT_RPS),
@@ -109,6 +158,9 @@ pub const FEATURE_SCALES: [(&str, f64); 7] = [
     ("inv_tau_limit_ps", INV_TAU_LIMIT_PS),
     ("bearing_rate_scale_ps", BEARING_RATE_SCALE_PS),
     ("edge_scale_deg", EDGE_SCALE_DEG),
+    ("arrival_scale_s", ARRIVAL_SCALE_S),
+    ("arrival_lateral_scale_m", ARRIVAL_LATERAL_SCALE_M),
+    ("value_ratio_limit", VALUE_RATIO_LIMIT),
 ];
 
 /// Number of privileged features ([`ObsMode::Privileged`]): 10 of the threat, 7 of the robot.
@@ -165,7 +217,176 @@ pub fn mode_feature_specs(mode: ObsMode, labels: &[&str]) -> Vec<FeatureSpec> {
     match mode {
         ObsMode::Raw | ObsMode::Normalized => feature_specs(labels),
         ObsMode::Privileged => privileged_specs(),
+        ObsMode::Decision => decision_specs(labels),
     }
+}
+
+/// The per-row features of the decision mode, in order, with their bounds.
+const ROW_DECISION_FEATURES: [(&str, f64, f64); 10] = [
+    ("value", -VALUE_RATIO_LIMIT, VALUE_RATIO_LIMIT),
+    ("alarm", 0.0, 1.0),
+    ("theta_hat_rad", 0.0, std::f64::consts::PI),
+    ("inv_tau_ps", 0.0, INV_TAU_LIMIT_PS),
+    ("gate_open", 0.0, 1.0),
+    ("miss_radii", -1.0, 1.0),
+    ("pass_side", -1.0, 1.0),
+    ("arrival_s", 0.0, 1.0),
+    ("arrival_lateral", -1.0, 1.0),
+    ("confirmations", 0.0, 1.0),
+];
+
+/// Features of one track's box: left, right, bottom, top.
+const BOX_EDGES: [&str; 4] = ["left", "right", "bottom", "top"];
+
+/// The decision features (see the module docs) of an environment observing `labels`, with their
+/// bounds.
+pub fn decision_specs(labels: &[&str]) -> Vec<FeatureSpec> {
+    let mut v = Vec::new();
+    for l in labels {
+        v.extend(
+            ROW_DECISION_FEATURES
+                .iter()
+                .map(|(name, lo, hi)| spec(format!("{l}.{name}"), *lo, *hi)),
+        );
+    }
+    v.push(spec("track.seen", 0.0, 1.0));
+    v.extend(BOX_EDGES.iter().map(|e| spec(format!("track.{e}"), -1.0, 1.0)));
+    for i in 0..DECISION_OBJECTS {
+        v.push(spec(format!("objects.{i}.theta_rad"), 0.0, std::f64::consts::PI));
+        v.push(spec(format!("objects.{i}.inv_tau_ps"), 0.0, INV_TAU_LIMIT_PS));
+        v.extend(BOX_EDGES.iter().map(|e| spec(format!("objects.{i}.{e}"), -1.0, 1.0)));
+    }
+    v.push(spec("looming_side", -1.0, 1.0));
+    push_robot_specs(&mut v);
+    v
+}
+
+/// What one row decided on one frame (the decision mode's per-row input).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RowDecision {
+    /// The decision value compared with the alarm threshold.
+    pub value: f64,
+    /// The row's alarm threshold (θ̂ in degrees, the output, or the urgency 1/τ in s⁻¹).
+    pub threshold: f64,
+    /// The row's detector's θ̂ (degrees), when it gives one.
+    pub theta_hat_deg: Option<f64>,
+    /// The decider's decision (`None`: a stateless row, whose value is the percept).
+    pub decision: Option<Decision>,
+    /// The decider's K-of-M count and K ([`loomlab_agents::Decider::confirmations`]).
+    pub confirmations: Option<(usize, usize)>,
+}
+
+impl RowDecision {
+    /// A row before its detector's first frame: nothing decided.
+    pub fn idle(threshold: f64) -> Self {
+        Self {
+            value: 0.0,
+            threshold,
+            theta_hat_deg: None,
+            decision: None,
+            confirmations: None,
+        }
+    }
+}
+
+/// What the decision mode reads on one frame besides the rows.
+#[derive(Debug, Clone, Copy)]
+pub struct DecisionFrame<'a> {
+    /// The frame's time (s).
+    pub t_s: f64,
+    /// The driving track's box: the image region of the first row's detector that gives one.
+    pub track: Option<&'a ImageRegion>,
+    /// That detector's listed tracks ([`loomlab_detector::Signals::objects`]).
+    pub objects: &'a [PerceivedObject],
+    /// The looming object's image x, when known.
+    pub looming_side: Option<f32>,
+}
+
+/// The decision features (see the module docs) of one frame; `duration_s` the episode's
+/// duration, `action` the action scales, `last_command` the robot's last command.
+pub fn decision_features(
+    rows: &[RowDecision],
+    frame: &DecisionFrame<'_>,
+    obs: &Observation,
+    duration_s: f64,
+    action: &ActionConfig,
+    last_command: VelocityCommand,
+) -> Vec<f32> {
+    let unit = |v: f64| if v.is_finite() { v.clamp(-1.0, 1.0) as f32 } else { 0.0 };
+    let inv_tau = |tau: Option<f64>| match tau {
+        Some(t) if t > 0.0 => (1.0 / t).min(INV_TAU_LIMIT_PS) as f32,
+        _ => 0.0,
+    };
+    let mut f = Vec::with_capacity(ROW_DECISION_FEATURES.len() * rows.len() + 30);
+    for r in rows {
+        let alarm = r.value >= r.threshold;
+        let ratio = if r.threshold != 0.0 {
+            r.value / r.threshold.abs()
+        } else {
+            r.value
+        };
+        f.push(if ratio.is_finite() {
+            ratio.clamp(-VALUE_RATIO_LIMIT, VALUE_RATIO_LIMIT) as f32
+        } else {
+            0.0
+        });
+        f.push(f32::from(u8::from(alarm)));
+        let theta = r.theta_hat_deg.filter(|v| v.is_finite()).unwrap_or(0.0).to_radians();
+        f.push(theta.clamp(0.0, std::f64::consts::PI) as f32);
+        let d = r.decision;
+        f.push(inv_tau(d.and_then(|d| d.tau_s)));
+        f.push(f32::from(u8::from(d.is_none_or(|d| d.gate_open))));
+        f.push(unit(d.and_then(|d| d.miss_radii).unwrap_or(0.0) / MISS_RADII_LIMIT));
+        f.push(d.and_then(|d| d.pass_side).map_or(0.0, |s| s.clamp(-1.0, 1.0)));
+        let arrival = d.and_then(|d| match d.forecast {
+            Some(fc) => Some(fc.tau_s - (frame.t_s - fc.t_s)),
+            None => d.tau_s,
+        });
+        f.push(arrival.map_or(1.0, |a| (a.max(0.0) / ARRIVAL_SCALE_S).min(1.0) as f32));
+        let lateral = d
+            .and_then(|d| d.arrival_extent_m)
+            .map_or(0.0, |e| (e[0] + e[1]) / 2.0 / ARRIVAL_LATERAL_SCALE_M);
+        f.push(unit(lateral));
+        f.push(match r.confirmations {
+            Some((count, k)) => (count as f64 / k.max(1) as f64).min(1.0) as f32,
+            None => f32::from(u8::from(alarm)),
+        });
+    }
+    let edges = |b: &ImageRegion| [b.x[0], b.x[1], b.y[0], b.y[1]].map(unit);
+    f.push(f32::from(u8::from(frame.track.is_some())));
+    f.extend(frame.track.map_or([0.0; 4], edges));
+    for o in most_urgent(frame.objects, frame.track.and_then(|t| t.track)) {
+        match o {
+            Some(o) => {
+                f.push(o.angular_size_deg.to_radians().clamp(0.0, std::f64::consts::PI) as f32);
+                f.push(inv_tau(o.tau_s));
+                f.extend(edges(&o.region));
+            }
+            None => f.extend([0.0; 6]),
+        }
+    }
+    f.push(
+        frame
+            .looming_side
+            .filter(|v| v.is_finite())
+            .map_or(0.0, |v| v.clamp(-1.0, 1.0)),
+    );
+    robot_features(&mut f, obs, duration_s, action, last_command);
+    f
+}
+
+/// The [`DECISION_OBJECTS`] most urgent tracks other than `driving` (see the module docs), `None`
+/// for the missing ones.
+fn most_urgent(objects: &[PerceivedObject], driving: Option<usize>) -> [Option<&PerceivedObject>; DECISION_OBJECTS] {
+    let mut others: Vec<&PerceivedObject> = objects.iter().filter(|o| Some(o.id) != driving).collect();
+    let tau = |o: &PerceivedObject| o.tau_s.filter(|t| t.is_finite() && *t > 0.0).unwrap_or(f64::INFINITY);
+    others.sort_by(|a, b| {
+        tau(a)
+            .total_cmp(&tau(b))
+            .then(b.angular_size_deg.total_cmp(&a.angular_size_deg))
+            .then(a.id.cmp(&b.id))
+    });
+    std::array::from_fn(|i| others.get(i).copied())
 }
 
 /// The privileged features (see the module docs), with their bounds.

@@ -60,7 +60,9 @@ pub use episode::{
 };
 pub use error::{EnvError, ErrorKind};
 pub use features::{FeatureSpec, ObsMode, feature_specs, mode_feature_specs};
-pub use options::{ActionKind, EnvOptions, MAX_ACTION_REPEAT, MAX_ACTION_SCALE, MAX_FRAME_SIZE};
+pub use options::{
+    ActionKind, EnvOptions, MANOEUVRE_ACTIONS, MAX_ACTION_REPEAT, MAX_ACTION_SCALE, MAX_FRAME_SIZE, SeedStream,
+};
 pub use reward::{DODGE_TOLERANCE, RewardConfig, RewardTerms};
 pub use scenario::{EnvScenario, ScenarioEpisodes};
 pub use vector::{EscapeVectorEnv, MAX_NUM_ENVS, VectorSnapshot};
@@ -129,3 +131,6 @@ impl EpisodeRng {
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod tests_rl;

@@ -31,6 +31,36 @@ pub enum ActionKind {
     Continuous,
     /// 0 none (cruise), 1 dodge left, 2 dodge right, 3 stop ([`loomlab_agents::DiscreteAction`]).
     Discrete,
+    /// The escape controller's manoeuvres ([`MANOEUVRE_ACTIONS`]): 0 cruise, 1 sidestep left,
+    /// 2 sidestep right, 3 stop, 4 reverse, 5 the planner's choice; each the command the scenario's
+    /// controller gives for it ([`loomlab_agents::EscapeConfig::command`], the first row's
+    /// `[controller]` keys: `dodge_speed_mps`, `reverse_speed_mps`, a differential drive's turn).
+    Manoeuvre,
+}
+
+/// The actions of [`ActionKind::Manoeuvre`], in index order (Gymnasium `Discrete(6)`).
+pub const MANOEUVRE_ACTIONS: [&str; 6] = ["cruise", "sidestep_left", "sidestep_right", "stop", "reverse", "plan"];
+
+/// Which seeds an environment's resets draw (module docs of the crate, "Seed streams").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SeedStream {
+    /// Training episodes: every drawn seed (the simulator's and the scenario expansion's) has its
+    /// top bit clear.
+    Train,
+    /// Held-out evaluation episodes: every drawn seed has its top bit set, so no evaluation
+    /// episode is ever a training one.
+    Eval,
+}
+
+impl SeedStream {
+    /// A drawn seed moved into this stream's half of the seeds.
+    pub fn tag(self, seed: u64) -> u64 {
+        match self {
+            SeedStream::Train => seed & !(1 << 63),
+            SeedStream::Eval => seed | (1 << 63),
+        }
+    }
 }
 
 impl ActionKind {
@@ -39,6 +69,7 @@ impl ActionKind {
         match self {
             ActionKind::Continuous => "continuous",
             ActionKind::Discrete => "discrete",
+            ActionKind::Manoeuvre => "manoeuvre",
         }
     }
 }
@@ -89,6 +120,12 @@ pub struct EnvOptions {
     /// the perception and actuation latencies, `loomlab_sim::SensorProfile`); `None`: the scenario
     /// file's own sensor keys.
     pub sensor: Option<String>,
+    /// Suites only: keep the scenarios of these difficulty tiers (0 to 3, the files' `tier` key,
+    /// as `loomlab run --tier`); `None`: every scenario.
+    pub tiers: Option<Vec<u8>>,
+    /// The seed stream resets draw from: `train` or `eval` (disjoint halves of the seeds: see
+    /// [`SeedStream`]); `None` (the default): untagged seeds, as before streams existed (either half).
+    pub seed_stream: Option<SeedStream>,
 }
 
 impl Default for EnvOptions {
@@ -107,6 +144,8 @@ impl Default for EnvOptions {
             action_repeat: 1,
             dodge_hold_s: 0.0,
             sensor: None,
+            tiers: None,
+            seed_stream: None,
         }
     }
 }
@@ -180,6 +219,22 @@ impl EnvOptions {
                 self.dodge_hold_s,
                 "must be in 0..=10 seconds (0: a dodge is held for action_repeat periods like every action; 0.6: the default escape manoeuvre)",
             ));
+        }
+        if let Some(tiers) = &self.tiers {
+            if tiers.is_empty() {
+                return Err(EnvError::option(
+                    "tiers",
+                    "[]",
+                    "name at least one tier (0 to 3), or leave tiers out",
+                ));
+            }
+            if let Some(t) = tiers.iter().find(|&&t| t > loomlab_scenarios::tier::MAX_TIER) {
+                return Err(EnvError::option(
+                    "tiers",
+                    t,
+                    format!("tiers run from 0 to {}", loomlab_scenarios::tier::MAX_TIER),
+                ));
+            }
         }
         if self.max_episode_steps == Some(0) {
             return Err(EnvError::option("max_episode_steps", 0, "must be >= 1"));

@@ -275,6 +275,34 @@ impl EscapeVectorEnv {
             .collect()
     }
 
+    /// [`step`](Self::step) with **same-step** auto-reset (what Stable-Baselines3's `VecEnv` and
+    /// the training loops want, in one call instead of a step and a [`reset_envs`](Self::reset_envs)):
+    /// every environment whose episode ends in this step is reset at once (in parallel, each
+    /// continuing its seed stream). Returns the step's results (an ended environment's holds its
+    /// last observation and its outcome) and, per environment, the first observation of its new
+    /// episode (`None` for those still running). No auto-reset is left pending.
+    pub fn step_resetting(
+        &mut self,
+        actions: &[Action],
+    ) -> Result<(Vec<StepResult>, Vec<Option<Observation>>), EnvError> {
+        let results = self.step(actions)?;
+        let fresh = self
+            .envs
+            .par_iter_mut()
+            .zip(self.autoreset.par_iter())
+            .enumerate()
+            .map(|(i, (env, &ended))| {
+                if ended {
+                    env.reset(None).map(|(obs, _)| Some(obs)).map_err(|e| e.in_env(i))
+                } else {
+                    Ok(None)
+                }
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        self.autoreset.fill(false);
+        Ok((results, fresh))
+    }
+
     /// Resets the environments `indices` now (each continues its seed stream) and clears their
     /// pending next-step auto-reset: what a same-step auto-reset (Stable-Baselines3's `VecEnv`)
     /// calls for the environments whose episode just ended. Returns their `(obs, info)` in the

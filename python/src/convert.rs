@@ -110,6 +110,7 @@ pub fn info_dict<'py>(py: Python<'py>, info: &StepInfo, kind: ActionKind) -> PyR
             PyArray1::from_slice(py, &info.controller_continuous),
         )?,
         ActionKind::Discrete => d.set_item("controller_action", info.controller_discrete.index() as i64)?,
+        ActionKind::Manoeuvre => d.set_item("controller_action", info.controller_manoeuvre as i64)?,
     }
     d.set_item("reward_terms", reward_terms_dict(py, info)?)?;
     if let Some(o) = &info.outcome {
@@ -237,6 +238,10 @@ impl<'py> Batch<'py> {
                     .iter()
                     .map(|r| r.info.controller_discrete.index() as i64)
                     .collect();
+                PyArray1::from_vec(py, v).into_any()
+            }
+            ActionKind::Manoeuvre => {
+                let v: Vec<i64> = results.iter().map(|r| r.info.controller_manoeuvre as i64).collect();
                 PyArray1::from_vec(py, v).into_any()
             }
         };

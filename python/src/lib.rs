@@ -212,14 +212,14 @@ impl PyEscapeEnv {
     #[pyo3(signature = (scenario=None, scenario_toml=None, options_json="{}"))]
     fn new(
         py: Python<'_>,
-        scenario: Option<String>,
+        scenario: Option<scenarios::ScenarioArg>,
         scenario_toml: Option<String>,
         options_json: &str,
     ) -> PyResult<Self> {
         let options = parse_options(options_json)?;
         let env = py
             .detach(|| {
-                let sc = scenarios::load(scenario.as_deref(), scenario_toml.as_deref())?;
+                let sc = scenarios::load_arg(scenario.as_ref(), scenario_toml.as_deref())?;
                 EscapeEnv::new(sc, options)
             })
             .map_err(to_py)?;
@@ -251,6 +251,20 @@ impl PyEscapeEnv {
         Ok(Self {
             meta: Meta::of(&env),
             inner: Mutex::new(Some(env)),
+        })
+    }
+
+    /// The simulator seed of the current episode (`None` before the first reset).
+    #[getter]
+    fn episode_seed(&self, py: Python<'_>) -> PyResult<Option<u64>> {
+        with_open(py, &self.inner, "episode_seed", |env| Ok(env.episode_seed()))
+    }
+
+    /// The scenario of the current episode (`None` before the first reset).
+    #[getter]
+    fn episode_scenario(&self, py: Python<'_>) -> PyResult<Option<String>> {
+        with_open(py, &self.inner, "episode_scenario", |env| {
+            Ok(env.episode_spec().map(|s| s.scenario.clone()))
         })
     }
 
@@ -371,14 +385,14 @@ impl PyEscapeVectorEnv {
     fn new(
         py: Python<'_>,
         num_envs: usize,
-        scenario: Option<String>,
+        scenario: Option<scenarios::ScenarioArg>,
         scenario_toml: Option<String>,
         options_json: &str,
     ) -> PyResult<Self> {
         let options = parse_options(options_json)?;
         let vec = py
             .detach(|| {
-                let sc = scenarios::load(scenario.as_deref(), scenario_toml.as_deref())?;
+                let sc = scenarios::load_arg(scenario.as_ref(), scenario_toml.as_deref())?;
                 EscapeVectorEnv::new(sc, options, num_envs)
             })
             .map_err(to_py)?;
@@ -471,6 +485,83 @@ impl PyEscapeVectorEnv {
         }
         let acts: Vec<Action> = view.iter().map(|&i| Action::Discrete(i)).collect();
         self.step(py, acts)
+    }
+
+    /// The training step (`loomlab.EscapeVectorEnv.step_train`): steps with `actions` (`(num_envs,)`
+    /// int64 for discrete and manoeuvre actions, `(num_envs, 3)` float32 for continuous ones) with
+    /// same-step auto-reset, for feature observations without frames. Returns `(features, reward,
+    /// terminated, truncated, last_features, outcomes)`: the next observations (the new episode's
+    /// first one where an episode ended) `(num_envs, F)` float32, the rewards float32, the flags,
+    /// the observations the step ended on (an ended episode's last one), and `[(index, outcome)]`
+    /// for the episodes that ended. No info dicts, no per-environment Python objects otherwise.
+    fn step_train<'py>(&self, py: Python<'py>, actions: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyTuple>> {
+        if !self.meta.obs_mode.is_vector() || self.meta.observe_frames {
+            return Err(errors::ActionError::new_err(
+                "step_train needs one feature vector per observation: obs_mode 'normalized', 'privileged' or \
+                 'decision' and observe_frames=False (use step otherwise)",
+            ));
+        }
+        let acts: Vec<Action> = if self.meta.action_kind == ActionKind::Continuous {
+            let a: PyReadonlyArray2<'py, f32> = actions.extract()?;
+            let view = a.as_array();
+            if view.shape() != [self.num_envs, 3] {
+                return Err(errors::ActionError::new_err(format!(
+                    "continuous actions must have shape ({}, 3), got {:?}",
+                    self.num_envs,
+                    view.shape()
+                )));
+            }
+            view.rows()
+                .into_iter()
+                .map(|r| Action::Continuous([r[0], r[1], r[2]]))
+                .collect()
+        } else {
+            let a: PyReadonlyArray1<'py, i64> = actions.extract()?;
+            let view = a.as_array();
+            if view.len() != self.num_envs {
+                return Err(errors::ActionError::new_err(format!(
+                    "discrete actions must have shape ({},), got {:?}",
+                    self.num_envs,
+                    view.shape()
+                )));
+            }
+            view.iter().map(|&i| Action::Discrete(i)).collect()
+        };
+        let (results, fresh) = with_open(py, &self.inner, "step_train()", |vec| vec.step_resetting(&acts))?;
+        let width = self.meta.feature_names.len();
+        let (m, mut next, mut last) = (
+            results.len(),
+            Vec::with_capacity(results.len() * width),
+            Vec::with_capacity(results.len() * width),
+        );
+        let row = |o: &loomlab_env::Observation, out: &mut Vec<f32>| match &o.features {
+            Some(f) => out.extend_from_slice(f),
+            None => out.resize(out.len() + width, 0.0),
+        };
+        for (r, f) in results.iter().zip(&fresh) {
+            row(&r.obs, &mut last);
+            row(f.as_ref().unwrap_or(&r.obs), &mut next);
+        }
+        let outcomes = PyList::empty(py);
+        for (i, r) in results.iter().enumerate() {
+            if let Some(o) = &r.info.outcome {
+                outcomes.append((i, convert::outcome_dict(py, o)?))?;
+            }
+        }
+        let reward: Vec<f32> = results.iter().map(|r| r.reward as f32).collect();
+        let terminated: Vec<bool> = results.iter().map(|r| r.terminated).collect();
+        let truncated: Vec<bool> = results.iter().map(|r| r.truncated).collect();
+        PyTuple::new(
+            py,
+            [
+                PyArray1::from_vec(py, next).reshape([m, width])?.into_any(),
+                PyArray1::from_vec(py, reward).into_any(),
+                PyArray1::from_vec(py, terminated).into_any(),
+                PyArray1::from_vec(py, truncated).into_any(),
+                PyArray1::from_vec(py, last).reshape([m, width])?.into_any(),
+                outcomes.into_any(),
+            ],
+        )
     }
 
     /// Resets the environments `indices` now (their seed streams continue) and clears their pending
@@ -643,6 +734,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
                 ObsMode::Raw.as_str(),
                 ObsMode::Normalized.as_str(),
                 ObsMode::Privileged.as_str(),
+                ObsMode::Decision.as_str(),
             ],
         )?,
     )?;
@@ -652,6 +744,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let discrete: Vec<String> = DiscreteAction::ALL.iter().map(snake_name).collect::<PyResult<_>>()?;
     m.add("DISCRETE_ACTIONS", PyTuple::new(py, discrete)?)?;
     m.add("CONTINUOUS_ACTION_NAMES", PyTuple::new(py, ContinuousAction::NAMES)?)?;
+    m.add("MANOEUVRE_ACTIONS", PyTuple::new(py, loomlab_env::MANOEUVRE_ACTIONS)?)?;
+    m.add("DEFAULT_SUITE", loomlab_scenarios::DEFAULT_SUITE)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

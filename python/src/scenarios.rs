@@ -25,8 +25,36 @@ pub fn builtin(name: &str) -> Result<&'static str, EnvError> {
         })
 }
 
-/// Loads a scenario: `scenario` is a shipped name or a TOML file path, `toml` is TOML text; at most
-/// one of them; neither gives the default scenario.
+/// The `scenario` argument of the environments: a shipped name or a path (a scenario file, a suite
+/// folder or list file), or a list of paths (scenario files or suites, pooled as one suite).
+#[derive(Debug, Clone, pyo3::FromPyObject)]
+pub enum ScenarioArg {
+    /// One name or path.
+    One(String),
+    /// Several paths, one suite.
+    Many(Vec<String>),
+}
+
+/// Loads the scenario or suite of an environment's `scenario` / `scenario_toml` arguments (see
+/// [`load`]; a list of paths is a suite, `EnvScenario::from_suite`).
+pub fn load_arg(scenario: Option<&ScenarioArg>, toml: Option<&str>) -> Result<EnvScenario, EnvError> {
+    match scenario {
+        Some(ScenarioArg::Many(paths)) => {
+            if toml.is_some() {
+                return Err(EnvError::Scenario(
+                    "give either a scenario (name, path or list of paths) or scenario_toml text, not both".into(),
+                ));
+            }
+            EnvScenario::from_suite(paths.iter().map(std::path::PathBuf::from).collect())
+        }
+        Some(ScenarioArg::One(s)) => load(Some(s), toml),
+        None => load(None, toml),
+    }
+}
+
+/// Loads a scenario: `scenario` is a shipped name, a TOML file path or a suite (a folder or list
+/// file, `EnvScenario::open`), `toml` is TOML text; at most one of them; neither gives the default
+/// scenario.
 pub fn load(scenario: Option<&str>, toml: Option<&str>) -> Result<EnvScenario, EnvError> {
     match (scenario, toml) {
         (Some(_), Some(_)) => Err(EnvError::Scenario(
@@ -39,13 +67,12 @@ pub fn load(scenario: Option<&str>, toml: Option<&str>) -> Result<EnvScenario, E
                 return Ok(EnvScenario::from_toml(text, format!("{s}.toml")));
             }
             let path = Path::new(s);
-            if path.is_file() {
-                return EnvScenario::from_file(path);
+            if path.exists() {
+                return EnvScenario::open(path);
             }
             Err(EnvError::Scenario(format!(
-                "scenario `{s}` is neither a shipped scenario ({:?}) nor an existing file{}",
+                "scenario `{s}` is neither a shipped scenario ({:?}) nor an existing file or suite folder",
                 BUILTIN.iter().map(|(n, _)| *n).collect::<Vec<_>>(),
-                if path.exists() { " (it is a directory)" } else { "" }
             )))
         }
     }

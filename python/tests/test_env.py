@@ -35,15 +35,21 @@ def test_import_registers_the_ids_and_make_works_without_arguments():
     assert "loomlab/EscapeDiscrete-v0" in gym.registry
     env = gym.make("loomlab/Escape-v0")
     obs, info = env.reset(seed=0)
-    # the default scenario (escape_default.toml) names its five detectors
-    assert env.unwrapped.detector_ids == ["hopfield", "soc", "keil2004", "cizek2019", "fu2020"]
-    assert set(obs) == {"hopfield", "soc", "keil2004", "cizek2019", "fu2020", "theta_hat", "alarm", "robot"}
+    # the default suite (scenarios/suites/default) at its camera size, with its detector rows
+    labels = env.unwrapped.detector_labels
+    assert labels[:3] == ["hopfield", "hopfield_adapted", "soc"] and "tracker_tau" in labels
+    assert set(obs) == set(labels) | {"theta_hat", "alarm", "robot"}
     assert obs in env.observation_space
     obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
     assert obs in env.observation_space
     assert isinstance(reward, float) and not terminated and not truncated
+    assert env.unwrapped._native.frame_size == 96
+    env.close()
+    # the old default scenario is one argument away
+    env = gym.make("loomlab/Escape-v0", scenario="escape_default", frame_size=64)
+    obs, info = env.reset(seed=0)
+    assert env.unwrapped.detector_ids == ["hopfield", "soc", "keil2004", "cizek2019", "fu2020"]
     assert info["threat"] is True and info["t_contact_s"] > 0
-    assert env.unwrapped._native.frame_size == 64
     env.close()
 
 
@@ -67,7 +73,7 @@ def test_check_env_passes_for_the_discrete_variant(short_kwargs):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         check_env(env)
-    assert env.action_space == gym.spaces.Discrete(4)
+    assert env.action_space == gym.spaces.Discrete(6)  # the manoeuvres
 
 
 def test_seeded_rollout_repeats_exactly(short_kwargs):
@@ -203,4 +209,5 @@ def test_defaults_and_action_names_are_rusts():
     assert asdict(loomlab.ActionConfig()) == _native.ACTION_DEFAULTS
     assert DISCRETE_ACTIONS == ("none", "dodge_left", "dodge_right", "stop") == _native.DISCRETE_ACTIONS
     assert CONTINUOUS_ACTION_NAMES == ("forward", "yaw_rate", "lateral") == _native.CONTINUOUS_ACTION_NAMES
-    assert gym.make("loomlab/EscapeDiscrete-v0", frame_size=32).action_space.n == len(DISCRETE_ACTIONS)
+    assert gym.make("loomlab/EscapeDiscrete-v0", frame_size=32).action_space.n == len(_native.MANOEUVRE_ACTIONS)
+    assert loomlab.EscapeEnv(frame_size=32, action_type="discrete").action_space.n == len(DISCRETE_ACTIONS)

@@ -72,7 +72,8 @@ def test_clip_actions_clamps_instead(short_kwargs):
 def test_bad_scenarios_raise_scenario_error(tmp_path, short_toml):
     with pytest.raises(loomlab.ScenarioError, match="neither a shipped scenario"):
         EscapeEnv("no/such/scenario.toml")
-    with pytest.raises(loomlab.ScenarioError, match="directory"):
+    # a folder is a suite: an empty one says so
+    with pytest.raises(loomlab.ScenarioError, match="no scenario files"):
         EscapeEnv(tmp_path)
     bad = tmp_path / "bad.toml"
     bad.write_text(short_toml.replace("speed_mps", "sped_mps"))

@@ -62,7 +62,7 @@ def test_make_vec_uses_the_native_vector_env(short_kwargs):
     assert terminated.dtype == np.bool_ and info["t_s"].shape == (2,)
     assert obs in envs.observation_space
     d = gym.make_vec("loomlab/EscapeDiscrete-v0", num_envs=2, **short_kwargs)
-    assert d.single_action_space == gym.spaces.Discrete(4)
+    assert d.single_action_space == gym.spaces.Discrete(6)  # the manoeuvres
 
 
 def test_vector_render(short_kwargs):

@@ -225,6 +225,14 @@ impl Decider {
         &self.rule
     }
 
+    /// The K-of-M count after the last [`Self::decide`]: how many of the last M frames' values
+    /// (after the τ rule and the gate, before persistence) are at or above the rule's alarm
+    /// threshold, and K (`None` without a persistence window, M ≤ 1). Read-only: the decisions do
+    /// not depend on it (the Gymnasium env's decision features read it).
+    pub fn confirmations(&self) -> Option<(usize, usize)> {
+        self.persistence.confirmations(self.rule.alarm_threshold())
+    }
+
     /// Forget the history (new episode).
     pub fn reset(&mut self) {
         self.window.clear();

@@ -31,6 +31,13 @@ impl Persistence {
         self.recent.clear();
     }
 
+    /// K, and how many of the last M values (before this rule; M ≥ 2) are at or above `threshold`:
+    /// the K-of-M count the rule confirms an alarm with (read-only; `None` with M ≤ 1, where the
+    /// value is its own confirmation).
+    pub(super) fn confirmations(&self, threshold: f64) -> Option<(usize, usize)> {
+        (self.m > 1).then(|| (self.recent.iter().filter(|&&v| v >= threshold).count(), self.k))
+    }
+
     /// The K-th largest of the last M values that are numbers (`idle` while fewer than K are);
     /// with M = K the smallest of the last K values (`idle` while fewer have been seen, or when
     /// one is NaN). With M ≤ 1, `value` itself.

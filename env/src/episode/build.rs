@@ -7,7 +7,7 @@ use loomlab_detector::Frame;
 use loomlab_sim::GpuContext;
 
 use super::EscapeEnv;
-use super::slots::{DetectorSlot, slot_controller};
+use super::slots::{DetectorSlot, detector_instances, slot_controller};
 use crate::features::{Normalizer, PrivilegedPercept};
 use crate::{EnvError, EnvOptions, EnvScenario, EpisodeRng, ScenarioEpisodes, shared_gpu_context};
 
@@ -62,18 +62,23 @@ impl EscapeEnv {
                 ));
             }
         }
-        let mut detectors = Vec::new();
-        let mut built = Vec::new();
-        let mut signal_names = Vec::new();
-        for spec in &first.detectors {
-            let mut detector = spec.build(n as usize)?;
+        let (instances, owners) = detector_instances(&first.detectors);
+        let mut built = Vec::with_capacity(owners.len());
+        let mut instance_names = Vec::with_capacity(owners.len());
+        for &row in &owners {
+            let mut detector = first.detectors[row].build(n as usize)?;
             // learn the auxiliary signal names (fixed per detector) from one blank frame
             let probe = detector.step(&Frame::uniform(n as usize, 0.5))?;
             detector.reset();
             let mut names = vec!["output".to_string()];
             names.extend(probe.aux.iter().map(|(k, _)| (*k).to_string()));
-            signal_names.push(names);
+            instance_names.push(names);
             built.push(detector);
+        }
+        let mut detectors = Vec::new();
+        let mut signal_names = Vec::new();
+        for (spec, &instance) in first.detectors.iter().zip(&instances) {
+            signal_names.push(instance_names[instance].clone());
             let threshold = options.thresholds.get(&spec.label).copied().unwrap_or(spec.threshold);
             let (controller, decider) = slot_controller(spec, &first.controller, &first.facts, threshold);
             detectors.push(DetectorSlot {
@@ -85,6 +90,7 @@ impl EscapeEnv {
                 controller,
                 decider,
                 trace: Vec::new(),
+                instance,
             });
         }
         let agent = EscapeAgent::new(built, detectors[0].controller.clone(), first.facts)?;

@@ -135,6 +135,9 @@ pub struct StepInfo {
     pub controller_continuous: [f32; 3],
     /// The same as a discrete action.
     pub controller_discrete: DiscreteAction,
+    /// The same as a manoeuvre action index ([`crate::MANOEUVRE_ACTIONS`]: 0 cruise, 1 and 2 a
+    /// dodge to the left or right, 3 stop, 4 reverse; the plan's choice is one of these).
+    pub controller_manoeuvre: usize,
     /// The terms of the last reward (summed over the camera periods of a repeated action).
     pub reward_terms: RewardTerms,
     /// The scored outcome, on the step that ends the episode (terminated or truncated).

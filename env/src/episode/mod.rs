@@ -178,6 +178,19 @@ impl EscapeEnv {
         self.running.as_ref().map(|r| r.sim.frame_u8()).unwrap_or_default()
     }
 
+    /// The simulator seed of the current episode (`None` before the first reset): drawn from the
+    /// seed stream, in the stream's half of the seeds when the options name one
+    /// ([`crate::SeedStream`]).
+    pub fn episode_seed(&self) -> Option<u64> {
+        self.running.as_ref().map(|r| r.sim_seed)
+    }
+
+    /// The expanded episode being run (`None` before the first reset): its scenario, tier and
+    /// parameters.
+    pub fn episode_spec(&self) -> Option<&EpisodeSpec> {
+        self.running.as_ref().map(|r| &r.spec)
+    }
+
     /// Whether an episode is running (reset and not ended).
     pub fn is_running(&self) -> bool {
         self.running.as_ref().is_some_and(|r| !r.done)

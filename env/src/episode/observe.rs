@@ -8,8 +8,9 @@ use loomlab_sim::StepOutput;
 
 use super::step::deviation;
 use super::{AGENT_LABEL, EpisodeSummary, EscapeEnv, Observation, ROBOT_LIMIT, SIGNAL_LIMIT, StepInfo};
-use crate::features::ObsMode;
+use crate::features::{DecisionFrame, ObsMode, RowDecision, decision_features};
 use crate::{EnvError, RewardTerms};
+use loomlab_detector::{ImageRegion, PerceivedObject};
 
 /// A detector value for the observation: finite, clamped into ±[`SIGNAL_LIMIT`] (non-finite: 0).
 fn finite_or_zero(v: f64) -> f32 {
@@ -29,11 +30,31 @@ fn to_u8(v: f32) -> u8 {
     (v.clamp(0.0, 1.0) * 255.0).round() as u8
 }
 
+/// The manoeuvre action ([`crate::MANOEUVRE_ACTIONS`]) closest in meaning to `command` given the
+/// cruise command: cruise, a dodge by the side it moves or turns to, reverse when it drives
+/// backwards, else stop.
+fn manoeuvre_index(command: VelocityCommand, cruise: VelocityCommand) -> usize {
+    const EPS: f64 = 1e-9;
+    if command == cruise {
+        0
+    } else if command.lateral_mps > cruise.lateral_mps + EPS || command.yaw_rate_rps > cruise.yaw_rate_rps + EPS {
+        1
+    } else if command.lateral_mps < cruise.lateral_mps - EPS || command.yaw_rate_rps < cruise.yaw_rate_rps - EPS {
+        2
+    } else if command.forward_mps < -EPS {
+        4
+    } else {
+        3
+    }
+}
+
 impl EscapeEnv {
     /// Steps the detectors (not on the reset frame), the shadow controller and the bookkeeping.
+    /// The frame's pixels are moved into the detectors' frame (no copy): `out.frame` is empty
+    /// afterwards.
     pub(super) fn process(
         &mut self,
-        out: &StepOutput,
+        out: &mut StepOutput,
         done: bool,
         terms: RewardTerms,
     ) -> Result<(Observation, StepInfo), EnvError> {
@@ -51,33 +72,58 @@ impl EscapeEnv {
         let mut alarm = Vec::with_capacity(nd);
         let mut theta_hat = None;
         let mut looming_side = None;
-        let (controller_continuous, controller_discrete);
+        let decision_mode = self.options.obs_mode == ObsMode::Decision;
+        let mut rows: Vec<RowDecision> = Vec::new();
+        let mut track: Option<ImageRegion> = None;
+        let mut objects: Vec<PerceivedObject> = Vec::new();
+        let (controller_continuous, controller_discrete, controller_manoeuvre);
+        // the observed frame (when asked for) before the pixels move into the detectors' frame
+        let frame_u8: Option<Vec<u8>> = self
+            .options
+            .observe_frames
+            .then(|| out.frame.iter().map(|&v| to_u8(v)).collect());
         if out.frame_index == 0 {
             // the reset frame: detectors see their first frame in the first step
-            for names in &self.signal_names {
+            for (names, d) in self.signal_names.iter().zip(&self.detectors) {
                 signals.push(vec![0.0; names.len()]);
                 alarm.push(false);
+                if decision_mode {
+                    rows.push(RowDecision::idle(d.threshold));
+                }
             }
             controller_continuous = self.normalised(cruise_now);
             controller_discrete = DiscreteAction::None;
+            controller_manoeuvre = 0;
         } else {
-            let frame = Frame::from_f32(n, out.frame.clone())?;
+            let frame = Frame::from_f32(n, std::mem::take(&mut out.frame))?;
             // the robot's own motion during the last period, as the agent's controller sees it
             let last = self.agent.controller().last_command().unwrap_or(cruise_now);
             let motion = SelfMotion::of(last, camera.shake_rad);
             let step = self.agent.step_posed(out.t_s, &frame, cruise_now, Some(&camera))?;
-            for (d, s) in self.detectors.iter_mut().zip(&step.signals) {
+            for d in self.detectors.iter_mut() {
+                let s = &step.signals[d.instance];
                 let raw = d.trigger.value(s).unwrap_or(f64::NAN);
                 // a stateful row's value is its decider's, as the agent computes it
-                let value = match &mut d.decider {
-                    Some(decider) => {
-                        decider
-                            .decide_on_detector(out.t_s, raw, step.looming_side, s.region.as_ref(), motion)
-                            .value
-                    }
-                    None => raw,
-                };
+                let decided = d.decider.as_mut().map(|decider| {
+                    let decision =
+                        decider.decide_on_detector(out.t_s, raw, step.looming_side, s.region.as_ref(), motion);
+                    (decision, decider.confirmations())
+                });
+                let value = decided.map_or(raw, |(decision, _)| decision.value);
                 alarm.push(value >= d.threshold);
+                if decision_mode {
+                    rows.push(RowDecision {
+                        value,
+                        threshold: d.threshold,
+                        theta_hat_deg: s.angular_size_deg,
+                        decision: decided.map(|(decision, _)| decision),
+                        confirmations: decided.and_then(|(_, c)| c),
+                    });
+                    if track.is_none() && s.region.is_some() {
+                        track = s.region;
+                        objects.clone_from(&s.objects);
+                    }
+                }
                 d.trace.push(TraceSample {
                     t_s: out.t_s,
                     signal: value,
@@ -95,6 +141,7 @@ impl EscapeEnv {
             looming_side = step.looming_side;
             controller_continuous = self.normalised(step.command);
             controller_discrete = DiscreteAction::from_command(step.command, cruise_now);
+            controller_manoeuvre = manoeuvre_index(step.command, cruise_now);
         }
         let r = self.running.as_ref().expect("process() runs inside an episode");
         let (dx, dy) = (out.robot.x_m - r.start.x_m, out.robot.y_m - r.start.y_m);
@@ -118,10 +165,7 @@ impl EscapeEnv {
             theta_hat_deg: theta_hat.map(finite_or_zero).unwrap_or(0.0),
             alarm,
             robot,
-            frame: self
-                .options
-                .observe_frames
-                .then(|| out.frame.iter().map(|&v| to_u8(v)).collect()),
+            frame: frame_u8,
             features: None,
         };
         let obs = match self.options.obs_mode {
@@ -132,6 +176,21 @@ impl EscapeEnv {
                 let features = self
                     .privileged
                     .features(&out.truth, &obs, dt, duration_s, &self.options.action, cmd);
+                Observation {
+                    features: Some(features),
+                    ..obs
+                }
+            }
+            ObsMode::Decision => {
+                let dt = r.spec.world.dt();
+                let duration_s = r.frames as f64 * dt;
+                let frame = DecisionFrame {
+                    t_s: out.t_s,
+                    track: track.as_ref(),
+                    objects: &objects,
+                    looming_side,
+                };
+                let features = decision_features(&rows, &frame, &obs, duration_s, &self.options.action, cmd);
                 Observation {
                     features: Some(features),
                     ..obs
@@ -198,6 +257,7 @@ impl EscapeEnv {
             dodging,
             controller_continuous,
             controller_discrete,
+            controller_manoeuvre,
             reward_terms: terms,
             outcome,
         };
@@ -205,6 +265,7 @@ impl EscapeEnv {
             r.last_t_s = out.t_s;
             r.last_ttc_s = ttc_s;
             r.last_angular_size_deg = angular_size_deg.filter(|v| v.is_finite());
+            r.last_looming_side = looming_side;
         }
         Ok((obs, info))
     }

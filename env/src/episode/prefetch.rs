@@ -28,7 +28,7 @@ use loomlab_scenarios::schema::EpisodeSpec;
 use loomlab_scenarios::truth::{EpisodeTruth, open_loop_truth_and_deadline};
 use loomlab_sim::{GpuContext, Renderer};
 
-use crate::{EnvError, EnvOptions, EnvScenario, EpisodeRng, ScenarioEpisodes, background_gpu_context};
+use crate::{EnvError, EnvOptions, EnvScenario, EpisodeRng, ScenarioEpisodes, SeedStream, background_gpu_context};
 
 /// An episode drawn from the seed stream: its spec, its simulator seed and the stream after the
 /// draw.
@@ -39,13 +39,14 @@ pub(super) struct Drawn {
 }
 
 /// What the environment draws from: its scenario (re-expanded at every draw when it has random
-/// ranges) or its fixed episodes.
+/// ranges, a suite always) or its fixed episodes, and the seed stream its draws are tagged with
+/// ([`crate::SeedStream`]).
 pub(super) enum DrawSource<'a> {
     Resample {
         scenario: &'a EnvScenario,
         options: &'a EnvOptions,
     },
-    Fixed(&'a ScenarioEpisodes),
+    Fixed(&'a ScenarioEpisodes, Option<SeedStream>),
 }
 
 impl<'a> DrawSource<'a> {
@@ -59,23 +60,32 @@ impl<'a> DrawSource<'a> {
         if resample {
             DrawSource::Resample { scenario, options }
         } else {
-            DrawSource::Fixed(base)
+            DrawSource::Fixed(base, options.seed_stream)
         }
     }
 
     /// Draws the next episode from `rng` (advancing a copy; the caller takes
-    /// [`Drawn::rng_after`]).
+    /// [`Drawn::rng_after`]). The simulator seed and the expansion seed are tagged with the seed
+    /// stream (their top bit), so the train and eval streams never draw the same seeds.
     pub(super) fn draw(&self, mut rng: EpisodeRng) -> Result<Drawn, EnvError> {
-        let sim_seed = rng.next_u64();
-        let draw = rng.next_u64();
+        let stream = match self {
+            DrawSource::Resample { options, .. } => options.seed_stream,
+            DrawSource::Fixed(_, stream) => *stream,
+        };
+        let tag = |seed: u64| stream.map_or(seed, |s| s.tag(seed));
+        let sim_seed = tag(rng.next_u64());
+        let draw = tag(rng.next_u64());
         let spec = match self {
+            DrawSource::Resample { scenario, options } if scenario.is_suite() => {
+                scenario.draw_episode(options, draw | 1, rng.next_u64())?
+            }
             DrawSource::Resample { scenario, options } => {
                 // a fresh expansion of the random ranges (a nonzero seed mixed into the file's)
                 let sc = scenario.load(options, draw | 1)?;
                 let i = (rng.next_u64() % sc.episodes.len() as u64) as usize;
                 sc.episodes[i].clone()
             }
-            DrawSource::Fixed(base) => base.episodes[(draw % base.episodes.len() as u64) as usize].clone(),
+            DrawSource::Fixed(base, _) => base.episodes[(draw % base.episodes.len() as u64) as usize].clone(),
         };
         Ok(Drawn {
             spec,
@@ -201,7 +211,7 @@ impl Prefetcher {
                     .draw(rng)
                 })
             }
-            DrawSource::Fixed(_) => {
+            DrawSource::Fixed(..) => {
                 let drawn = source.draw(rng);
                 Box::new(move || drawn)
             }

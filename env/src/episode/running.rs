@@ -2,13 +2,13 @@
 
 use std::sync::Arc;
 
-use loomlab_agents::VelocityCommand;
+use loomlab_agents::{EscapeAgent, VelocityCommand};
 use loomlab_scenarios::metrics::TraceSample;
 use loomlab_scenarios::schema::EpisodeSpec;
 use loomlab_sim::{RobotState, Sim};
 
 use super::prefetch::{DrawSource, OpenLoop, Prepared, open_loop};
-use super::slots::slot_controller;
+use super::slots::{detector_instances, slot_controller};
 use super::{Action, EpisodeStart, EscapeEnv, Observation, StepInfo};
 use crate::{EnvError, EpisodeRng, RewardTerms};
 
@@ -41,6 +41,11 @@ pub(super) struct Running {
     pub(super) last_t_s: f64,
     pub(super) last_ttc_s: Option<f64>,
     pub(super) last_angular_size_deg: Option<f64>,
+    /// The looming side of the last observation (image x; what the manoeuvre actions dodge away
+    /// from).
+    pub(super) last_looming_side: Option<f32>,
+    /// The simulator seed the episode runs with.
+    pub(super) sim_seed: u64,
 }
 
 impl EscapeEnv {
@@ -118,11 +123,26 @@ impl EscapeEnv {
             None => Sim::with_context(&spec.world, sim_seed, Arc::clone(&self.ctx))?,
         };
         let t_deadline_s = deadline.and_then(|d| d.t_s);
-        for (i, (slot, d)) in self.detectors.iter_mut().zip(&spec.detectors).enumerate() {
-            if slot.params != d.params {
-                self.agent.replace_detector(i, d.build(self.n as usize)?);
-                slot.params = d.params.clone();
+        // detectors of other parameters than the last episode's (a sweep of them): built afresh
+        let (instances, owners) = detector_instances(&spec.detectors);
+        let same_layout = self.detectors.iter().map(|s| s.instance).eq(instances.iter().copied());
+        if !same_layout {
+            let built = owners
+                .iter()
+                .map(|&row| spec.detectors[row].build(self.n as usize))
+                .collect::<Result<Vec<_>, _>>()?;
+            self.agent = EscapeAgent::new(built, self.agent.controller().config().clone(), spec.facts)?;
+        } else {
+            for (k, &row) in owners.iter().enumerate() {
+                if self.detectors[row].params != spec.detectors[row].params {
+                    self.agent
+                        .replace_detector(k, spec.detectors[row].build(self.n as usize)?);
+                }
             }
+        }
+        for ((slot, d), &instance) in self.detectors.iter_mut().zip(&spec.detectors).zip(&instances) {
+            slot.params = d.params.clone();
+            slot.instance = instance;
             slot.trace.clear();
             slot.trigger = d.trigger;
             slot.threshold = self.options.thresholds.get(&d.label).copied().unwrap_or(d.threshold);
@@ -131,7 +151,7 @@ impl EscapeEnv {
         self.agent
             .set_controller(self.detectors[0].controller.clone(), spec.facts)?;
         self.agent.reset();
-        let first = sim.observe()?;
+        let mut first = sim.observe()?;
         let start = first.robot;
         let cruise = spec.cruise.command_at(0.0);
         self.running = Some(Running {
@@ -156,9 +176,11 @@ impl EscapeEnv {
             last_t_s: 0.0,
             last_ttc_s: None,
             last_angular_size_deg: None,
+            last_looming_side: None,
+            sim_seed,
         });
         self.normalizer.reset(self.detectors.len());
         self.privileged.reset();
-        self.process(&first, false, RewardTerms::default())
+        self.process(&mut first, false, RewardTerms::default())
     }
 }

@@ -1,6 +1,8 @@
 //! Stepping: actions to velocity commands, one camera period, reward and termination.
 
-use loomlab_agents::{ContinuousAction, DiscreteAction, VelocityCommand};
+#[cfg(doc)]
+use loomlab_agents::EscapeConfig;
+use loomlab_agents::{Candidate, ContinuousAction, DiscreteAction, DodgeSide, VelocityCommand};
 use loomlab_scenarios::metrics::{TIME_EPS_S, TraceSample};
 use loomlab_scenarios::reference::INDICATOR_THRESHOLD;
 use loomlab_sim::{Sim, StepOutput};
@@ -90,11 +92,43 @@ impl EscapeEnv {
             (ActionKind::Discrete, Action::Discrete(i)) => {
                 Ok(DiscreteAction::from_index(i)?.to_command(self.cruise(), cfg))
             }
+            (ActionKind::Manoeuvre, Action::Discrete(i)) => self.manoeuvre_command(i),
             (kind, a) => Err(EnvError::ActionKind {
                 expected: kind.as_str(),
                 got: a.kind_name(),
             }),
         }
+    }
+
+    /// The command of manoeuvre action `index` now ([`crate::MANOEUVRE_ACTIONS`]): the scenario's
+    /// escape controller's command for that manoeuvre ([`EscapeConfig::command`], the first row's
+    /// configuration, the episode's robot base); `plan` runs the candidate the shadow controller's
+    /// planner chooses now, preferring the dodge away from the looming side
+    /// ([`loomlab_agents::EscapeController::planned_candidate`]).
+    pub(crate) fn manoeuvre_command(&self, index: i64) -> Result<VelocityCommand, EnvError> {
+        let cruise = self.cruise();
+        let count = crate::MANOEUVRE_ACTIONS.len();
+        let Some(i) = usize::try_from(index).ok().filter(|&i| i < count) else {
+            return Err(EnvError::InvalidManoeuvre { index });
+        };
+        let controller = self.agent.controller();
+        let config = controller.config();
+        let (base, t_s, seen) = match &self.running {
+            Some(r) => (r.spec.facts.base, r.last_t_s, r.last_looming_side),
+            None => (controller.facts().base, 0.0, None),
+        };
+        let candidate = match i {
+            0 => return Ok(cruise),
+            1 => Candidate::dodge(DodgeSide::Left),
+            2 => Candidate::dodge(DodgeSide::Right),
+            3 => Candidate::ALL[2],
+            4 => Candidate::ALL[3],
+            _ => {
+                let side = DodgeSide::away_from(seen, config.side_deadband, config.default_side);
+                controller.planned_candidate(t_s, side, cruise)
+            }
+        };
+        Ok(config.command(candidate, cruise, base))
     }
 
     /// Applies a velocity command for one camera period (the Rust-side interface; only actions
@@ -150,7 +184,7 @@ impl EscapeEnv {
         &mut self,
         command: VelocityCommand,
         cruise: VelocityCommand,
-        out: StepOutput,
+        mut out: StepOutput,
     ) -> Result<StepResult, EnvError> {
         let max_steps = self.options.max_episode_steps;
         let Some(r) = self.running.as_mut() else {
@@ -191,7 +225,7 @@ impl EscapeEnv {
         let truncated = !terminated && max_steps.is_some_and(|m| r.steps >= m);
         r.done = terminated || truncated;
         let done = r.done;
-        let (obs, info) = self.process(&out, done, terms)?;
+        let (obs, info) = self.process(&mut out, done, terms)?;
         Ok(StepResult {
             obs,
             reward: terms.total(),

@@ -3,8 +3,10 @@
 Importing the package registers the Gymnasium ids
 
 - ``loomlab/Escape-v0``: continuous velocity commands (``Box(-1, 1, (3,))``),
-- ``loomlab/EscapeDiscrete-v0``: none / dodge left / dodge right / stop (``Discrete(4)``),
+- ``loomlab/EscapeDiscrete-v0``: the escape controller's manoeuvres: cruise / sidestep left /
+  sidestep right / stop / reverse / plan (``Discrete(6)``),
 
+both on the default suite (``scenarios/suites/default``, its camera size and detector rows) and
 both with a native vector entry point, so ``gymnasium.make_vec(id, num_envs=N)`` steps N
 environments on Rust threads.
 
@@ -42,7 +44,7 @@ from ._native import (
     SweepError,
 )
 from .detectors import PythonDetector
-from .env import SENSOR_PROFILES, ActionConfig, EscapeEnv, RewardConfig, SensorProfileError
+from .env import DEFAULT_SUITE_ARG, SENSOR_PROFILES, ActionConfig, EscapeEnv, RewardConfig, SensorProfileError
 from .vector import EscapeVectorEnv
 
 __version__ = _native.__version__
@@ -160,8 +162,8 @@ def detector_ids() -> List[str]:
 
 def _register() -> None:
     for env_id, kwargs in (
-        ("loomlab/Escape-v0", {}),
-        ("loomlab/EscapeDiscrete-v0", {"action_type": "discrete"}),
+        ("loomlab/Escape-v0", {"scenario": DEFAULT_SUITE_ARG, "frame_size": None}),
+        ("loomlab/EscapeDiscrete-v0", {"scenario": DEFAULT_SUITE_ARG, "frame_size": None, "action_type": "manoeuvre"}),
     ):
         if env_id in gym.registry:
             continue

@@ -3,7 +3,7 @@
 Checked against the built module by ``make lint`` (``python -m mypy.stubtest loomlab._native``).
 """
 
-from typing import Any, Dict, List, Optional, Tuple, final
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union, final
 
 import numpy as np
 import numpy.typing as npt
@@ -36,6 +36,8 @@ __all__ = [
     "ACTION_DEFAULTS",
     "DISCRETE_ACTIONS",
     "CONTINUOUS_ACTION_NAMES",
+    "MANOEUVRE_ACTIONS",
+    "DEFAULT_SUITE",
     "FEATURE_SCALES",
     "OBS_MODES",
     "SENSOR_PROFILES",
@@ -51,6 +53,8 @@ REWARD_DEFAULTS: Dict[str, float]
 ACTION_DEFAULTS: Dict[str, float]
 DISCRETE_ACTIONS: Tuple[str, ...]
 CONTINUOUS_ACTION_NAMES: Tuple[str, ...]
+MANOEUVRE_ACTIONS: Tuple[str, ...]
+DEFAULT_SUITE: str
 FEATURE_SCALES: Dict[str, float]
 OBS_MODES: Tuple[str, ...]
 SENSOR_PROFILES: Tuple[str, ...]
@@ -83,12 +87,19 @@ class EscapeEnv:
     """One environment (the engine of the Gymnasium class ``loomlab.EscapeEnv``)."""
 
     def __new__(
-        cls, scenario: Optional[str] = None, scenario_toml: Optional[str] = None, options_json: str = "{}"
+        cls,
+        scenario: Union[str, Sequence[str], None] = None,
+        scenario_toml: Optional[str] = None,
+        options_json: str = "{}",
     ) -> Self: ...
     @staticmethod
     def from_suite(
         suite: Optional[str], seed: int, limit: Optional[int] = None, options_json: str = "{}"
     ) -> EscapeEnv: ...
+    @property
+    def episode_seed(self) -> Optional[int]: ...
+    @property
+    def episode_scenario(self) -> Optional[str]: ...
     @property
     def num_episodes(self) -> int: ...
     def reset_to_episode(self, index: int) -> Tuple[_Obs, _Info]: ...
@@ -141,7 +152,7 @@ class EscapeVectorEnv:
     def __new__(
         cls,
         num_envs: int,
-        scenario: Optional[str] = None,
+        scenario: Union[str, Sequence[str], None] = None,
         scenario_toml: Optional[str] = None,
         options_json: str = "{}",
     ) -> Self: ...
@@ -186,6 +197,16 @@ class EscapeVectorEnv:
     def step_discrete(
         self, actions: npt.NDArray[np.int64]
     ) -> Tuple[_Obs, npt.NDArray[np.float64], npt.NDArray[np.bool_], npt.NDArray[np.bool_], _Info]: ...
+    def step_train(
+        self, actions: npt.NDArray[Any]
+    ) -> Tuple[
+        npt.NDArray[np.float32],
+        npt.NDArray[np.float32],
+        npt.NDArray[np.bool_],
+        npt.NDArray[np.bool_],
+        npt.NDArray[np.float32],
+        List[Tuple[int, Dict[str, Any]]],
+    ]: ...
     def reset_envs(self, indices: List[int]) -> Tuple[_Obs, _Info]: ...
     def frames(self) -> npt.NDArray[np.uint8]: ...
     def snapshot(self) -> str: ...

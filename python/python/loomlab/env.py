@@ -15,7 +15,7 @@ import math
 import os
 import weakref
 from dataclasses import asdict, dataclass
-from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import gymnasium as gym
 import numpy as np
@@ -48,9 +48,50 @@ DISCRETE_ACTIONS: Tuple[str, ...] = tuple(_native.DISCRETE_ACTIONS)
 CONTINUOUS_ACTION_NAMES: Tuple[str, ...] = tuple(_native.CONTINUOUS_ACTION_NAMES)
 """Names of the continuous action components (each in [-1, 1]; Rust ``ContinuousAction::NAMES``)."""
 
+MANOEUVRE_ACTIONS: Tuple[str, ...] = tuple(_native.MANOEUVRE_ACTIONS)
+"""Names of the manoeuvre actions (``action_type="manoeuvre"``), by index: the escape controller's
+manoeuvres (Rust ``loomlab_env::MANOEUVRE_ACTIONS``)."""
+
 OBS_MODES: Tuple[str, ...] = tuple(_native.OBS_MODES)
-"""Observation modes: ``"raw"`` (detector outputs as they are), ``"normalized"`` (bounded features) and
-``"privileged"`` (the true percept of the most threatening object: a learnability check)."""
+"""Observation modes: ``"raw"`` (detector outputs as they are), ``"normalized"`` (bounded features),
+``"privileged"`` (the true percept of the most threatening object: a learnability check) and
+``"decision"`` (every row's decision quantities: τ̂, the course gate, the predicted arrival, the
+K-of-M count, the alarm, and the tracks' boxes; ``loomlab_env::features``)."""
+
+ACTION_TYPES: Tuple[str, ...] = ("continuous", "discrete", "manoeuvre")
+"""Action spaces (``action_type=``)."""
+
+SEED_STREAMS: Tuple[str, ...] = ("train", "eval")
+"""Seed streams (``seed_stream=``): disjoint halves of the seeds (the top bit of every drawn seed)."""
+
+DEFAULT_SUITE_ARG = "suite:default"
+"""The ``scenario`` of the registered ids: the default suite (``scenarios/suites/default``, the suite
+``loomlab run`` runs). ``suite:NAME`` names a suite folder of the repository
+(``scenarios/suites/NAME``), found from the checkout the package is built from, the working
+directory, or ``$LOOMLAB_SUITES`` (a folder holding the suite folders)."""
+
+
+def suite_path(name: str) -> str:
+    """The folder of suite ``name`` (``"default"``, ``"heldout"``): see :data:`DEFAULT_SUITE_ARG`.
+
+    Raises:
+        ScenarioError: no such folder; the message lists where it looked and the fix.
+    """
+    here = os.path.dirname(os.path.abspath(__file__))
+    roots = [os.environ.get("LOOMLAB_SUITES"), os.path.join(here, "..", "..", "..", "scenarios", "suites")]
+    roots.append(os.path.join(os.getcwd(), "scenarios", "suites"))
+    tried = []
+    for root in roots:
+        if root:
+            path = os.path.normpath(os.path.join(root, name))
+            tried.append(path)
+            if os.path.isdir(path):
+                return path
+    raise ScenarioError(
+        f"suite `suite:{name}` not found (looked in {', '.join(tried)}); run from the repository root, set "
+        "LOOMLAB_SUITES to the folder holding the suite folders, or pass scenario= a suite folder or file"
+    )
+
 
 SENSOR_PROFILES: Tuple[str, ...] = tuple(_native.SENSOR_PROFILES)
 """Camera sensor profiles (``sensor=``): ``"ideal"`` (noiseless, instantaneous) and ``"robot"`` (exposure
@@ -168,6 +209,8 @@ def build_options(
     action_repeat: int = 1,
     dodge_hold_s: float = 0.0,
     sensor: Optional[str] = None,
+    tiers: Optional[Sequence[int]] = None,
+    seed_stream: Optional[str] = None,
 ) -> Dict[str, Any]:
     """The options dict passed (as JSON, :func:`options_json`) to the native environment.
 
@@ -181,8 +224,12 @@ def build_options(
         detectors = [d.strip() for d in detectors.split(",") if d.strip()]
         if detectors == ["all"]:
             detectors = list(_native.detector_ids())
-    if action_type not in ("continuous", "discrete"):
-        raise ScenarioError(f"action_type must be 'continuous' or 'discrete', got {action_type!r}")
+    if action_type not in ACTION_TYPES:
+        raise _option_error("action_type", action_type, f"must be one of {', '.join(map(repr, ACTION_TYPES))}")
+    if seed_stream is not None and seed_stream not in SEED_STREAMS:
+        raise _option_error(
+            "seed_stream", seed_stream, "must be 'train', 'eval' (disjoint halves of the seeds) or None (either)"
+        )
     if obs_mode not in OBS_MODES:
         raise _option_error("obs_mode", obs_mode, f"must be one of {', '.join(map(repr, OBS_MODES))}")
     opts: Dict[str, Any] = {
@@ -196,6 +243,8 @@ def build_options(
         "obs_mode": obs_mode,
         "action_repeat": _json_option("action_repeat", action_repeat),
         "dodge_hold_s": _json_option("dodge_hold_s", dodge_hold_s),
+        "tiers": _json_option("tiers", list(tiers) if tiers is not None else None),
+        "seed_stream": seed_stream,
     }
     if sensor is not None:
         if not isinstance(sensor, str) or sensor not in SENSOR_PROFILES:
@@ -215,9 +264,11 @@ def make_spaces(native: Any) -> Tuple[spaces.Space, spaces.Space]:
     """The single-environment observation and action spaces of a native environment."""
     if native.action_kind == "discrete":
         action: spaces.Space = spaces.Discrete(len(DISCRETE_ACTIONS))
+    elif native.action_kind == "manoeuvre":
+        action = spaces.Discrete(len(MANOEUVRE_ACTIONS))
     else:
         action = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
-    if native.obs_mode in ("normalized", "privileged"):
+    if native.obs_mode in ("normalized", "privileged", "decision"):
         features = spaces.Box(
             np.asarray(native.feature_low, dtype=np.float32),
             np.asarray(native.feature_high, dtype=np.float32),
@@ -241,10 +292,22 @@ def make_spaces(native: Any) -> Tuple[spaces.Space, spaces.Space]:
     return spaces.Dict(obs), action
 
 
-def _scenario_arg(scenario: Union[str, os.PathLike, None]) -> Optional[str]:
+def _scenario_arg(
+    scenario: Union[str, os.PathLike, Sequence[Union[str, os.PathLike]], None],
+) -> Union[str, List[str], None]:
+    """The native ``scenario`` argument: a name or path, ``suite:NAME`` resolved to its folder, or a
+    list of paths (one suite)."""
     if scenario is None:
         return None
-    return os.fspath(scenario)
+    if isinstance(scenario, (str, os.PathLike)):
+        s = os.fspath(scenario)
+        if isinstance(s, str) and s.startswith("suite:"):
+            return suite_path(s[len("suite:") :])
+        return str(s)
+    paths = [str(os.fspath(p)) for p in scenario]
+    if not paths:
+        raise _option_error("scenario", scenario, "give at least one scenario file or suite folder")
+    return paths
 
 
 _OPTION_KEYS = (
@@ -261,6 +324,8 @@ _OPTION_KEYS = (
     "action_repeat",
     "dodge_hold_s",
     "sensor",
+    "tiers",
+    "seed_stream",
 )
 
 
@@ -272,9 +337,15 @@ def _native_options(kwargs: Mapping[str, Any]) -> str:
 def _constructor_kwargs(**kwargs: Any) -> Dict[str, Any]:
     """The constructor arguments of an environment as plain data (what pickling replays)."""
     detectors = kwargs["detectors"]
+    scenario = kwargs["scenario"]
+    if scenario == DEFAULT_SUITE_ARG and kwargs.get("scenario_toml") is not None:
+        # scenario TOML text replaces the registered ids' default suite
+        scenario = None
+    tiers = kwargs.get("tiers")
     return dict(
         kwargs,
-        scenario=_scenario_arg(kwargs["scenario"]),
+        scenario=_scenario_arg(scenario),
+        tiers=[int(t) for t in tiers] if tiers is not None else None,
         detectors=list(detectors) if detectors is not None and not isinstance(detectors, str) else detectors,
         thresholds=dict(kwargs["thresholds"]) if kwargs["thresholds"] is not None else None,
         action_config=_as_dict(kwargs["action_config"]),
@@ -326,8 +397,16 @@ class EscapeEnv(gym.Env):
 
     - ``loomlab/Escape-v0``: ``Box(-1, 1, (3,), float32)``: ``[forward, yaw_rate, lateral]``, scaled
       by ``ActionConfig``'s maxima (3 m/s, 1.5 rad/s, 1.5 m/s) to an absolute velocity command.
-    - ``loomlab/EscapeDiscrete-v0``: ``Discrete(4)``: 0 none (cruise), 1 dodge left, 2 dodge right
+    - ``loomlab/EscapeDiscrete-v0``: ``Discrete(6)`` (``action_type="manoeuvre"``): the escape
+      controller's manoeuvres, each the command the scenario's ``[controller]`` gives for it
+      (``EscapeConfig::command``): 0 cruise, 1 sidestep left, 2 sidestep right, 3 stop, 4 reverse,
+      5 the planner's choice (the candidate with the largest predicted clearance from every
+      perceived object, ``agents/src/planner.rs``).
+    - ``action_type="discrete"``: ``Discrete(4)``: 0 none (cruise), 1 dodge left, 2 dodge right
       (the cruise command plus ``dodge_speed_mps`` sideways), 3 stop.
+
+    Both registered ids serve the default suite (``scenario="suite:default"``, at its camera size,
+    with its ``[[detectors]]`` rows and their decision rules).
 
     ## Observation Space
 
@@ -405,22 +484,29 @@ class EscapeEnv(gym.Env):
     first observation on which it departed from cruising): what :func:`loomlab.evaluate` reports.
 
     Args:
-        scenario: a shipped scenario name (``loomlab.scenario_names()``) or a path to a scenario TOML
-            file; ``None``: the default scenario.
+        scenario: a shipped scenario name (``loomlab.scenario_names()``), a path to a scenario TOML
+            file, a suite (a folder, a list file, ``suite:NAME`` or a list of scenario files), loaded
+            as ``loomlab run`` loads it; ``None``: the scenario ``escape_default``.
         scenario_toml: scenario TOML text instead of ``scenario``.
+        tiers: suites only: keep the scenarios of these difficulty tiers (0 to 3), as
+            ``loomlab run --tier``; ``None``: all.
+        seed_stream: ``"train"`` or ``"eval"``: resets draw seeds from that half of the seeds only (the
+            top bit of every drawn simulator and expansion seed), so held-out evaluation episodes are
+            never training ones; ``None``: either half.
         detectors: detector ids (list or comma-separated, ``"all"``); ``None``: the scenario's.
         thresholds: alarm thresholds by detector id (θ̂ degrees for hopfield, output for baselines,
             the urgency 1/τ in 1/s for rows with trigger = "tau"; the strategy itself comes from the
             scenario's [[detectors]] entry).
         frame_size: camera frame size n (default 64; ``None``: the scenario's).
         observe_frames: include the egocentric frame (uint8, n×n) in the observation.
-        action_type: ``"continuous"`` (Box(-1, 1, (3,)): forward, yaw rate, lateral) or
-            ``"discrete"`` (none, dodge left, dodge right, stop).
+        action_type: ``"continuous"`` (Box(-1, 1, (3,)): forward, yaw rate, lateral),
+            ``"discrete"`` (none, dodge left, dodge right, stop) or ``"manoeuvre"`` (cruise, sidestep
+            left, sidestep right, stop, reverse, plan).
         action_config: scales of the action mappings (:class:`ActionConfig` or dict).
         clip_actions: clamp continuous actions into [-1, 1] instead of raising :class:`ActionError`.
         reward: reward weights (:class:`RewardConfig` or dict).
         max_episode_steps: truncate episodes after this many camera periods.
-        obs_mode: ``"raw"``, ``"normalized"`` or ``"privileged"`` (see Observation Space).
+        obs_mode: ``"raw"``, ``"normalized"``, ``"privileged"`` or ``"decision"`` (see Observation Space).
         action_repeat: camera periods each action is held for (default 1: one decision per frame;
             ``python -m loomlab.train`` uses 8, 15 Hz: a dodge of 0.6 s is ~5 decisions, an episode
             ~40 instead of ~300).
@@ -440,7 +526,7 @@ class EscapeEnv(gym.Env):
 
     def __init__(
         self,
-        scenario: Union[str, os.PathLike, None] = None,
+        scenario: Union[str, os.PathLike, Sequence[str], None] = None,
         *,
         scenario_toml: Optional[str] = None,
         detectors: Union[str, Sequence[str], None] = None,
@@ -456,6 +542,8 @@ class EscapeEnv(gym.Env):
         action_repeat: int = 1,
         dodge_hold_s: float = 0.0,
         sensor: Optional[str] = None,
+        tiers: Optional[Sequence[int]] = None,
+        seed_stream: Optional[str] = None,
         render_mode: Optional[str] = None,
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -476,6 +564,8 @@ class EscapeEnv(gym.Env):
             action_repeat=action_repeat,
             dodge_hold_s=dodge_hold_s,
             sensor=sensor,
+            tiers=tiers,
+            seed_stream=seed_stream,
             render_mode=render_mode,
         )
         self._native = _native.EscapeEnv(self._kwargs["scenario"], scenario_toml, _native_options(self._kwargs))
@@ -483,7 +573,8 @@ class EscapeEnv(gym.Env):
         self.observation_space, self.action_space = make_spaces(self._native)
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=int(round(1.0 / self._native.dt)))
-        self._discrete = self._native.action_kind == "discrete"
+        self._discrete = self._native.action_kind in ("discrete", "manoeuvre")
+        self._action_names = MANOEUVRE_ACTIONS if self._native.action_kind == "manoeuvre" else DISCRETE_ACTIONS
 
     # --- metadata -------------------------------------------------------------------------------
     @property
@@ -551,7 +642,7 @@ class EscapeEnv(gym.Env):
         """
         self._check_open("step()")
         if self._discrete:
-            return self._native.step_discrete(_discrete_action(action))
+            return self._native.step_discrete(_discrete_action(action, self._action_names))
         a0, a1, a2 = _continuous_action(action)
         return self._native.step_continuous(a0, a1, a2)
 
@@ -603,14 +694,13 @@ class EscapeEnv(gym.Env):
         self._np_random_seed = state.get("np_random_seed")
 
 
-def _discrete_action(action: Any) -> int:
+def _discrete_action(action: Any, names: Sequence[str] = DISCRETE_ACTIONS) -> int:
     a = np.asarray(action)
     if a.shape != () or not np.issubdtype(a.dtype, np.integer):
         if a.shape == () and np.issubdtype(a.dtype, np.floating) and float(a).is_integer():
             return int(a)
         raise ActionError(
-            f"discrete action must be an integer in 0..{len(DISCRETE_ACTIONS) - 1} "
-            f"({', '.join(DISCRETE_ACTIONS)}), got {action!r}"
+            f"discrete action must be an integer in 0..{len(names) - 1} ({', '.join(names)}), got {action!r}"
         )
     return int(a)
 

@@ -18,12 +18,19 @@ from __future__ import annotations
 import json
 import sys
 import time
-from typing import Any, Callable, Dict, Iterable, Optional, Sequence, Union
+from typing import Any, Callable, Dict, Iterable, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from . import _native
-from .env import _continuous_action, _discrete_action, build_options, options_json
+from .env import (
+    DISCRETE_ACTIONS,
+    MANOEUVRE_ACTIONS,
+    _continuous_action,
+    _discrete_action,
+    build_options,
+    options_json,
+)
 
 __all__ = ["evaluate", "policy_function"]
 
@@ -102,7 +109,7 @@ def evaluate(
     rows = []
     for seed in seeds:
         native = _native.EscapeEnv.from_suite(suite, seed, limit, opts)
-        discrete = native.action_kind == "discrete"
+        discrete = native.action_kind in ("discrete", "manoeuvre")
         try:
             for index in range(native.num_episodes):
                 rows.append(_run_episode(native, index, act, discrete))
@@ -122,12 +129,16 @@ def _run_episode(native: Any, index: int, act: Policy, discrete: bool) -> Dict[s
     while True:
         action = act(obs, info)
         if discrete:
-            result = native.step_discrete(_discrete_action(np.asarray(action).reshape(())))
+            result = native.step_discrete(_discrete_action(np.asarray(action).reshape(()), _action_names(native)))
         else:
             result = native.step_continuous(*_continuous_action(np.asarray(action, dtype=np.float32).reshape(3)))
         obs, _, terminated, truncated, info = result
         if terminated or truncated:
             return info["outcome"]["agent"]
+
+
+def _action_names(native: Any) -> Tuple[str, ...]:
+    return MANOEUVRE_ACTIONS if native.action_kind == "manoeuvre" else DISCRETE_ACTIONS
 
 
 def load_policy(path: str, action_type: str = "discrete") -> Policy:
@@ -146,12 +157,12 @@ def load_policy(path: str, action_type: str = "discrete") -> Policy:
     if path.endswith(".npz"):
         z = np.load(path)
         mean = np.asarray(z["mean"])
-        out_dim = 4 if action_type == "discrete" else 3
+        out_dim = {"discrete": len(DISCRETE_ACTIONS), "manoeuvre": len(MANOEUVRE_ACTIONS)}.get(action_type, 3)
         w = mean.reshape(-1, out_dim)
 
         def linear(obs: Any, info: Dict[str, Any]) -> Any:
             v = np.asarray(obs) @ w[:-1] + w[-1]
-            return int(np.argmax(v)) if action_type == "discrete" else np.tanh(v).astype(np.float32)
+            return int(np.argmax(v)) if action_type != "continuous" else np.tanh(v).astype(np.float32)
 
         return linear
     raise SystemExit(f"{path}: not a policy (.zip from PPO, .npz from CEM, or `threshold`)")
@@ -203,7 +214,9 @@ def main(argv: Optional[Sequence[str]] = None) -> None:
     p.add_argument("--suite", default=None, help="shipped scenario name or suite path (default: escape_default)")
     p.add_argument("--seeds", type=parse_seeds, default="2000-2024", help="held-out seeds (default 2000-2024)")
     p.add_argument("--limit", type=int, default=None, help="episodes per seed (default: all)")
-    p.add_argument("--env", choices=["discrete", "continuous"], default="discrete", help="the policy's action space")
+    p.add_argument(
+        "--env", choices=["discrete", "continuous", "manoeuvre"], default="discrete", help="the policy's action space"
+    )
     p.add_argument("--label", default="ppo", help="the policy's row (default ppo)")
     p.add_argument(
         "--obs",

@@ -65,7 +65,9 @@ import numpy as np
 
 from .evaluation import _run_episode, policy_function
 
-ENV_IDS = {"discrete": "loomlab/EscapeDiscrete-v0", "continuous": "loomlab/Escape-v0"}
+ENV_ACTION_TYPES = ("continuous", "discrete", "manoeuvre")
+"""``--env`` → the environment's ``action_type`` (``manoeuvre``: the escape controller's manoeuvres,
+``loomlab/EscapeDiscrete-v0``'s actions)."""
 PROGRESS_FIELDS = [
     "steps",
     "wall_s",
@@ -101,7 +103,7 @@ def parse_seeds(text: str) -> List[int]:
     return seeds
 
 
-OBS_MODES = {"detectors": "normalized", "privileged": "privileged"}
+OBS_MODES = {"detectors": "normalized", "privileged": "privileged", "decision": "decision"}
 """``--obs`` → the environment's ``obs_mode``."""
 
 CURRICULUM_RADIUS_SCALE = 1.25
@@ -175,6 +177,8 @@ def make_vec_env(args: argparse.Namespace, curriculum: bool = False):
         dodge_hold_s=args.dodge_hold_s,
         max_episode_steps=args.max_episode_steps,
         reward=_reward(args),
+        tiers=args.tiers,
+        seed_stream="train",
     )
 
 
@@ -199,7 +203,7 @@ def quick_eval(policy: Any, args: argparse.Namespace) -> Dict[str, float]:
         native = _native.EscapeEnv.from_suite(args.scenario, seed, args.eval_limit, opts)
         try:
             for i in range(native.num_episodes):
-                rows.append(_run_episode(native, i, act, args.env == "discrete"))
+                rows.append(_run_episode(native, i, act, args.env != "continuous"))
         finally:
             native.close()
     n = len(rows)
@@ -267,6 +271,15 @@ def sb3_vec_env(venv: Any) -> Any:
             self._actions = actions
 
         def step_wait(self) -> Any:
+            if self.venv.trains_fast:
+                # one native call: step, same-step auto-reset, flat arrays (EscapeVectorEnv.step_train)
+                obs, rew, term, trunc, last, _ = self.venv.step_train(self._actions)
+                done = np.logical_or(term, trunc)
+                infos = [{} for _ in range(self.num_envs)]
+                for i in np.flatnonzero(done):
+                    infos[i]["terminal_observation"] = last[i]
+                    infos[i]["TimeLimit.truncated"] = bool(trunc[i] and not term[i])
+                return obs, rew, done, infos
             obs, rew, term, trunc, _ = self.venv.step(self._actions)
             done = np.logical_or(term, trunc)
             infos: List[Dict[str, Any]] = [{} for _ in range(self.num_envs)]
@@ -339,7 +352,7 @@ def _ppo(args: argparse.Namespace, vec: Any, resume_from: Optional[str]) -> Any:
             device="cpu",
             verbose=0,
         )
-        if args.env == "discrete" and args.cruise_bias:
+        if args.env != "continuous" and args.cruise_bias:
             # start from a policy that mostly cruises: a random policy departs from cruising on almost
             # every step, so every episode without a threat pays the false-alarm penalty whatever the
             # policy does later, and no single action gets the credit for not dodging
@@ -405,7 +418,7 @@ class _CemLearner:
         self.steps = steps
         self.curriculum = steps < args.curriculum_steps
         self.venv = make_vec_env(args, self.curriculum)
-        self.discrete = args.env == "discrete"
+        self.discrete = args.env != "continuous"
         self.obs_dim = int(self.venv.single_observation_space.shape[0])
         self.out_dim = int(self.venv.single_action_space.n) if self.discrete else 3
         size = (self.obs_dim + 1) * self.out_dim
@@ -612,7 +625,12 @@ def parser() -> argparse.ArgumentParser:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--env", choices=sorted(ENV_IDS), default="discrete", help="action space (default: discrete)")
+    p.add_argument(
+        "--env",
+        choices=ENV_ACTION_TYPES,
+        default="discrete",
+        help="action space (default: discrete; manoeuvre: cruise, sidesteps, stop, reverse, plan)",
+    )
     p.add_argument(
         "--obs",
         choices=sorted(OBS_MODES),
@@ -667,7 +685,17 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="seed of the policy and the training episodes (default 0)")
     p.add_argument("--out", default=None, help="run folder (default out/train/<env>-<algo>-seed<seed>)")
     p.add_argument("--resume", action="store_true", help="continue the run in --out from its latest checkpoint")
-    p.add_argument("--scenario", default=None, help="scenario name or TOML path (default: escape_default)")
+    p.add_argument(
+        "--scenario",
+        default=None,
+        help="scenario name, TOML path or suite (a folder, list file or suite:NAME; default: escape_default)",
+    )
+    p.add_argument(
+        "--tiers",
+        type=lambda t: [int(x) for x in t.split(",") if x.strip()],
+        default=None,
+        help="suites: train on the scenarios of these tiers only, e.g. 0,1 (default: all)",
+    )
     p.add_argument("--frame-size", type=int, default=64, help="camera frame size n (default 64)")
     p.add_argument(
         "--max-wall-s", type=float, default=None, help="stop after the evaluation past this wall time (s; total)"
@@ -730,6 +758,11 @@ def main(argv: Optional[Sequence[str]] = None) -> None:
             raise SystemExit(f"--{key.replace('_', '-')} must be >= 1, got {getattr(args, key)}")
     if args.n_envs > 256:
         raise SystemExit(f"--n-envs must be <= 256, got {args.n_envs}")
+    if args.scenario is not None and args.scenario.startswith("suite:"):
+        from .env import suite_path
+
+        # the folder itself: the held-out evaluation (EscapeEnv.from_suite) expands it as loomlab run does
+        args.scenario = suite_path(args.scenario[len("suite:") :])
     if args.out is None:
         args.out = os.path.join("out", "train", f"{args.env}-{args.algo}-seed{args.seed}")
     row = train(args)

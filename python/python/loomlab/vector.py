@@ -53,7 +53,7 @@ class EscapeVectorEnv(VectorEnv):
     def __init__(
         self,
         num_envs: int = 1,
-        scenario: Union[str, os.PathLike, None] = None,
+        scenario: Union[str, os.PathLike, Sequence[str], None] = None,
         *,
         scenario_toml: Optional[str] = None,
         detectors: Union[str, Sequence[str], None] = None,
@@ -69,6 +69,8 @@ class EscapeVectorEnv(VectorEnv):
         action_repeat: int = 1,
         dodge_hold_s: float = 0.0,
         sensor: Optional[str] = None,
+        tiers: Optional[Sequence[int]] = None,
+        seed_stream: Optional[str] = None,
         render_mode: Optional[str] = None,
     ) -> None:
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
@@ -93,6 +95,8 @@ class EscapeVectorEnv(VectorEnv):
                 action_repeat=action_repeat,
                 dodge_hold_s=dodge_hold_s,
                 sensor=sensor,
+                tiers=tiers,
+                seed_stream=seed_stream,
                 render_mode=render_mode,
             ),
         )
@@ -106,9 +110,10 @@ class EscapeVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=int(round(1.0 / self._native.dt)))
-        self._discrete = self._native.action_kind == "discrete"
+        self._discrete = self._native.action_kind in ("discrete", "manoeuvre")
         # a feature vector without frames: one array (the native side batches it as a dict)
-        self._flat = self._native.obs_mode in ("normalized", "privileged") and not self._native.observe_frames
+        vector_obs = self._native.obs_mode in ("normalized", "privileged", "decision")
+        self._flat = vector_obs and not self._native.observe_frames
 
     @property
     def detector_ids(self) -> list:
@@ -172,6 +177,38 @@ class EscapeVectorEnv(VectorEnv):
             result = self._native.step_continuous(np.ascontiguousarray(a))
         obs, reward, terminated, truncated, info = result
         return self._obs(obs), reward, terminated, truncated, self._merge_outcomes(info)
+
+    @property
+    def trains_fast(self) -> bool:
+        """Whether :meth:`step_train` is available: one feature vector per observation (obs_mode
+        ``normalized``, ``privileged`` or ``decision``) and no frames."""
+        return bool(self._flat)
+
+    def step_train(self, actions: Any):
+        """The training step: :meth:`step` with **same-step** auto-reset in one native call, flat
+        arrays only (no info dicts): what a training loop needs per decision.
+
+        Returns:
+            ``(observations, rewards, terminations, truncations, final_observations, outcomes)``: the
+            next observations ``(num_envs, F)`` float32 (the new episode's first one where an episode
+            ended), float32 rewards, the flags, the observations the step ended on (an ended
+            episode's last one; the others equal ``observations``) and ``[(index, outcome)]`` of the
+            episodes that ended (``info["outcome"]`` of :meth:`step`).
+
+        Raises:
+            ActionError: the actions are malformed, or the observation is not one feature vector.
+        """
+        self._check_open("step_train()")
+        if self._discrete:
+            a = np.asarray(actions)
+            if a.shape != (self.num_envs,) or not np.issubdtype(a.dtype, np.integer):
+                raise ActionError(
+                    f"discrete actions must be an integer array of shape ({self.num_envs},), got "
+                    f"{a.dtype} array of shape {a.shape}"
+                )
+            return self._native.step_train(np.ascontiguousarray(a, dtype=np.int64))
+        a = _real_array(actions, f"continuous actions must be a ({self.num_envs}, 3) float array")
+        return self._native.step_train(np.ascontiguousarray(a, dtype=np.float32))
 
     def _obs(self, obs: Dict[str, Any]) -> Any:
         return obs["features"] if self._flat else obs
