@@ -627,11 +627,7 @@ fn normalized_features_stay_in_bounds_on_the_default_scenarios() {
     let episodes = suite.episodes().collect::<Result<Vec<_>, _>>().unwrap();
     assert!(episodes.len() > 100, "the whole default suite ({})", episodes.len());
     let scenarios: std::collections::BTreeSet<String> = episodes.iter().map(|e| e.scenario.clone()).collect();
-    let walked: Vec<(usize, _)> = episodes
-        .into_iter()
-        .enumerate()
-        .filter(|(_, e)| e.index == 0)
-        .collect();
+    let walked: Vec<(usize, _)> = episodes.into_iter().enumerate().filter(|(_, e)| e.index == 0).collect();
     let walked_scenarios: std::collections::BTreeSet<&String> = walked.iter().map(|(_, e)| &e.scenario).collect();
     assert_eq!(
         walked_scenarios.len(),

@@ -422,7 +422,11 @@ mod tests {
         for name in SENSOR_PROFILES {
             assert_eq!(named(name).name, name);
         }
-        assert!(SensorProfile::named("robot-fast").unwrap_err().contains("robot-latency"));
+        assert!(
+            SensorProfile::named("robot-fast")
+                .unwrap_err()
+                .contains("robot-latency")
+        );
     }
 
     #[test]

@@ -179,7 +179,7 @@ impl Runner {
                 let out = sim.step(&cmd.to_sim()).map_err(|e| c.sim(e))?;
                 steps += 1;
                 let collided = out.first_collision().is_some();
-                ahead.push((cmd, out, SensedCamera::of(&sim), sim.capture_view()));
+                ahead.push((cmd, out, SensedCamera::of(sim), sim.capture_view()));
                 if collided {
                     break;
                 }
