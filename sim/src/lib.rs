@@ -29,6 +29,7 @@
 pub mod camera;
 pub mod dynamics;
 mod error;
+pub mod events;
 pub mod io;
 pub mod latency;
 mod limits;
@@ -52,6 +53,7 @@ pub use rapier3d::glamx::glam;
 pub use camera::{Camera, CameraDesc, MAX_N, MIN_FRAME_SIZE, ShakeDesc};
 pub use dynamics::{PhysicsMode, RobotBase};
 pub use error::SimError;
+pub use events::{CameraKind, Event, EventCamera, EventCameraDesc, EventPacket, MAX_EVENT_RENDERS};
 pub use limits::{MAX_EPISODE_FRAMES, check_frame_count, episode_frames};
 pub use object::ObjectKind;
 pub use projectile::{NamedTarget, ProjectileDesc, Target};

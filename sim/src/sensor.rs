@@ -228,7 +228,7 @@ impl Sensor {
 /// mean 0 and variance 1 exactly (the noise draws one per pixel: a table look-up instead of a
 /// Box–Muller transform, ~10× faster; the distribution is exact to within its 2⁻¹⁶ steps and its
 /// tails end at ±4.3σ).
-fn normal_table() -> &'static [f64; 65536] {
+pub(crate) fn normal_table() -> &'static [f64; 65536] {
     static TABLE: std::sync::OnceLock<Box<[f64; 65536]>> = std::sync::OnceLock::new();
     TABLE.get_or_init(|| {
         let mut t = Box::new([0.0f64; 65536]);

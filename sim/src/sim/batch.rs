@@ -145,7 +145,9 @@ impl Sim {
         for (sim, out) in sims.iter_mut().zip(outs) {
             sim.frame = out;
         }
-        result
+        result?;
+        // the event cameras' periods (their sub-frames rendered one by one; nothing without one)
+        sims.iter_mut().try_for_each(|sim| sim.update_events(renderer))
     }
 }
 

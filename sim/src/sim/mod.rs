@@ -121,6 +121,8 @@ pub struct Sim {
     /// The states of the views waiting out the perception latency, and the one before them (for
     /// the exposure's blur): a delay line one longer than the latency.
     views: crate::latency::DelayLine<view::ViewState>,
+    /// The event camera with `[world.camera] kind = "events"` ([`crate::events`]).
+    dvs: Option<Box<view::Dvs>>,
 }
 
 impl std::fmt::Debug for Sim {

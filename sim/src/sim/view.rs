@@ -2,9 +2,33 @@
 
 use super::Sim;
 use crate::SimError;
+use crate::events::{EventCamera, EventPacket};
 use crate::glam::DVec3;
-use crate::render::{FrameDesc, PastView, RenderInstance, SensorFrame};
+use crate::render::{FrameDesc, PastView, RenderInstance, Renderer, SensorFrame};
 use crate::sensor::Sensor;
+
+/// The event camera of a simulator with `[world.camera] kind = "events"` ([`crate::events`]): its
+/// state, the last period's events and the view that period ended with.
+#[derive(Clone, Debug)]
+pub(super) struct Dvs {
+    pub(super) camera: EventCamera,
+    pub(super) packet: EventPacket,
+    /// The last converted view, with the step index it was converted at.
+    previous: Option<(u64, CapturedView)>,
+    /// Scratch instances of the sub-frames.
+    instances: Vec<RenderInstance>,
+}
+
+impl Dvs {
+    pub(super) fn new(camera: EventCamera) -> Dvs {
+        Dvs {
+            camera,
+            packet: EventPacket::default(),
+            previous: None,
+            instances: Vec::new(),
+        }
+    }
+}
 
 /// The view one camera period earlier, kept for the sensor's exposure blur ([`PastView`]).
 #[derive(Clone, Debug)]
@@ -84,6 +108,31 @@ impl CapturedView {
     /// Simulation time of the view (s).
     pub fn t_s(&self) -> f64 {
         self.t_s
+    }
+
+    /// The view of `desc`, owned (without a sensor).
+    fn of_desc(desc: &FrameDesc<'_>) -> CapturedView {
+        CapturedView {
+            camera_position: desc.camera_position,
+            camera_rotation: desc.camera_rotation,
+            fov_rad: desc.fov_rad,
+            near_m: desc.near_m,
+            sky: desc.sky,
+            ground: desc.ground.copied(),
+            t_s: desc.t_s,
+            instances: desc.instances.to_vec(),
+            sensor: None,
+        }
+    }
+
+    /// This view as the start of an interpolation ([`FrameDesc::between`]).
+    fn past(&self) -> PastView<'_> {
+        PastView {
+            camera_position: self.camera_position,
+            camera_rotation: self.camera_rotation,
+            t_s: self.t_s,
+            instances: &self.instances,
+        }
     }
 }
 
@@ -271,9 +320,62 @@ impl Sim {
         };
         self.prepare_view();
         let mut frame = std::mem::take(&mut self.frame);
-        let result = renderer.render(&self.view_desc(), &mut frame);
+        let mut result = renderer.render(&self.view_desc(), &mut frame);
         self.frame = frame;
+        if result.is_ok() {
+            result = self.update_events(&mut renderer);
+        }
         self.renderer = Some(renderer);
+        result
+    }
+}
+
+impl Sim {
+    /// With an event camera: converts the camera period that ended with the frame just rendered
+    /// (the view [`Self::view_desc`] describes) into events, rendering the adaptive sub-frames
+    /// with `renderer` ([`crate::events`]). Nothing without one; a second call in the same step
+    /// (observing twice) gives an empty packet.
+    pub(super) fn update_events(&mut self, renderer: &mut Renderer) -> Result<(), SimError> {
+        let Some(mut dvs) = self.dvs.take() else { return Ok(()) };
+        let result = self.convert_events(&mut dvs, renderer);
+        self.dvs = Some(dvs);
+        result
+    }
+
+    fn convert_events(&self, dvs: &mut Dvs, renderer: &mut Renderer) -> Result<(), SimError> {
+        let desc = self.view_desc();
+        if dvs.previous.as_ref().is_some_and(|(i, _)| *i == self.step_index) {
+            dvs.packet.clear(self.world.camera.n, desc.t_s, desc.t_s);
+            return Ok(());
+        }
+        let previous = dvs.previous.take();
+        let past = previous
+            .as_ref()
+            .map(|(_, v)| v.past())
+            .filter(|p| p.instances.len() == desc.instances.len());
+        let mut instances = std::mem::take(&mut dvs.instances);
+        let mut render = |alpha: f64, buf: &mut Vec<f32>| -> Result<(), SimError> {
+            let Some(past) = past else {
+                return renderer.render(&FrameDesc { sensor: None, ..desc }, buf);
+            };
+            let (camera_position, camera_rotation, t_s) = desc.between(&past, 1.0 - alpha, &mut instances);
+            renderer.render(
+                &FrameDesc {
+                    camera_position,
+                    camera_rotation,
+                    t_s,
+                    instances: &instances,
+                    sensor: None,
+                    ..desc
+                },
+                buf,
+            )
+        };
+        let result = dvs
+            .camera
+            .period(&self.frame, desc.t_s, self.step_index, &mut render, &mut dvs.packet);
+        dvs.instances = instances;
+        dvs.previous = Some((self.step_index, CapturedView::of_desc(&desc)));
         result
     }
 }
