@@ -54,7 +54,16 @@ fn a_plain_scenario_is_one_episode_with_all_detectors() {
     let labels: Vec<&str> = ep.detectors.iter().map(|d| d.label.as_str()).collect();
     assert_eq!(
         labels,
-        ["hopfield", "soc", "keil2004", "cizek2019", "fu2020", "tracker"]
+        [
+            "hopfield",
+            "soc",
+            "keil2004",
+            "cizek2019",
+            "fu2020",
+            "tracker",
+            "event_soc",
+            "event_lgmd"
+        ]
     );
     for d in &ep.detectors {
         assert_eq!(Some(d.threshold), registration(&d.id).map(|r| r.default_threshold));
