@@ -309,6 +309,9 @@ fn inverse_normal_cdf(p: f64) -> f64 {
 ///     120 Hz; mjlab models 40–60 ms of camera latency as 2–3 control steps, Falanga et al. 2020
 ///     dodge with 3.5 ms end to end with an event camera) and 10 ms actuation latency (the motor
 ///     controller's loop and the drive's response: 1 frame).
+/// - **`events`**: the `ideal` camera plus an event camera on the same view (`[world.camera]
+///   kind = "events"` with the default [`crate::events::EventCameraDesc`]): the frame rows read its
+///   frames, the event rows (`event_soc`, `event_lgmd`) its events.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SensorProfile {
     /// The profile's name.
@@ -319,10 +322,13 @@ pub struct SensorProfile {
     pub perception_latency_s: f32,
     /// `world.robot.actuation_latency_s` (s).
     pub actuation_latency_s: f32,
+    /// `world.camera.kind` ([`crate::events::CameraKind::Events`]: the event camera, with the
+    /// default `[world.camera.events]`).
+    pub camera_kind: crate::events::CameraKind,
 }
 
 /// The names of the sensor profiles ([`SensorProfile::named`]).
-pub const SENSOR_PROFILES: [&str; 2] = ["ideal", "robot"];
+pub const SENSOR_PROFILES: [&str; 3] = ["ideal", "robot", "events"];
 
 impl SensorProfile {
     /// The profile called `name` (one of [`SENSOR_PROFILES`]); an error lists them.
@@ -333,6 +339,14 @@ impl SensorProfile {
                 sensor: SensorDesc::default(),
                 perception_latency_s: 0.0,
                 actuation_latency_s: 0.0,
+                camera_kind: crate::events::CameraKind::Frames,
+            }),
+            "events" => Ok(SensorProfile {
+                name: "events",
+                sensor: SensorDesc::default(),
+                perception_latency_s: 0.0,
+                actuation_latency_s: 0.0,
+                camera_kind: crate::events::CameraKind::Events,
             }),
             "robot" => Ok(SensorProfile {
                 name: "robot",
@@ -348,6 +362,7 @@ impl SensorProfile {
                 },
                 perception_latency_s: 0.025,
                 actuation_latency_s: 0.010,
+                camera_kind: crate::events::CameraKind::Frames,
             }),
             other => Err(format!(
                 "unknown sensor profile `{other}`; known profiles: {}",
@@ -361,6 +376,8 @@ impl SensorProfile {
         world.camera.sensor = self.sensor;
         world.camera.perception_latency_s = self.perception_latency_s;
         world.robot.actuation_latency_s = self.actuation_latency_s;
+        world.camera.kind = self.camera_kind;
+        world.camera.events = crate::events::EventCameraDesc::default();
     }
 }
 

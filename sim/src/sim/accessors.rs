@@ -49,18 +49,6 @@ impl Sim {
         self.world.dt
     }
 
-    /// With `[world.camera] kind = "events"`: the events of the camera period that ended with the
-    /// last rendered frame ([`crate::events`]; empty for an episode's first frame). `None` without
-    /// an event camera or a renderer.
-    pub fn events(&self) -> Option<&crate::events::EventPacket> {
-        self.dvs.as_ref().filter(|_| self.renderer.is_some()).map(|d| &d.packet)
-    }
-
-    /// The event camera (its parameters and per-pixel thresholds), with `kind = "events"`.
-    pub fn event_camera(&self) -> Option<&crate::events::EventCamera> {
-        self.dvs.as_ref().map(|d| &d.camera)
-    }
-
     /// Frame size n.
     pub fn n(&self) -> u32 {
         self.world.camera.n

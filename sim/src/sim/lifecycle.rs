@@ -268,11 +268,7 @@ impl Sim {
             commands: crate::latency::DelayLine::new(world.actuation_delay),
             views: crate::latency::DelayLine::new(world.perception_delay + 1),
             dvs: match world.events {
-                Some(d) => Some(Box::new(super::view::Dvs::new(crate::events::EventCamera::new(
-                    &d,
-                    world.camera.n,
-                    seed,
-                )?))),
+                Some(d) => Some(Box::new(super::view::EventStream::new(&d, world.camera.n, seed)?)),
                 None => None,
             },
             world,

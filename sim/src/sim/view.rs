@@ -7,26 +7,95 @@ use crate::glam::DVec3;
 use crate::render::{FrameDesc, PastView, RenderInstance, Renderer, SensorFrame};
 use crate::sensor::Sensor;
 
-/// The event camera of a simulator with `[world.camera] kind = "events"` ([`crate::events`]): its
-/// state, the last period's events and the view that period ended with.
+/// An event camera's stream over one episode ([`crate::events`]): the camera's state, the last
+/// period's events and the view that period ended with, so that the adaptive sub-frames can be
+/// rendered between it and the next view. A simulator with `[world.camera] kind = "events"` keeps
+/// one and converts every frame it renders ([`Sim::events`]); the scenario runner, which renders
+/// captured views in batches, takes it ([`Sim::take_event_stream`]) and converts them itself
+/// ([`EventStream::convert`]), and gives a copy to a closed-loop tail ([`Sim::set_event_stream`]).
 #[derive(Clone, Debug)]
-pub(super) struct Dvs {
-    pub(super) camera: EventCamera,
-    pub(super) packet: EventPacket,
-    /// The last converted view, with the step index it was converted at.
+pub struct EventStream {
+    camera: EventCamera,
+    packet: EventPacket,
+    /// The last converted view, with its frame index.
     previous: Option<(u64, CapturedView)>,
     /// Scratch instances of the sub-frames.
     instances: Vec<RenderInstance>,
 }
 
-impl Dvs {
-    pub(super) fn new(camera: EventCamera) -> Dvs {
-        Dvs {
-            camera,
+impl EventStream {
+    /// A stream for an event camera of validated parameters `desc`, `n × n` pixels, seeded with the
+    /// simulator's seed.
+    pub fn new(desc: &crate::events::EventCameraDesc, n: u32, seed: u64) -> Result<EventStream, SimError> {
+        Ok(EventStream {
+            camera: EventCamera::new(desc, n, seed)?,
             packet: EventPacket::default(),
             previous: None,
             instances: Vec::new(),
+        })
+    }
+
+    /// The event camera.
+    pub fn camera(&self) -> &EventCamera {
+        &self.camera
+    }
+
+    /// The events of the last converted period (empty before the second frame).
+    pub fn packet(&self) -> &EventPacket {
+        &self.packet
+    }
+
+    /// Whether a frame was converted.
+    pub fn started(&self) -> bool {
+        self.previous.is_some()
+    }
+
+    /// Converts the camera period that ended with `view` (rendered as `frame`, frame index
+    /// `frame_index`): the adaptive sub-frames are rendered with `renderer`, interpolated between
+    /// the previous converted view and `view`. The first view only starts the camera (an empty
+    /// packet); the same frame index again gives an empty packet.
+    pub fn convert(
+        &mut self,
+        renderer: &mut Renderer,
+        view: &CapturedView,
+        frame: &[f32],
+        frame_index: u64,
+    ) -> Result<&EventPacket, SimError> {
+        let desc = view.desc();
+        let n = renderer.n();
+        if self.previous.as_ref().is_some_and(|(i, _)| *i == frame_index) {
+            self.packet.clear(n, desc.t_s, desc.t_s);
+            return Ok(&self.packet);
         }
+        let previous = self.previous.take();
+        let past = previous
+            .as_ref()
+            .map(|(_, v)| v.past())
+            .filter(|p| p.instances.len() == desc.instances.len());
+        let mut instances = std::mem::take(&mut self.instances);
+        let mut render = |alpha: f64, buf: &mut Vec<f32>| -> Result<(), SimError> {
+            let Some(past) = past else {
+                return renderer.render(&FrameDesc { sensor: None, ..desc }, buf);
+            };
+            let (camera_position, camera_rotation, t_s) = desc.between(&past, 1.0 - alpha, &mut instances);
+            renderer.render(
+                &FrameDesc {
+                    camera_position,
+                    camera_rotation,
+                    t_s,
+                    instances: &instances,
+                    sensor: None,
+                    ..desc
+                },
+                buf,
+            )
+        };
+        let result = self
+            .camera
+            .period(frame, desc.t_s, frame_index, &mut render, &mut self.packet);
+        self.instances = instances;
+        self.previous = Some((frame_index, view.clone()));
+        result.map(|()| &self.packet)
     }
 }
 
@@ -333,49 +402,40 @@ impl Sim {
 impl Sim {
     /// With an event camera: converts the camera period that ended with the frame just rendered
     /// (the view [`Self::view_desc`] describes) into events, rendering the adaptive sub-frames
-    /// with `renderer` ([`crate::events`]). Nothing without one; a second call in the same step
-    /// (observing twice) gives an empty packet.
+    /// with `renderer` ([`EventStream::convert`]). Nothing without one.
     pub(super) fn update_events(&mut self, renderer: &mut Renderer) -> Result<(), SimError> {
-        let Some(mut dvs) = self.dvs.take() else { return Ok(()) };
-        let result = self.convert_events(&mut dvs, renderer);
-        self.dvs = Some(dvs);
+        let Some(mut stream) = self.dvs.take() else {
+            return Ok(());
+        };
+        let view = CapturedView::of_desc(&self.view_desc());
+        let result = stream
+            .convert(renderer, &view, &self.frame, self.step_index)
+            .map(|_| ());
+        self.dvs = Some(stream);
         result
     }
 
-    fn convert_events(&self, dvs: &mut Dvs, renderer: &mut Renderer) -> Result<(), SimError> {
-        let desc = self.view_desc();
-        if dvs.previous.as_ref().is_some_and(|(i, _)| *i == self.step_index) {
-            dvs.packet.clear(self.world.camera.n, desc.t_s, desc.t_s);
-            return Ok(());
-        }
-        let previous = dvs.previous.take();
-        let past = previous
-            .as_ref()
-            .map(|(_, v)| v.past())
-            .filter(|p| p.instances.len() == desc.instances.len());
-        let mut instances = std::mem::take(&mut dvs.instances);
-        let mut render = |alpha: f64, buf: &mut Vec<f32>| -> Result<(), SimError> {
-            let Some(past) = past else {
-                return renderer.render(&FrameDesc { sensor: None, ..desc }, buf);
-            };
-            let (camera_position, camera_rotation, t_s) = desc.between(&past, 1.0 - alpha, &mut instances);
-            renderer.render(
-                &FrameDesc {
-                    camera_position,
-                    camera_rotation,
-                    t_s,
-                    instances: &instances,
-                    sensor: None,
-                    ..desc
-                },
-                buf,
-            )
-        };
-        let result = dvs
-            .camera
-            .period(&self.frame, desc.t_s, self.step_index, &mut render, &mut dvs.packet);
-        dvs.instances = instances;
-        dvs.previous = Some((self.step_index, CapturedView::of_desc(&desc)));
-        result
+    /// With `[world.camera] kind = "events"`: the events of the camera period that ended with the
+    /// last frame this simulator rendered ([`crate::events`]; empty for an episode's first frame).
+    /// `None` without an event camera, or before it converted a frame (a physics-only simulator).
+    pub fn events(&self) -> Option<&EventPacket> {
+        self.dvs.as_ref().filter(|s| s.started()).map(|s| s.packet())
+    }
+
+    /// The event stream, with `kind = "events"` (its camera: parameters and per-pixel thresholds).
+    pub fn event_stream(&self) -> Option<&EventStream> {
+        self.dvs.as_deref()
+    }
+
+    /// Takes the event stream out (the simulator's frames then give no events): for a caller that
+    /// renders captured views itself and converts them with [`EventStream::convert`].
+    pub fn take_event_stream(&mut self) -> Option<EventStream> {
+        self.dvs.take().map(|b| *b)
+    }
+
+    /// Replaces the event stream (a closed-loop tail continues the open loop's stream from its
+    /// alarm frame on).
+    pub fn set_event_stream(&mut self, stream: EventStream) {
+        self.dvs = Some(Box::new(stream));
     }
 }
