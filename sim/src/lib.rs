@@ -62,7 +62,7 @@ pub use robot::{Command, RobotDesc, RobotState};
 pub use scenery::{BoxDesc, OverpassDesc, PoleDesc, SceneryDesc, WallDesc};
 pub use sensor::{SENSOR_PROFILES, Sensor, SensorDesc, SensorProfile};
 pub use shape::{PrimKind, ShapeDesc};
-pub use sim::{CapturedView, EventStream, Sim, StepOutput, SubmittedSteps};
+pub use sim::{CapturedView, EventStream, Sim, StepOutput, SubframePlan, SubmittedSteps};
 pub use texture::{GratingDesc, ResolvedTexture, Texture, TextureKind};
 pub use truth::{Contact, ObjectTruth};
 pub use vehicle::{PartDesc, VehicleDesc};

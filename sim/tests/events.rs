@@ -280,3 +280,28 @@ fn event_parameters_without_the_event_kind_are_refused() {
     let e = Sim::new_physics_only(&desc, 1).unwrap_err().to_string();
     assert!(e.contains("world.camera.events.contrast_on"), "{e}");
 }
+
+/// Stepping several simulators in a batch (their sub-frames rendered together,
+/// `EventStream::plan_subframes`) gives the events each one gives stepped alone (its sub-frames
+/// rendered one by one), with noise and mismatch.
+#[test]
+fn batched_and_single_steps_give_the_same_events() {
+    let desc = ball_world(EventCameraDesc {
+        leak_rate_hz: 5.0,
+        shot_rate_hz: 5.0,
+        max_renders: 6,
+        ..EventCameraDesc::default()
+    });
+    let (_, alone) = run_ball(&desc, 3, 5);
+    let mut renderer = loomlab_sim::Renderer::new(64).expect("renderer");
+    let mut a = Sim::new_physics_only(&desc, 3).unwrap();
+    let mut b = Sim::new_physics_only(&desc, 3).unwrap();
+    let first = Sim::observe_batch(&mut [&mut a, &mut b], &mut renderer).unwrap();
+    assert_eq!(first[0].frame, first[1].frame);
+    for packet in &alone[1..] {
+        Sim::step_batch(&mut [&mut a, &mut b], &[Command::default(); 2], &mut renderer).unwrap();
+        assert_eq!(a.events().unwrap(), packet);
+        assert_eq!(b.events().unwrap(), packet);
+        assert!(packet.renders > 1);
+    }
+}

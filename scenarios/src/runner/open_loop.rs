@@ -3,7 +3,7 @@
 
 use loomlab_agents::{CameraMotionSensor, Decider, LoomingSideEstimator, SelfMotion};
 use loomlab_detector::{Detector, Frame, ImageRegion, Signals};
-use loomlab_sim::{EventStream, ObjectTruth, Sim};
+use loomlab_sim::{CapturedView, EventStream, ObjectTruth, Sim, SubframePlan};
 
 use super::motion::open_loop_motion;
 use super::{Ctx, Runner};
@@ -182,7 +182,7 @@ impl Runner {
         let mut steps = 0;
         let mut ahead = Vec::with_capacity(OPEN_LOOP_BATCH);
         let mut pixels: Vec<Vec<f32>> = Vec::with_capacity(OPEN_LOOP_BATCH);
-        let mut event_buf = Vec::new();
+        let (mut event_buf, mut sub_pixels) = (Vec::new(), Vec::new());
         while steps < total {
             if self.cancelled() {
                 return Err(RunError::Interrupted);
@@ -203,13 +203,25 @@ impl Runner {
             renderer
                 .render_batch(&descs, &mut pixels[..descs.len()])
                 .map_err(|e| c.sim(e))?;
-            for ((cmd, mut out, camera_pose, view), px) in ahead.drain(..).zip(pixels.iter_mut()) {
+            let views: Vec<&CapturedView> = ahead.iter().map(|a| &a.3).collect();
+            let plan = render_subframes(
+                stream.as_ref(),
+                renderer,
+                &views,
+                &pixels[..views.len()],
+                &mut sub_pixels,
+            )
+            .map_err(|e| c.sim(e))?;
+            for (j, ((cmd, mut out, camera_pose, view), px)) in ahead.drain(..).zip(pixels.iter_mut()).enumerate() {
                 if self.cancelled() {
                     return Err(RunError::Interrupted);
                 }
-                let packet = match stream.as_mut() {
-                    Some(s) => Some(s.convert(renderer, &view, px, out.frame_index).map_err(|e| c.sim(e))?),
-                    None => None,
+                let packet = match (stream.as_mut(), &plan) {
+                    (Some(s), Some(plan)) => {
+                        let subs: Vec<&[f32]> = plan.range(j).map(|i| sub_pixels[i].as_slice()).collect();
+                        Some(s.convert_with(view, px, out.frame_index, &subs))
+                    }
+                    _ => None,
                 };
                 let events = packet.map(|p| super::events::event_input(p, &mut event_buf));
                 let frame = Frame::from_f32(ep.world.camera.n as usize, std::mem::take(px)).map_err(|e| c.det(e))?;
@@ -239,6 +251,26 @@ impl Runner {
         }
         Ok(())
     }
+}
+
+/// With an event camera (`stream`): renders the sub-frames of the periods that end with `views`
+/// (rendered as `pixels`) in one batch into `out` ([`EventStream::plan_subframes`]).
+fn render_subframes(
+    stream: Option<&EventStream>,
+    renderer: &mut loomlab_sim::Renderer,
+    views: &[&CapturedView],
+    pixels: &[Vec<f32>],
+    out: &mut Vec<Vec<f32>>,
+) -> Result<Option<SubframePlan>, loomlab_sim::SimError> {
+    let Some(stream) = stream else { return Ok(None) };
+    let frames: Vec<&[f32]> = pixels.iter().map(Vec::as_slice).collect();
+    let plan = stream.plan_subframes(views, &frames);
+    if !plan.is_empty() {
+        let descs = plan.descs(views);
+        out.resize_with(out.len().max(descs.len()), Vec::new);
+        renderer.render_batch(&descs, &mut out[..descs.len()])?;
+    }
+    Ok(Some(plan))
 }
 
 /// What the open loop carries from frame to frame besides its records.

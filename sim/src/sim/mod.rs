@@ -43,7 +43,7 @@ use contacts::EventLog;
 use dynamic_physics::SubstepStart;
 
 pub use batch::SubmittedSteps;
-pub use view::{CapturedView, EventStream};
+pub use view::{CapturedView, EventStream, SubframePlan};
 
 /// What one [`Sim::step`] produced.
 #[derive(Clone, Debug, PartialEq)]

@@ -57,7 +57,7 @@ impl EventStream {
     pub fn convert(
         &mut self,
         renderer: &mut Renderer,
-        view: &CapturedView,
+        view: CapturedView,
         frame: &[f32],
         frame_index: u64,
     ) -> Result<&EventPacket, SimError> {
@@ -94,7 +94,7 @@ impl EventStream {
             .camera
             .period(frame, desc.t_s, frame_index, &mut render, &mut self.packet);
         self.instances = instances;
-        self.previous = Some((frame_index, view.clone()));
+        self.previous = Some((frame_index, view));
         result.map(|()| &self.packet)
     }
 }
@@ -180,7 +180,7 @@ impl CapturedView {
     }
 
     /// The view of `desc`, owned (without a sensor).
-    fn of_desc(desc: &FrameDesc<'_>) -> CapturedView {
+    pub(super) fn of_desc(desc: &FrameDesc<'_>) -> CapturedView {
         CapturedView {
             camera_position: desc.camera_position,
             camera_rotation: desc.camera_rotation,
@@ -202,6 +202,108 @@ impl CapturedView {
             t_s: self.t_s,
             instances: &self.instances,
         }
+    }
+}
+
+/// The sub-frames a batch of consecutive views needs for their event-camera periods
+/// ([`EventStream::plan_subframes`]): render [`Self::descs`] (in one batch), then hand view j its
+/// renders [`Self::range`]`(j)` with [`EventStream::convert_with`].
+#[derive(Debug, Default)]
+pub struct SubframePlan {
+    /// Per sub-frame: the view it belongs to, the camera's pose, the time and the instances.
+    views: Vec<(usize, DVec3, crate::glam::DQuat, f64, Vec<RenderInstance>)>,
+    /// Per view of the batch: its sub-frames' range in `views`.
+    ranges: Vec<std::ops::Range<usize>>,
+}
+
+impl SubframePlan {
+    /// The sub-frames' descriptions, in order (`views` are the batch's views given to
+    /// [`EventStream::plan_subframes`]).
+    pub fn descs<'a>(&'a self, views: &[&'a CapturedView]) -> Vec<FrameDesc<'a>> {
+        self.views
+            .iter()
+            .map(|(j, camera_position, camera_rotation, t_s, instances)| FrameDesc {
+                camera_position: *camera_position,
+                camera_rotation: *camera_rotation,
+                t_s: *t_s,
+                instances,
+                sensor: None,
+                ..views[*j].desc()
+            })
+            .collect()
+    }
+
+    /// Sub-frames in all.
+    pub fn len(&self) -> usize {
+        self.views.len()
+    }
+
+    /// Whether no view needs a sub-frame.
+    pub fn is_empty(&self) -> bool {
+        self.views.is_empty()
+    }
+
+    /// The positions of view j's sub-frames among [`Self::descs`].
+    pub fn range(&self, j: usize) -> std::ops::Range<usize> {
+        self.ranges[j].clone()
+    }
+}
+
+impl EventStream {
+    /// The sub-frames of the periods that end with `views` (consecutive views following the last
+    /// converted one, rendered as `frames`): as many per period as [`EventCamera::renders_for`]
+    /// asks (minus the frame), at the times and poses [`Self::convert`] would render them one by
+    /// one, so that converting with them gives the same events.
+    pub fn plan_subframes(&self, views: &[&CapturedView], frames: &[&[f32]]) -> SubframePlan {
+        let mut plan = SubframePlan::default();
+        for (j, view) in views.iter().enumerate() {
+            let start = plan.views.len();
+            let (previous, k) = if j == 0 {
+                (
+                    self.previous.as_ref().map(|(_, v)| v),
+                    self.camera.renders_after(frames[0]),
+                )
+            } else {
+                (Some(views[j - 1]), self.camera.renders_for(frames[j - 1], frames[j]))
+            };
+            let desc = view.desc();
+            for i in 1..k {
+                let alpha = f64::from(i) / f64::from(k);
+                let mut instances = Vec::with_capacity(desc.instances.len());
+                let past = previous
+                    .map(|p| p.past())
+                    .filter(|p| p.instances.len() == desc.instances.len());
+                let (position, rotation, t_s) = match past {
+                    Some(past) => desc.between(&past, 1.0 - alpha, &mut instances),
+                    None => {
+                        instances.extend_from_slice(desc.instances);
+                        (desc.camera_position, desc.camera_rotation, desc.t_s)
+                    }
+                };
+                plan.views.push((j, position, rotation, t_s, instances));
+            }
+            plan.ranges.push(start..plan.views.len());
+        }
+        plan
+    }
+
+    /// [`Self::convert`] with the period's sub-frames rendered beforehand ([`Self::plan_subframes`]).
+    pub fn convert_with(
+        &mut self,
+        view: CapturedView,
+        frame: &[f32],
+        frame_index: u64,
+        subframes: &[&[f32]],
+    ) -> &EventPacket {
+        let n = self.camera.n();
+        if self.previous.as_ref().is_some_and(|(i, _)| *i == frame_index) {
+            self.packet.clear(n, view.t_s, view.t_s);
+            return &self.packet;
+        }
+        self.camera
+            .period_with(frame, view.t_s, frame_index, subframes, &mut self.packet);
+        self.previous = Some((frame_index, view));
+        &self.packet
     }
 }
 
@@ -408,9 +510,7 @@ impl Sim {
             return Ok(());
         };
         let view = CapturedView::of_desc(&self.view_desc());
-        let result = stream
-            .convert(renderer, &view, &self.frame, self.step_index)
-            .map(|_| ());
+        let result = stream.convert(renderer, view, &self.frame, self.step_index).map(|_| ());
         self.dvs = Some(stream);
         result
     }
