@@ -83,7 +83,7 @@ pub struct EventCameraDesc {
     /// Shot-noise events (random polarity) per pixel per second. Default 0.1 Hz.
     pub shot_rate_hz: f64,
     /// The most views rendered per camera period (the frame included), 1..=[`MAX_EVENT_RENDERS`];
-    /// 1 interpolates linearly from the previous frame to this one. Default 4 (the default suite
+    /// 1 interpolates linearly from the previous frame to this one. Default 3 (the default suite
     /// on events within 2× the suite on frames: docs/events.md).
     pub max_renders: u32,
     /// Adaptive sub-frames: the period is sampled so that the largest per-pixel log-intensity
@@ -107,7 +107,7 @@ impl Default for EventCameraDesc {
             refractory_s: 0.0001,
             leak_rate_hz: 0.1,
             shot_rate_hz: 0.1,
-            max_renders: 4,
+            max_renders: 3,
             adaptive_fraction: 1.0,
             log_offset: 0.001,
         }

@@ -377,7 +377,10 @@ impl SensorProfile {
         world.camera.perception_latency_s = self.perception_latency_s;
         world.robot.actuation_latency_s = self.actuation_latency_s;
         world.camera.kind = self.camera_kind;
-        world.camera.events = crate::events::EventCameraDesc::default();
+        if self.camera_kind == crate::events::CameraKind::Frames {
+            // a frame camera reads no event parameters; under `events` a scenario keeps its own
+            world.camera.events = crate::events::EventCameraDesc::default();
+        }
     }
 }
 

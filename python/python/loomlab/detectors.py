@@ -137,8 +137,22 @@ def _accepts_ego(detector: Any) -> bool:
         params = inspect.signature(detector.step).parameters.values()
     except (TypeError, ValueError):
         return False
-    positional = [p for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    positional = [
+        p for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD) and p.name != "events"
+    ]
     return len(positional) >= 2 or any(p.kind == p.VAR_POSITIONAL for p in params)
+
+
+def _accepts_events(detector: Any) -> bool:
+    """Whether ``detector.step`` takes the keyword argument ``events`` (an event camera's events of
+    the period: a dict of ``t_s``, ``x``, ``y``, ``polarity`` arrays, ``on`` and ``off`` count
+    images, ``t_start_s`` and ``t_end_s``; None without an event camera; docs/events.md)."""
+    try:
+        params = inspect.signature(detector.step).parameters
+    except (TypeError, ValueError):
+        return False
+    p = params.get("events")
+    return p is not None and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
 
 
 def load_class(spec: str) -> Any:
