@@ -183,6 +183,14 @@ impl Runner {
         let mut ahead = Vec::with_capacity(OPEN_LOOP_BATCH);
         let mut pixels: Vec<Vec<f32>> = Vec::with_capacity(OPEN_LOOP_BATCH);
         let (mut event_buf, mut sub_pixels) = (Vec::new(), Vec::new());
+        if let Some(s) = stream.as_mut() {
+            // the event camera runs from the episode's start: its first period ends with frame 1
+            // (as in the simulator's own steps and the env, which observe frame 0)
+            let view = sim.capture_view();
+            let mut first = Vec::new();
+            renderer.render(&view.desc(), &mut first).map_err(|e| c.sim(e))?;
+            s.convert_with(view, &first, sim.step_index(), &[]);
+        }
         while steps < total {
             if self.cancelled() {
                 return Err(RunError::Interrupted);
