@@ -62,7 +62,7 @@ impl EventInput<'_> {
                 e.x, e.y, self.n, self.n
             )));
         }
-        if !(self.t_end_s >= self.t_start_s) {
+        if self.t_end_s.is_nan() || self.t_start_s.is_nan() || self.t_end_s < self.t_start_s {
             return Err(DetectorError::InvalidImage(format!(
                 "event period ends ({} s) before it starts ({} s)",
                 self.t_end_s, self.t_start_s

@@ -275,6 +275,10 @@ fn fast_ln(x: f32) -> f32 {
     series + e * std::f32::consts::LN_2
 }
 
+/// A renderer of sub-frames for [`EventCamera::period`]: `(alpha, buf)` renders the view at the
+/// fraction `alpha` of the period into `buf`.
+pub type RenderSubframe<'a, E> = dyn FnMut(f64, &mut Vec<f32>) -> Result<(), E> + 'a;
+
 /// Salt of the event noise generator's seed.
 const NOISE_SALT: u64 = 0x4556_454e_5453_4e5a;
 /// Salt of the threshold mismatch's generator.
@@ -394,7 +398,7 @@ impl EventCamera {
         frame: &[f32],
         t_s: f64,
         frame_index: u64,
-        render: &mut dyn FnMut(f64, &mut Vec<f32>) -> Result<(), E>,
+        render: &mut RenderSubframe<'_, E>,
         out: &mut EventPacket,
     ) -> Result<(), E> {
         let mut subframes = std::mem::take(&mut self.subframes);
