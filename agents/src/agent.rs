@@ -158,10 +158,27 @@ impl EscapeAgent {
         cruise: VelocityCommand,
         camera: Option<&SensedCamera>,
     ) -> Result<AgentStep, DetectorError> {
+        self.step_posed_events(t_s, frame, None, cruise, camera)
+    }
+
+    /// [`Self::step_posed`] with the events of the camera period that ended with `frame`, when
+    /// the camera is an event camera: every detector gets them ([`Detector::step_events`]; the
+    /// frame rows ignore them). `None` is [`Self::step_posed`].
+    pub fn step_posed_events(
+        &mut self,
+        t_s: f64,
+        frame: &Frame,
+        events: Option<&loomlab_detector::EventInput<'_>>,
+        cruise: VelocityCommand,
+        camera: Option<&SensedCamera>,
+    ) -> Result<AgentStep, DetectorError> {
         let efference = self.efference_copy(t_s, cruise, camera);
         let mut signals = Vec::with_capacity(self.detectors.len());
         for d in &mut self.detectors {
-            signals.push(d.step_moving(frame, &efference)?);
+            signals.push(match events {
+                Some(events) => d.step_events(frame, events, &efference)?,
+                None => d.step_moving(frame, &efference)?,
+            });
         }
         let contrast_side = self.side.update(frame);
         Ok(self.decide_on_signals(t_s, cruise, camera, signals, contrast_side))

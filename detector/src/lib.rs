@@ -10,6 +10,7 @@
 pub mod baselines;
 pub mod compensation;
 pub mod error;
+pub mod events;
 pub mod frame;
 pub mod geometry;
 pub mod hopfield;
@@ -33,6 +34,7 @@ pub const MIN_FRAME_SIZE: usize = 20;
 
 pub use baselines::{BASELINE_IDS, BaselineConfigs, baseline_by_id};
 pub use error::DetectorError;
+pub use events::{Event, EventInput, FrameEvents};
 pub use frame::{Frame, NonSquare};
 pub use geometry::{LineFit, Pinhole};
 pub use hopfield::{Hopfield, HopfieldConfig, HopfieldSignals, Implementation};

@@ -497,7 +497,16 @@ mod tests {
     fn the_builtin_ids_are_the_contract() {
         assert_eq!(
             detector_ids(),
-            ["hopfield", "soc", "keil2004", "cizek2019", "fu2020", "tracker"]
+            [
+                "hopfield",
+                "soc",
+                "keil2004",
+                "cizek2019",
+                "fu2020",
+                "tracker",
+                "event_soc",
+                "event_lgmd"
+            ]
         );
     }
 

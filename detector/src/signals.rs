@@ -146,6 +146,24 @@ pub trait Detector: Send {
         let _ = ego;
         self.step(frame)
     }
+    /// Whether this detector reads an event camera's events ([`Self::step_events`]) rather than
+    /// frames: the event rows (`event_soc`, `event_lgmd`). Default false.
+    fn reads_events(&self) -> bool {
+        false
+    }
+    /// [`Self::step_moving`] with the events of the camera period that ended with `frame`, when
+    /// the camera is an event camera (`[world.camera] kind = "events"`). The default ignores the
+    /// events, so every frame row reads frames exactly as without an event camera; the event rows
+    /// read the events.
+    fn step_events(
+        &mut self,
+        frame: &Frame,
+        events: &crate::events::EventInput<'_>,
+        ego: &EfferenceCopy,
+    ) -> Result<Signals, DetectorError> {
+        let _ = events;
+        self.step_moving(frame, ego)
+    }
     /// An independent copy of this detector in its current state (its history included), when it
     /// can make one: stepping the copy on the next frames gives exactly the signals this detector
     /// would give. The scenario runner starts a closed-loop tail from the copy taken at the alarm

@@ -190,11 +190,13 @@ impl ConfiguredDetector for PythonConfigured {
                         )
                     })?
             };
-            let wants_ego = py
-                .import("loomlab.detectors")
-                .and_then(|m| m.call_method1("_accepts_ego", (&instance,)))
-                .and_then(|v| v.extract::<bool>())
-                .map_err(|e| self.failed(py, "inspecting step()", e))?;
+            let accepts = |what: &str| {
+                py.import("loomlab.detectors")
+                    .and_then(|m| m.call_method1(what, (&instance,)))
+                    .and_then(|v| v.extract::<bool>())
+                    .map_err(|e| self.failed(py, "inspecting step()", e))
+            };
+            let (wants_ego, wants_events) = (accepts("_accepts_ego")?, accepts("_accepts_events")?);
             instance
                 .call_method0("reset")
                 .map_err(|e| self.failed(py, "reset()", e))?;
@@ -203,6 +205,7 @@ impl ConfiguredDetector for PythonConfigured {
                 instance: instance.unbind(),
                 n,
                 wants_ego,
+                wants_events,
                 reset_error: None,
                 trigger: self.trigger,
                 frame: 0,
@@ -226,6 +229,8 @@ struct PythonInstance {
     n: usize,
     /// Whether `step` takes a second argument, the efference copy.
     wants_ego: bool,
+    /// Whether `step` takes the keyword argument `events` (an event camera's events).
+    wants_events: bool,
     /// An exception of `reset()` (the trait's `reset` cannot fail): reported by the next step.
     reset_error: Option<String>,
     /// The trigger signal (see [`PythonConfigured::trigger`]).
@@ -257,20 +262,58 @@ impl Detector for PythonInstance {
         });
     }
 
+    fn reads_events(&self) -> bool {
+        self.wants_events
+    }
+
     fn step(&mut self, frame: &Frame) -> Result<Signals, DetectorError> {
-        self.call_step(frame, None)
+        self.call_step(frame, None, None)
     }
 
     fn step_moving(&mut self, frame: &Frame, ego: &EfferenceCopy) -> Result<Signals, DetectorError> {
-        self.call_step(frame, Some(ego))
+        self.call_step(frame, Some(ego), None)
     }
+
+    fn step_events(
+        &mut self,
+        frame: &Frame,
+        events: &loomlab_detector::EventInput<'_>,
+        ego: &EfferenceCopy,
+    ) -> Result<Signals, DetectorError> {
+        self.call_step(frame, Some(ego), Some(events))
+    }
+}
+
+/// The events of a camera period as the dict a Python detector's `step(..., events=...)` gets:
+/// `t_s` (float64), `x`, `y` (uint16), `polarity` (int8: +1 ON, −1 OFF) arrays of the events in
+/// time order, `on` and `off` (uint16, n × n count images), `t_start_s` and `t_end_s`.
+fn events_dict<'py>(py: Python<'py>, e: &loomlab_detector::EventInput<'_>) -> PyResult<Bound<'py, PyDict>> {
+    use numpy::{PyArray1, PyArrayMethods};
+    let d = PyDict::new(py);
+    d.set_item("t_s", PyArray1::from_iter(py, e.events.iter().map(|v| v.t_s)))?;
+    d.set_item("x", PyArray1::from_iter(py, e.events.iter().map(|v| v.x)))?;
+    d.set_item("y", PyArray1::from_iter(py, e.events.iter().map(|v| v.y)))?;
+    d.set_item("polarity", PyArray1::from_iter(py, e.events.iter().map(|v| v.polarity)))?;
+    d.set_item("on", PyArray1::from_slice(py, e.on_counts).reshape([e.n, e.n])?)?;
+    d.set_item("off", PyArray1::from_slice(py, e.off_counts).reshape([e.n, e.n])?)?;
+    d.set_item("t_start_s", e.t_start_s)?;
+    d.set_item("t_end_s", e.t_end_s)?;
+    Ok(d)
 }
 
 impl PythonInstance {
     /// `step(frame)`, or `step(frame, ego)` when it takes the efference copy (a dict
     /// `{forward_mps, yaw_rate_rps, lateral_mps, dt_s, rotation_rad, translation_m, height_m,
     /// pitch_rad, roll_rad}`, the fields of [`EfferenceCopy`]; `None` where there is none).
-    fn call_step(&mut self, frame: &Frame, ego: Option<&EfferenceCopy>) -> Result<Signals, DetectorError> {
+    ///
+    /// A `step` with the keyword argument `events` gets the event camera's events of the period
+    /// ([`events_dict`]), or `None` without an event camera.
+    fn call_step(
+        &mut self,
+        frame: &Frame,
+        ego: Option<&EfferenceCopy>,
+        events: Option<&loomlab_detector::EventInput<'_>>,
+    ) -> Result<Signals, DetectorError> {
         if let Some(reason) = self.reset_error.take() {
             return Err(self.failed(reason));
         }
@@ -287,7 +330,6 @@ impl PythonInstance {
         self.frame += 1;
         Python::attach(|py| {
             let array = view.to_pyarray(py);
-            let step = self.instance.bind(py);
             let answer = if self.wants_ego {
                 let ego = match ego {
                     Some(e) => {
@@ -306,9 +348,9 @@ impl PythonInstance {
                     }
                     None => py.None().into_bound(py),
                 };
-                step.call_method1("step", (array, ego))
+                self.call_with_events(py, (array, ego).into_pyobject(py), events)
             } else {
-                step.call_method1("step", (array,))
+                self.call_with_events(py, (array,).into_pyobject(py), events)
             };
             let answer = answer
                 .map_err(|e| self.failed(format!("step(frame) at frame {index}: {}", describe_exception(py, &e))))?;
@@ -316,6 +358,28 @@ impl PythonInstance {
                 .and_then(|(signals, gave_theta)| checked(signals, gave_theta, self.trigger))
                 .map_err(|why| self.failed(format!("step(frame) at frame {index} of the episode returned {why}")))
         })
+    }
+}
+
+impl PythonInstance {
+    /// `step(*args)`, with `events=` when the detector takes it.
+    fn call_with_events<'py>(
+        &self,
+        py: Python<'py>,
+        args: PyResult<Bound<'py, pyo3::types::PyTuple>>,
+        events: Option<&loomlab_detector::EventInput<'_>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let step = self.instance.bind(py);
+        let args = args?;
+        if !self.wants_events {
+            return step.call_method1("step", args);
+        }
+        let kwargs = PyDict::new(py);
+        match events {
+            Some(e) => kwargs.set_item("events", events_dict(py, e)?)?,
+            None => kwargs.set_item("events", py.None())?,
+        }
+        step.call_method("step", args, Some(&kwargs))
     }
 }
 

@@ -480,3 +480,39 @@ def test_bad_objects_are_refused_naming_the_label_frame_and_key(objects, message
     expected = r"`lister`: step\(frame\) at frame 0 of the episode returned " + message
     with pytest.raises(loomlab.DetectorError, match=expected):
         loomlab._native._time_python_detector(detector, 32, 2)
+
+
+class EventCount:
+    """The built-in `event_soc` in Python: the number of events of the period (a `step` with the
+    keyword `events` gets the event camera's events, None without one)."""
+
+    def reset(self) -> None:
+        pass
+
+    def step(self, frame: np.ndarray, events=None) -> float:
+        if events is None:
+            return 0.0
+        n = frame.shape[0]
+        assert events["on"].shape == (n, n) and events["off"].shape == (n, n)
+        assert len(events["x"]) == len(events["y"]) == len(events["polarity"]) == len(events["t_s"])
+        assert int(events["on"].sum() + events["off"].sum()) == len(events["t_s"])
+        assert np.all(np.diff(events["t_s"]) >= 0)
+        assert np.all((events["t_s"] > events["t_start_s"]) & (events["t_s"] <= events["t_end_s"]))
+        return float(len(events["t_s"]))
+
+
+def test_a_python_detector_reads_the_event_camera(tmp_path):
+    """Under an event camera (a suite's `sensor = "events"`) a `step(frame, events=...)` gets each
+    period's events: counting them gives the built-in `event_soc` row."""
+    suite = tmp_path / "suite"
+    suite.mkdir()
+    (suite / "suite.toml").write_text('sensor = "events"\n')
+    (suite / "slow_ball.toml").write_text((SUITE / "slow_ball_plain.toml").read_text())
+    threshold = 40.0
+    mine = loomlab.PythonDetector(EventCount, label="py_events", threshold=threshold)
+    report = loomlab.run_suite(
+        suite, detectors=[{"id": "event_soc", "threshold": threshold}, mine], limit=2, size=32, jobs=1
+    )
+    builtin, python = report["detectors"]["event_soc"], report["detectors"]["py_events"]
+    assert python == builtin
+    assert builtin["hits"] + builtin["false_alarms"] > 0

@@ -25,7 +25,7 @@ def _frames(short_kwargs: dict, sensor, seed: int, steps: int = 4) -> np.ndarray
 
 
 def test_profiles_are_listed():
-    assert loomlab.SENSOR_PROFILES == ("ideal", "robot", "robot-noise", "robot-blur", "robot-latency")
+    assert loomlab.SENSOR_PROFILES == ("ideal", "robot", "robot-noise", "robot-blur", "robot-latency", "events")
 
 
 def test_robot_frames_are_noisy_quantised_and_seeded(short_kwargs):

@@ -50,6 +50,7 @@ fn run(perception_latency_s: f32, actuation_latency_s: f32) -> EpisodeRun {
             sensor: SensorDesc::default(),
             perception_latency_s,
             actuation_latency_s,
+            camera_kind: loomlab_sim::CameraKind::Frames,
         }),
         ..LoadOptions::default()
     };

@@ -2,6 +2,7 @@
 
 mod deadline;
 mod efference;
+mod events;
 mod hopfield_rendered;
 mod latency;
 mod parser_fuzz;

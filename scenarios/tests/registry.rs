@@ -149,6 +149,8 @@ fn a_registered_detector_is_a_detector_everywhere() {
             "cizek2019",
             "fu2020",
             "tracker",
+            "event_soc",
+            "event_lgmd",
             "mean_change"
         ]
     );

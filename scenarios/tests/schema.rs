@@ -54,7 +54,16 @@ fn a_plain_scenario_is_one_episode_with_all_detectors() {
     let labels: Vec<&str> = ep.detectors.iter().map(|d| d.label.as_str()).collect();
     assert_eq!(
         labels,
-        ["hopfield", "soc", "keil2004", "cizek2019", "fu2020", "tracker"]
+        [
+            "hopfield",
+            "soc",
+            "keil2004",
+            "cizek2019",
+            "fu2020",
+            "tracker",
+            "event_soc",
+            "event_lgmd"
+        ]
     );
     for d in &ep.detectors {
         assert_eq!(Some(d.threshold), registration(&d.id).map(|r| r.default_threshold));
@@ -66,7 +75,7 @@ fn a_plain_scenario_is_one_episode_with_all_detectors() {
     assert_eq!(ep.detectors[0].params.config::<HopfieldConfig>().unwrap().fov_deg, 60.0);
     // the calibrated defaults (scenarios/README.md) are a contract of the registry
     let defaults: Vec<f64> = ep.detectors.iter().map(|d| d.threshold).collect();
-    assert_eq!(defaults, [10.0, 270.0, 0.000095, 0.0172, 2.47, 10.0]);
+    assert_eq!(defaults, [10.0, 270.0, 0.000095, 0.0172, 2.47, 10.0, 2480.0, 940.0]);
 }
 
 #[test]

@@ -41,6 +41,39 @@ pub struct CameraDesc {
     /// frames ([`crate::latency`]). Default 0 (left out when written).
     #[serde(skip_serializing_if = "crate::robot::is_zero")]
     pub perception_latency_s: f32,
+    /// What the camera delivers: `"frames"` (default) or `"events"` (frames and, each period, an
+    /// event camera's events on the same view; [`crate::events`]). Left out when `"frames"`.
+    #[serde(skip_serializing_if = "crate::events::CameraKind::is_frames")]
+    pub kind: crate::events::CameraKind,
+    /// The event camera's parameters (`[world.camera.events]`, read with `kind = "events"`).
+    /// Default: [`crate::events::EventCameraDesc::default`] (left out when written).
+    #[serde(skip_serializing_if = "crate::events::EventCameraDesc::is_default")]
+    pub events: crate::events::EventCameraDesc,
+}
+
+impl CameraDesc {
+    /// The event camera's validated parameters with `kind = "events"`, `None` with `"frames"`;
+    /// an error for parameters set without `kind = "events"` or beside a non-ideal frame sensor.
+    pub(crate) fn event_camera(&self) -> Result<Option<crate::events::EventCameraDesc>, SimError> {
+        match self.kind {
+            crate::events::CameraKind::Frames if !self.events.is_default() => Err(SimError::invalid(
+                "world.camera.events",
+                "a table of event camera parameters",
+                "is read only with world.camera.kind = \"events\": set it, or remove the table",
+            )),
+            crate::events::CameraKind::Frames => Ok(None),
+            crate::events::CameraKind::Events if !self.sensor.is_ideal() => Err(SimError::invalid(
+                "world.camera.kind",
+                "\"events\"",
+                "needs the ideal frame sensor (the event camera has its own noise model): remove \
+                 [world.camera.sensor] or use the ideal sensor profile",
+            )),
+            crate::events::CameraKind::Events => {
+                self.events.validate()?;
+                Ok(Some(self.events))
+            }
+        }
+    }
 }
 
 impl Default for CameraDesc {
@@ -55,6 +88,8 @@ impl Default for CameraDesc {
             shake: None,
             sensor: SensorDesc::default(),
             perception_latency_s: 0.0,
+            kind: crate::events::CameraKind::Frames,
+            events: crate::events::EventCameraDesc::default(),
         }
     }
 }

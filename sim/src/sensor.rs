@@ -228,7 +228,7 @@ impl Sensor {
 /// mean 0 and variance 1 exactly (the noise draws one per pixel: a table look-up instead of a
 /// Box–Muller transform, ~10× faster; the distribution is exact to within its 2⁻¹⁶ steps and its
 /// tails end at ±4.3σ).
-fn normal_table() -> &'static [f64; 65536] {
+pub(crate) fn normal_table() -> &'static [f64; 65536] {
     static TABLE: std::sync::OnceLock<Box<[f64; 65536]>> = std::sync::OnceLock::new();
     TABLE.get_or_init(|| {
         let mut t = Box::new([0.0f64; 65536]);
@@ -309,6 +309,9 @@ fn inverse_normal_cdf(p: f64) -> f64 {
 ///     120 Hz; mjlab models 40–60 ms of camera latency as 2–3 control steps, Falanga et al. 2020
 ///     dodge with 3.5 ms end to end with an event camera) and 10 ms actuation latency (the motor
 ///     controller's loop and the drive's response: 1 frame).
+/// - **`events`**: the `ideal` camera plus an event camera on the same view (`[world.camera]
+///   kind = "events"` with the default [`crate::events::EventCameraDesc`]): the frame rows read its
+///   frames, the event rows (`event_soc`, `event_lgmd`) its events.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SensorProfile {
     /// The profile's name.
@@ -319,17 +322,27 @@ pub struct SensorProfile {
     pub perception_latency_s: f32,
     /// `world.robot.actuation_latency_s` (s).
     pub actuation_latency_s: f32,
+    /// `world.camera.kind` ([`crate::events::CameraKind::Events`]: the event camera, with the
+    /// default `[world.camera.events]`).
+    pub camera_kind: crate::events::CameraKind,
 }
 
-/// The names of the sensor profiles ([`SensorProfile::named`]): `ideal`, `robot`, and `robot`'s
-/// three parts alone (to tell their effects apart): `robot-noise` (its shot and read noise and
-/// 8-bit output), `robot-blur` (its exposure), `robot-latency` (its perception and actuation
-/// latency).
-pub const SENSOR_PROFILES: [&str; 5] = ["ideal", "robot", "robot-noise", "robot-blur", "robot-latency"];
+/// The names of the sensor profiles ([`SensorProfile::named`]): `ideal`, `robot`, `robot`'s three
+/// parts alone (to tell their effects apart): `robot-noise` (its shot and read noise and 8-bit
+/// output), `robot-blur` (its exposure), `robot-latency` (its perception and actuation latency),
+/// and `events` (the ideal world seen by the event camera, `[world.camera.events]` defaults).
+pub const SENSOR_PROFILES: [&str; 6] = ["ideal", "robot", "robot-noise", "robot-blur", "robot-latency", "events"];
 
 impl SensorProfile {
     /// The profile called `name` (one of [`SENSOR_PROFILES`]); an error lists them.
     pub fn named(name: &str) -> Result<SensorProfile, String> {
+        let ideal = SensorProfile {
+            name: "ideal",
+            sensor: SensorDesc::default(),
+            perception_latency_s: 0.0,
+            actuation_latency_s: 0.0,
+            camera_kind: crate::events::CameraKind::Frames,
+        };
         let robot = SensorProfile {
             name: "robot",
             sensor: SensorDesc {
@@ -344,12 +357,7 @@ impl SensorProfile {
             },
             perception_latency_s: 0.025,
             actuation_latency_s: 0.010,
-        };
-        let ideal = SensorProfile {
-            name: "ideal",
-            sensor: SensorDesc::default(),
-            perception_latency_s: 0.0,
-            actuation_latency_s: 0.0,
+            ..ideal
         };
         match name {
             "ideal" => Ok(ideal),
@@ -376,6 +384,11 @@ impl SensorProfile {
                 sensor: SensorDesc::default(),
                 ..robot
             }),
+            "events" => Ok(SensorProfile {
+                name: "events",
+                camera_kind: crate::events::CameraKind::Events,
+                ..ideal
+            }),
             other => Err(format!(
                 "unknown sensor profile `{other}`; known profiles: {}",
                 SENSOR_PROFILES.join(", ")
@@ -388,6 +401,11 @@ impl SensorProfile {
         world.camera.sensor = self.sensor;
         world.camera.perception_latency_s = self.perception_latency_s;
         world.robot.actuation_latency_s = self.actuation_latency_s;
+        world.camera.kind = self.camera_kind;
+        if self.camera_kind == crate::events::CameraKind::Frames {
+            // a frame camera reads no event parameters; under `events` a scenario keeps its own
+            world.camera.events = crate::events::EventCameraDesc::default();
+        }
     }
 }
 

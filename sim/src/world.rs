@@ -184,6 +184,8 @@ pub(crate) struct BuiltWorld {
     pub camera: Camera,
     /// The camera's sensor; `None` for the ideal camera.
     pub sensor: Option<crate::sensor::Sensor>,
+    /// The event camera's parameters, validated, with `[world.camera] kind = "events"`.
+    pub events: Option<crate::events::EventCameraDesc>,
     /// Perception latency in camera frames.
     pub perception_delay: usize,
     /// Actuation latency in camera frames.
@@ -353,6 +355,7 @@ impl WorldDesc {
         };
         let camera = self.camera.build(seed)?;
         let sensor = self.camera.sensor.build(self.dt())?;
+        let events = self.camera.event_camera()?;
         let perception_delay = crate::latency::latency_frames(
             "world.camera.perception_latency_s",
             self.camera.perception_latency_s,
@@ -409,6 +412,7 @@ impl WorldDesc {
             ground,
             camera,
             sensor,
+            events,
             perception_delay,
             actuation_delay,
             robot: self.robot.clone(),

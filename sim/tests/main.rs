@@ -7,6 +7,7 @@ mod contacts;
 mod desc;
 mod determinism;
 mod dynamics;
+mod events;
 mod goldens;
 mod sensor;
 mod sphere_size;

@@ -2,7 +2,9 @@
 //!
 //! Writes `DIR/frames/frame_00000.png…` (frame 0 is the view at t = 0, frame k the view after k camera
 //! periods), `DIR/view.gif` (every `--gif-stride`-th frame) and `DIR/truth.csv` (per-frame ground truth for
-//! every object, see `loomlab_sim::io::TRUTH_CSV_HEADER`).
+//! every object, see `loomlab_sim::io::TRUTH_CSV_HEADER`). With an event camera (`[world.camera]
+//! kind = "events"`, `--sensor events`) also `DIR/events.gif` (per GIF frame the events since the
+//! previous one: ON brighter, OFF darker than mid-grey) and `DIR/events.csv` (`frame,t_s,x,y,polarity`).
 //!
 //! The scene file is TOML with the tables `[world]` (a `loomlab_sim::WorldDesc`), optional `[episode]`
 //! (`duration_s`, `seed`) and optional `[robot_command]` (a constant `forward_mps`, `yaw_rate_rps`,
@@ -42,8 +44,8 @@ pub struct RenderArgs {
     #[arg(long)]
     pub size: Option<u32>,
     /// Render under this sensor profile (`ideal`, `robot`: blur, noise, quantisation and the
-    /// perception latency; the actuation latency delays `robot_command`), overriding the file's
-    /// `[world.camera.sensor]` and latencies.
+    /// perception latency; the actuation latency delays `robot_command`; `events`: an event
+    /// camera beside the frames), overriding the file's `[world.camera.sensor]` and latencies.
     #[arg(long, value_name = "PROFILE")]
     pub sensor: Option<String>,
     /// Do not write the animated GIF.
@@ -221,6 +223,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<i32> {
         None
     };
     let mut csv = TruthCsv::create(&args.out.join("truth.csv"))?;
+    let mut events = match sim.event_stream().filter(|_| render) {
+        Some(_) => Some(EventOutputs::create(&args.out, n, delay_cs, !args.no_gif)?),
+        None => None,
+    };
     if let Some(adapter) = sim.adapter() {
         errln!("rendering {n}x{n} on {adapter}");
     }
@@ -236,6 +242,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<i32> {
             if let Some(g) = gif.as_mut().filter(|_| k % stride == 0) {
                 g.add(&out.frame)?;
             }
+            if let (Some(e), Some(packet)) = (events.as_mut(), sim.events()) {
+                e.add(k, packet, k % stride == 0)?;
+            }
         }
         let ids: Vec<usize> = out.contacts.iter().map(|c| c.object_id).collect();
         csv.write_frame(k, &out.robot, &out.truth, &ids)?;
@@ -248,6 +257,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<i32> {
     bar.finish_and_clear();
     csv.finish()?;
     drop(gif);
+    if let Some(e) = events {
+        e.finish()?;
+    }
     for c in &contacts {
         let exact = c.exact_t_s.map(|t| format!(" (exact {t:.4} s)")).unwrap_or_default();
         let impulse = c
@@ -265,4 +277,66 @@ pub fn run(args: RenderArgs) -> anyhow::Result<i32> {
     }
     outln!("wrote {}", args.out.display());
     Ok(0)
+}
+
+/// The event camera's outputs of `loomlab render`: `events.gif` (the events accumulated since the
+/// last GIF frame: mid-grey, ON events brighter, OFF darker, saturating at 4 of a kind) and
+/// `events.csv` (every event).
+struct EventOutputs {
+    gif: Option<GifWriter>,
+    csv: std::io::BufWriter<std::fs::File>,
+    path: PathBuf,
+    /// Net events (ON − OFF) per pixel since the last GIF frame.
+    net: Vec<f32>,
+}
+
+impl EventOutputs {
+    fn create(dir: &Path, n: u32, delay_cs: u16, gif: bool) -> anyhow::Result<EventOutputs> {
+        use std::io::Write;
+        let path = dir.join("events.csv");
+        let file = std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
+        let mut csv = std::io::BufWriter::new(file);
+        writeln!(csv, "frame,t_s,x,y,polarity").with_context(|| format!("writing {}", path.display()))?;
+        Ok(EventOutputs {
+            gif: if gif {
+                Some(GifWriter::create(&dir.join("events.gif"), n, delay_cs)?)
+            } else {
+                None
+            },
+            csv,
+            path,
+            net: vec![0.0; (n as usize) * (n as usize)],
+        })
+    }
+
+    /// Frame `k`'s events; `show`: write a GIF frame (and start accumulating again).
+    fn add(&mut self, k: u64, packet: &loomlab_sim::EventPacket, show: bool) -> anyhow::Result<()> {
+        use std::io::Write;
+        for e in &packet.events {
+            writeln!(self.csv, "{k},{:.7},{},{},{}", e.t_s, e.x, e.y, e.polarity)
+                .with_context(|| format!("writing {}", self.path.display()))?;
+        }
+        for ((v, &on), &off) in self.net.iter_mut().zip(&packet.on_counts).zip(&packet.off_counts) {
+            *v += f32::from(on) - f32::from(off);
+        }
+        if show {
+            if let Some(gif) = self.gif.as_mut() {
+                let image: Vec<f32> = self
+                    .net
+                    .iter()
+                    .map(|&v| 0.5 + 0.5 * (v / 4.0).clamp(-1.0, 1.0))
+                    .collect();
+                gif.add(&image)?;
+            }
+            self.net.iter_mut().for_each(|v| *v = 0.0);
+        }
+        Ok(())
+    }
+
+    fn finish(mut self) -> anyhow::Result<()> {
+        use std::io::Write;
+        self.csv
+            .flush()
+            .with_context(|| format!("writing {}", self.path.display()))
+    }
 }

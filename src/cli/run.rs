@@ -46,7 +46,7 @@ pub struct RunArgs {
     /// Frame size n for every episode (overrides world.camera.n).
     #[arg(long, value_name = "N")]
     pub size: Option<u32>,
-    /// Run every world under this sensor profile (`ideal`, `robot`): the camera's sensor (blur,
+    /// Run every world under this sensor profile (`ideal`, `robot`, `events`): the camera's sensor (blur,
     /// noise, quantisation) and the perception and actuation latencies; overrides the suite's
     /// `sensor` key and the scenario files' own (docs/reference.md#sensor-profiles).
     #[arg(long, value_name = "PROFILE")]

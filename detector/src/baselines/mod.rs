@@ -8,6 +8,8 @@
 //! | `keil2004` | [`Keil2004`]: "Advanced", Keil, Roca-Moreno & Rodríguez-Vázquez 2004 | output stage exact, **front end reconstructed** (docs/detectors.md, keil2004 §1) |
 //! | `cizek2019` | [`Cizek2019`]: "CizFai19", Čížek & Faigl 2019 + Keil's adaptive thresholds | thresholds exact, presynaptic chain in standard LGMD1 form, `W_I` assumed (docs/detectors.md, cizek2019 §1) |
 //! | `fu2020` | [`Fu2020`]: "FuHuPe20", LGMD2 of Fu et al. 2020, ON/OFF instances combined | from the authors' reference code (docs/detectors.md, fu2020 §1) |
+//! | `event_soc` | [`EventSoc`]: events per camera period (reads events) | an event camera's SOC |
+//! | `event_lgmd` | [`EventLgmd`]: event-driven LGMD network after Salt, Indiveri & Sandamirskaya 2017 (reads events) | structure from the paper, parameter values ours (docs/detectors.md, event_lgmd) |
 //! | `tracker` | [`Tracker`]: ego-motion-compensated change segmentation and bounding-box tracking | an engineering reference, not an insect model and not in the paper's comparison |
 //!
 //! Common conventions (docs/detectors.md#common): frames in [0, 1], computations in f64; the first
@@ -42,9 +44,13 @@ models! {
     cizek2019,
     fu2020,
     tracker,
+    event_soc,
+    event_lgmd,
 }
 
 pub use cizek2019::{Cizek2019, Cizek2019Config};
+pub use event_lgmd::{EventLgmd, EventLgmdConfig};
+pub use event_soc::{EventSoc, EventSocConfig};
 pub use fu2020::{Fu2020, Fu2020Coefficients, Fu2020Config};
 pub use keil2004::{KEIL2004_MAX_ITERATIONS, Keil2004, Keil2004Config};
 pub use lowpass::LowPass;
@@ -54,6 +60,9 @@ pub use tracker::{MAX_TRACKS, MERGED_HOLD_FACTOR, Tracker, TrackerConfig};
 use serde::Deserialize;
 
 use crate::{Detector, DetectorError};
+
+/// Ids of the registered rows that read an event camera's events ([`crate::Detector::reads_events`]).
+pub const EVENT_IDS: [&str; 2] = ["event_soc", "event_lgmd"];
 
 /// Ids of the paper's baseline detectors, in the order of its comparison (the members of
 /// [`BaselineConfigs`]; other registered models are not part of this bundle).

@@ -52,7 +52,10 @@ class Detector(Protocol):
         gets the efference copy of the camera period that ended with this frame: the command the
         robot applied (``forward_mps``, ``yaw_rate_rps``, ``lateral_mps``) and the camera's own
         motion and pose (``dt_s``, ``rotation_rad``, ``translation_m``, ``height_m``, ``pitch_rad``,
-        ``roll_rad``; docs/adding-a-detector.md)."""
+        ``roll_rad``; docs/adding-a-detector.md). A ``step`` with the keyword argument ``events``
+        also gets an event camera's events of the period (a dict of ``t_s``, ``x``, ``y``,
+        ``polarity`` arrays in time order, ``on`` and ``off`` (n, n) count images, ``t_start_s``,
+        ``t_end_s``; None without an event camera: docs/events.md)."""
         ...
 
 
@@ -137,8 +140,20 @@ def _accepts_ego(detector: Any) -> bool:
         params = inspect.signature(detector.step).parameters.values()
     except (TypeError, ValueError):
         return False
-    positional = [p for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    positional = [p for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD) and p.name != "events"]
     return len(positional) >= 2 or any(p.kind == p.VAR_POSITIONAL for p in params)
+
+
+def _accepts_events(detector: Any) -> bool:
+    """Whether ``detector.step`` takes the keyword argument ``events`` (an event camera's events of
+    the period: a dict of ``t_s``, ``x``, ``y``, ``polarity`` arrays, ``on`` and ``off`` count
+    images, ``t_start_s`` and ``t_end_s``; None without an event camera; docs/events.md)."""
+    try:
+        params = inspect.signature(detector.step).parameters
+    except (TypeError, ValueError):
+        return False
+    p = params.get("events")
+    return p is not None and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
 
 
 def load_class(spec: str) -> Any:

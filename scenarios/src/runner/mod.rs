@@ -53,6 +53,7 @@
 //! Results are handed to a callback as episodes finish (for `episodes.csv` and the progress bar)
 //! and returned in suite order; the run is deterministic whatever the number of workers.
 
+mod events;
 mod head_on;
 mod motion;
 mod open_loop;
@@ -402,6 +403,7 @@ impl Runner {
                     spec,
                     alarm: ka,
                     start: pass.detectors[r].snapshot.take(),
+                    events: pass.detectors[r].events.take(),
                     signals: &pass.history[pass.runs_as[r]],
                 });
             }

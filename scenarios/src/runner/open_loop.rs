@@ -3,7 +3,7 @@
 
 use loomlab_agents::{CameraMotionSensor, Decider, LoomingSideEstimator, SelfMotion, SensedCamera};
 use loomlab_detector::{Detector, Frame, ImageRegion, Signals};
-use loomlab_sim::{ObjectTruth, Sim};
+use loomlab_sim::{CapturedView, EventStream, ObjectTruth, Sim, SubframePlan};
 
 use super::motion::open_loop_motion;
 use super::{Ctx, Runner};
@@ -41,6 +41,9 @@ pub(super) struct DetectorRecord {
     /// A copy of its detector right after its first alarm frame ([`Detector::snapshot`]; `None`
     /// when the detector cannot copy itself): its closed-loop tail starts there.
     pub(super) snapshot: Option<Box<dyn Detector>>,
+    /// With an event camera: its stream right after the first alarm frame (the tail's camera
+    /// continues from it).
+    pub(super) events: Option<EventStream>,
 }
 
 impl DetectorRecord {
@@ -56,6 +59,7 @@ impl DetectorRecord {
             decider,
             alarmed_at: None,
             snapshot: None,
+            events: None,
         }
     }
 
@@ -146,7 +150,16 @@ impl Runner {
             object_names,
         };
         let mut recorder = TruthRecorder::new(&sim);
-        let stepped = self.open_loop_steps(c, &mut sim, &mut renderer, &mut instances, &mut pass, &mut recorder);
+        // with an event camera, the open loop converts the views it renders itself
+        let mut stream = sim.take_event_stream();
+        let stepped = self.open_loop_steps(
+            c,
+            (&mut sim, &mut stream),
+            &mut renderer,
+            &mut instances,
+            &mut pass,
+            &mut recorder,
+        );
         self.renderers.give_back(renderer);
         stepped?;
         Ok((pass, recorder.finish()))
@@ -157,7 +170,7 @@ impl Runner {
     fn open_loop_steps(
         &self,
         c: &Ctx<'_>,
-        sim: &mut Sim,
+        (sim, stream): (&mut Sim, &mut Option<EventStream>),
         renderer: &mut loomlab_sim::Renderer,
         instances: &mut Instances,
         pass: &mut OpenLoop,
@@ -169,6 +182,15 @@ impl Runner {
         let mut steps = 0;
         let mut ahead = Vec::with_capacity(OPEN_LOOP_BATCH);
         let mut pixels: Vec<Vec<f32>> = Vec::with_capacity(OPEN_LOOP_BATCH);
+        let (mut event_buf, mut sub_pixels) = (Vec::new(), Vec::new());
+        if let Some(s) = stream.as_mut() {
+            // the event camera runs from the episode's start: its first period ends with frame 1
+            // (as in the simulator's own steps and the env, which observe frame 0)
+            let view = sim.capture_view();
+            let mut first = Vec::new();
+            renderer.render(&view.desc(), &mut first).map_err(|e| c.sim(e))?;
+            s.convert_with(view, &first, sim.step_index(), &[]);
+        }
         while steps < total {
             if self.cancelled() {
                 return Err(RunError::Interrupted);
@@ -189,26 +211,44 @@ impl Runner {
             renderer
                 .render_batch(&descs, &mut pixels[..descs.len()])
                 .map_err(|e| c.sim(e))?;
-            for ((cmd, mut out, camera, _), px) in ahead.drain(..).zip(pixels.iter_mut()) {
+            let views: Vec<&CapturedView> = ahead.iter().map(|a| &a.3).collect();
+            let plan = render_subframes(
+                stream.as_ref(),
+                renderer,
+                &views,
+                &pixels[..views.len()],
+                &mut sub_pixels,
+            )
+            .map_err(|e| c.sim(e))?;
+            for (j, ((cmd, mut out, camera, view), px)) in ahead.drain(..).zip(pixels.iter_mut()).enumerate() {
                 if self.cancelled() {
                     return Err(RunError::Interrupted);
                 }
+                let packet = match (stream.as_mut(), &plan) {
+                    (Some(s), Some(plan)) => {
+                        let subs: Vec<&[f32]> = plan.range(j).map(|i| sub_pixels[i].as_slice()).collect();
+                        Some(s.convert_with(view, px, out.frame_index, &subs))
+                    }
+                    _ => None,
+                };
+                let events = packet.map(|p| super::events::event_input(p, &mut event_buf));
                 let frame = Frame::from_f32(ep.world.camera.n as usize, std::mem::take(px)).map_err(|e| c.det(e))?;
                 // the efference copy: the command applied during this period and the camera's
                 // motion and pose, as the escape agent passes it in the closed loop (the same up
                 // to the first alarm)
                 let efference = state.efference_sensor.sense_frame(out.t_s, cmd, &camera);
                 for (i, d) in instances.built.iter_mut().enumerate() {
-                    instances.stepped[i] = match d {
-                        Some(d) => d.step_moving(&frame, &efference).map_err(|e| c.det(e))?,
-                        None => instances.stepped[pass.runs_as[i]].clone(),
+                    instances.stepped[i] = match (d, &events) {
+                        (Some(d), Some(ev)) => d.step_events(&frame, ev, &efference).map_err(|e| c.det(e))?,
+                        (Some(d), None) => d.step_moving(&frame, &efference).map_err(|e| c.det(e))?,
+                        (None, _) => instances.stepped[pass.runs_as[i]].clone(),
                     };
                 }
                 pass.t_s.push(out.t_s);
                 pass.sides.push(state.side.update(&frame));
                 pass.motion
                     .push(open_loop_motion(ep, &pass.t_s, pass.t_s.len() - 1, camera.shake_rad));
-                open_loop_decisions(ep, instances, pass);
+                open_loop_decisions(ep, instances, pass, stream.as_ref());
                 pass.frames.push(frame);
                 let contact = recorder.record(&out).is_some();
                 pass.truth.push(std::mem::take(&mut out.truth));
@@ -221,6 +261,26 @@ impl Runner {
     }
 }
 
+/// With an event camera (`stream`): renders the sub-frames of the periods that end with `views`
+/// (rendered as `pixels`) in one batch into `out` ([`EventStream::plan_subframes`]).
+fn render_subframes(
+    stream: Option<&EventStream>,
+    renderer: &mut loomlab_sim::Renderer,
+    views: &[&CapturedView],
+    pixels: &[Vec<f32>],
+    out: &mut Vec<Vec<f32>>,
+) -> Result<Option<SubframePlan>, loomlab_sim::SimError> {
+    let Some(stream) = stream else { return Ok(None) };
+    let frames: Vec<&[f32]> = pixels.iter().map(Vec::as_slice).collect();
+    let plan = stream.plan_subframes(views, &frames);
+    if !plan.is_empty() {
+        let descs = plan.descs(views);
+        out.resize_with(out.len().max(descs.len()), Vec::new);
+        renderer.render_batch(&descs, &mut out[..descs.len()])?;
+    }
+    Ok(Some(plan))
+}
+
 /// What the open loop carries from frame to frame besides its records.
 #[derive(Default)]
 struct FrameState {
@@ -230,7 +290,12 @@ struct FrameState {
 
 /// Records the latest frame's signals of every detector entry, runs the stateful rows' deciders
 /// on them and notes each entry's first alarm (with a copy of its detector).
-fn open_loop_decisions(ep: &crate::schema::EpisodeSpec, instances: &Instances, pass: &mut OpenLoop) {
+fn open_loop_decisions(
+    ep: &crate::schema::EpisodeSpec,
+    instances: &Instances,
+    pass: &mut OpenLoop,
+    stream: Option<&EventStream>,
+) {
     let k = pass.t_s.len() - 1;
     for (i, (record, spec)) in pass.detectors.iter_mut().zip(&ep.detectors).enumerate() {
         let s = &instances.stepped[i];
@@ -246,6 +311,7 @@ fn open_loop_decisions(ep: &crate::schema::EpisodeSpec, instances: &Instances, p
         if record.alarmed_at.is_none() && value >= spec.threshold {
             record.alarmed_at = Some(k);
             record.snapshot = instances.built[pass.runs_as[i]].as_ref().and_then(|d| d.snapshot());
+            record.events = stream.cloned();
         }
     }
 }

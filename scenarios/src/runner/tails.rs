@@ -50,6 +50,10 @@ impl Runner {
             let mut sim = Sim::new_physics_only(&ep.world, ep.seed).map_err(|e| c.sim(e))?;
             sim.set_ground_truth(false);
             let from_snapshot = job.start.is_some();
+            if let Some(stream) = job.events {
+                // the event camera continues from its state at the alarm frame
+                sim.set_event_stream(stream);
+            }
             let detector = match job.start {
                 Some(snapshot) => snapshot,
                 None => spec.build(nn).map_err(|e| c.det(e))?,
@@ -90,6 +94,7 @@ impl Runner {
         // before it, in one batch.
         let mut renderer = self.renderers.take(&self.ctx, n).map_err(|e| c.sim(e))?;
         let first = alarms.iter().copied().min().unwrap_or(0);
+        let mut event_buf = Vec::new();
         let tails = (|| -> Result<(), RunError> {
             for k in first + 1..total {
                 if self.cancelled() {
@@ -120,14 +125,11 @@ impl Runner {
                         continue;
                     }
                     let frame = Frame::from_f32(nn, std::mem::take(&mut out.frame)).map_err(|e| c.det(e))?;
+                    let events = run.sim.events().map(|p| super::events::event_input(p, &mut event_buf));
+                    let (cruise, camera) = (ep.cruise.command_at(out.t_s), SensedCamera::of(&run.sim));
                     run.cmd = run
                         .agent
-                        .step_posed(
-                            out.t_s,
-                            &frame,
-                            ep.cruise.command_at(out.t_s),
-                            Some(&SensedCamera::of(&run.sim)),
-                        )
+                        .step_posed_events(out.t_s, &frame, events.as_ref(), cruise, Some(&camera))
                         .map_err(|e| c.det(e))?
                         .command;
                 }
@@ -159,6 +161,8 @@ pub(super) struct TailJob<'a> {
     pub(super) alarm: usize,
     /// A copy of the row's detector right after the alarm frame, when it could make one.
     pub(super) start: Option<Box<dyn Detector>>,
+    /// With an event camera: the open loop's event stream right after the alarm frame.
+    pub(super) events: Option<loomlab_sim::EventStream>,
     /// The signals of the row's detector instance on each open-loop frame.
     pub(super) signals: &'a [Signals],
 }

@@ -108,6 +108,31 @@ impl FrameDesc<'_> {
         self.sensor.map_or(1, |s| s.sensor.views_per_frame())
     }
 
+    /// The view a fraction `lag` ∈ [0, 1] of the way back from this one to `previous` (0 = this
+    /// view, 1 = the previous one): positions interpolated linearly, rotations spherically, the
+    /// instances (in the same order in both views) into `out`; returns the camera's position,
+    /// rotation and the time then. The exposure's sub-frames and the event camera's adaptive
+    /// sub-frames ([`crate::events`]) are made with it.
+    pub fn between(&self, previous: &PastView<'_>, lag: f64, out: &mut Vec<RenderInstance>) -> (DVec3, DQuat, f64) {
+        let (a, af) = (lag, lag as f32);
+        out.clear();
+        out.extend(
+            self.instances
+                .iter()
+                .zip(previous.instances)
+                .map(|(c, o)| RenderInstance {
+                    position: c.position.lerp(o.position, af),
+                    rotation: c.rotation.slerp(o.rotation, af).normalize(),
+                    ..*c
+                }),
+        );
+        (
+            self.camera_position.lerp(previous.camera_position, a),
+            self.camera_rotation.slerp(previous.camera_rotation, a).normalize(),
+            self.t_s + (previous.t_s - self.t_s) * a,
+        )
+    }
+
     /// The sub-frame views of a frame with an exposure (camera pose, time, instances), interpolated
     /// between the previous view and this one; empty when the frame renders as one view.
     fn subframes(&self) -> Vec<(DVec3, DQuat, f64, Vec<RenderInstance>)> {
@@ -121,23 +146,9 @@ impl FrameDesc<'_> {
                 let a = sf.sensor.subframe_lag(j);
                 match sf.previous.filter(|p| p.instances.len() == self.instances.len()) {
                     Some(p) if a > 0.0 => {
-                        let af = a as f32;
-                        let inst = self
-                            .instances
-                            .iter()
-                            .zip(p.instances)
-                            .map(|(c, o)| RenderInstance {
-                                position: c.position.lerp(o.position, af),
-                                rotation: c.rotation.slerp(o.rotation, af).normalize(),
-                                ..*c
-                            })
-                            .collect();
-                        (
-                            self.camera_position.lerp(p.camera_position, a),
-                            self.camera_rotation.slerp(p.camera_rotation, a).normalize(),
-                            self.t_s + (p.t_s - self.t_s) * a,
-                            inst,
-                        )
+                        let mut inst = Vec::with_capacity(self.instances.len());
+                        let (position, rotation, t_s) = self.between(&p, a, &mut inst);
+                        (position, rotation, t_s, inst)
                     }
                     _ => (
                         self.camera_position,

@@ -145,7 +145,47 @@ impl Sim {
         for (sim, out) in sims.iter_mut().zip(outs) {
             sim.frame = out;
         }
-        result
+        result?;
+        Self::update_events_batch(sims, renderer)
+    }
+
+    /// The event cameras' periods of `sims` that ended with their frames just collected: every
+    /// sub-frame of the batch rendered in one batch ([`super::EventStream::plan_subframes`]);
+    /// the same events as [`Sim::update_events`] one by one. Nothing without event cameras.
+    fn update_events_batch(sims: &mut [&mut Sim], renderer: &mut Renderer) -> Result<(), SimError> {
+        if sims.iter().all(|s| s.dvs.is_none()) {
+            return Ok(());
+        }
+        let views: Vec<Option<super::CapturedView>> = sims
+            .iter()
+            .map(|s| s.dvs.as_ref().map(|_| super::CapturedView::of_desc(&s.view_desc())))
+            .collect();
+        let plans: Vec<Option<super::SubframePlan>> = sims
+            .iter()
+            .zip(&views)
+            .map(|(s, v)| Some(s.dvs.as_ref()?.plan_subframes(&[v.as_ref()?], &[&s.frame])))
+            .collect();
+        let mut descs = Vec::new();
+        for (plan, view) in plans.iter().zip(&views) {
+            if let (Some(plan), Some(view)) = (plan, view) {
+                descs.extend(plan.descs(&[view]));
+            }
+        }
+        let mut rendered = vec![Vec::new(); descs.len()];
+        if !descs.is_empty() {
+            renderer.render_batch(&descs, &mut rendered)?;
+        }
+        drop(descs);
+        let mut at = 0;
+        for ((sim, plan), view) in sims.iter_mut().zip(plans).zip(views) {
+            let (Some(plan), Some(view), Some(stream)) = (plan, view, sim.dvs.as_mut()) else {
+                continue;
+            };
+            let subs: Vec<&[f32]> = rendered[at..at + plan.len()].iter().map(Vec::as_slice).collect();
+            at += plan.len();
+            stream.convert_with(view, &sim.frame, sim.step_index, &subs);
+        }
+        Ok(())
     }
 }
 

@@ -112,6 +112,7 @@ impl Sim {
             shown: None,
             commands: self.commands.clone(),
             views: self.views.clone(),
+            dvs: self.dvs.clone(),
         }
     }
 
@@ -266,6 +267,10 @@ impl Sim {
             shown: None,
             commands: crate::latency::DelayLine::new(world.actuation_delay),
             views: crate::latency::DelayLine::new(world.perception_delay + 1),
+            dvs: match world.events {
+                Some(d) => Some(Box::new(super::view::EventStream::new(&d, world.camera.n, seed)?)),
+                None => None,
+            },
             world,
         };
         if !dynamic {
