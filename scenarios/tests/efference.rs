@@ -94,6 +94,7 @@ threshold = 30.0
             sensor: SensorDesc::default(),
             perception_latency_s,
             actuation_latency_s: 0.0,
+            camera_kind: loomlab_sim::CameraKind::Frames,
         }),
         ..LoadOptions::default()
     };
