@@ -37,4 +37,4 @@ pub use escape::{ControllerEvent, DodgeSide, EscapeConfig, EscapeController, Man
 pub use facts::RobotFacts;
 pub use looming_side::LoomingSideEstimator;
 pub use planner::{Candidate, Planner};
-pub use sensing::{CameraMotionSensor, SensedCamera};
+pub use sensing::{CameraMotionSensor, SensedCamera, event_input};

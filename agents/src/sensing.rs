@@ -102,3 +102,27 @@ impl CameraMotionSensor {
         efference
     }
 }
+
+/// The detectors' view of the event camera's `packet` for one period
+/// ([`loomlab_detector::EventInput`]), its events converted into `buf` (cleared first; reuse it
+/// from period to period): the one conversion the runner and the env share.
+pub fn event_input<'a>(
+    packet: &'a loomlab_sim::EventPacket,
+    buf: &'a mut Vec<loomlab_detector::Event>,
+) -> loomlab_detector::EventInput<'a> {
+    buf.clear();
+    buf.extend(packet.events.iter().map(|e| loomlab_detector::Event {
+        t_s: e.t_s,
+        x: e.x,
+        y: e.y,
+        polarity: e.polarity,
+    }));
+    loomlab_detector::EventInput {
+        n: packet.n as usize,
+        t_start_s: packet.t_start_s,
+        t_end_s: packet.t_end_s,
+        events: buf,
+        on_counts: &packet.on_counts,
+        off_counts: &packet.off_counts,
+    }
+}

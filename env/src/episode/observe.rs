@@ -12,27 +12,6 @@ use crate::features::{DecisionFrame, ObsMode, RowDecision, decision_features};
 use crate::{EnvError, RewardTerms};
 use loomlab_detector::{ImageRegion, PerceivedObject};
 
-/// The detectors' view of the simulator's event packet, its events converted into `buf`.
-fn event_input<'a>(
-    packet: &'a loomlab_sim::EventPacket,
-    buf: &'a mut Vec<loomlab_detector::Event>,
-) -> loomlab_detector::EventInput<'a> {
-    buf.extend(packet.events.iter().map(|e| loomlab_detector::Event {
-        t_s: e.t_s,
-        x: e.x,
-        y: e.y,
-        polarity: e.polarity,
-    }));
-    loomlab_detector::EventInput {
-        n: packet.n as usize,
-        t_start_s: packet.t_start_s,
-        t_end_s: packet.t_end_s,
-        events: buf,
-        on_counts: &packet.on_counts,
-        off_counts: &packet.off_counts,
-    }
-}
-
 /// A detector value for the observation: finite, clamped into ±[`SIGNAL_LIMIT`] (non-finite: 0).
 fn finite_or_zero(v: f64) -> f32 {
     if v.is_finite() {
@@ -123,7 +102,7 @@ impl EscapeEnv {
             // with an event camera every detector also gets the period's events (the frame rows
             // ignore them)
             let mut buf = Vec::new();
-            let events = r.sim.events().map(|p| event_input(p, &mut buf));
+            let events = r.sim.events().map(|p| loomlab_agents::event_input(p, &mut buf));
             let step = self
                 .agent
                 .step_posed_events(out.t_s, &frame, events.as_ref(), cruise_now, Some(&camera))?;

@@ -53,7 +53,6 @@
 //! Results are handed to a callback as episodes finish (for `episodes.csv` and the progress bar)
 //! and returned in suite order; the run is deterministic whatever the number of workers.
 
-mod events;
 mod head_on;
 mod motion;
 mod open_loop;

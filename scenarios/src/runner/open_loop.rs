@@ -231,7 +231,7 @@ impl Runner {
                     }
                     _ => None,
                 };
-                let events = packet.map(|p| super::events::event_input(p, &mut event_buf));
+                let events = packet.map(|p| loomlab_agents::event_input(p, &mut event_buf));
                 let frame = Frame::from_f32(ep.world.camera.n as usize, std::mem::take(px)).map_err(|e| c.det(e))?;
                 // the efference copy: the command applied during this period and the camera's
                 // motion and pose, as the escape agent passes it in the closed loop (the same up

@@ -125,7 +125,7 @@ impl Runner {
                         continue;
                     }
                     let frame = Frame::from_f32(nn, std::mem::take(&mut out.frame)).map_err(|e| c.det(e))?;
-                    let events = run.sim.events().map(|p| super::events::event_input(p, &mut event_buf));
+                    let events = run.sim.events().map(|p| loomlab_agents::event_input(p, &mut event_buf));
                     let (cruise, camera) = (ep.cruise.command_at(out.t_s), SensedCamera::of(&run.sim));
                     run.cmd = run
                         .agent
