@@ -31,6 +31,16 @@
 //! times each of [`SCALE_HYPOTHESES`] (0.5, 1, 1.6), and the robot's own speed (an object standing
 //! in the world that the gate did not recognise as one, e.g. a pole whose foot is hidden).
 //!
+//! # Footprint
+//! An object's footprint on the ground is a rectangle along its direction of motion over the
+//! ground (its velocity relative to the robot, from the forecast, plus the robot's own): as broad as
+//! it is high (at most as broad as its image is wide), and as long as makes its extent across the
+//! line of sight the image's width, at most [`MAX_OBJECT_LENGTH_M`] where the image leaves that
+//! open (an object coming head-on shows its breadth only). A car crossing obliquely is so a long,
+//! narrow box at its angle, not a square as deep as its image is wide; a ball, or an object whose
+//! motion is unknown, stays a square as deep as it is wide. The gap between two rectangles is the
+//! largest separation along their four axes (separating axes).
+//!
 //! # Candidates and choice
 //! Each candidate is a manoeuvre held for the controller's `duration_s`, then the cruise command:
 //! a sidestep (holonomic base) or an arc (differential drive) to either side, a stop, and reversing.
@@ -38,7 +48,7 @@
 //! excursion bounded by `max_dodge_offset_m` (the lane or corridor the robot knows it is in), to a
 //! horizon after the last object has passed (at most [`MAX_HORIZON_S`]). Its **clearance** under a
 //! hypothesis is the smallest gap over the horizon between the body's footprint and any object's
-//! (the object taken as deep as it is wide; negative: they overlap); its **score** is the mean of
+//! (below; negative: they overlap); its **score** is the mean of
 //! its clearances capped at `clearance_margin_m`, weighted by [`HYPOTHESIS_WEIGHTS`] (the assumed
 //! speed twice). Clearances above the margin count as safe and equal, so among the candidates with
 //! the best score the controller's preference decides — the sidestep away from the alarming object
@@ -52,7 +62,7 @@
 //! The planner keeps at most [`MAX_PLANNED_OBJECTS`] forecasts in buffers reserved at
 //! construction: a decision allocates nothing.
 
-use crate::decision::CourseForecast;
+use crate::decision::{BodyExtent, CourseForecast};
 use crate::escape::{DodgeSide, Manoeuvre};
 use crate::{EscapeConfig, RobotFacts, VelocityCommand};
 
@@ -180,26 +190,66 @@ struct Remembered {
     /// relative to).
     origin: Odometry,
     refreshed_s: f64,
+    /// Whether its image's left and right edges lay at the image border (cut off by it).
+    clipped: [bool; 2],
 }
 
 impl Remembered {
-    /// The object's footprint at time `t_s` in the odometry frame: centre and half-extents along
-    /// the origin's axes (forward, left), or `None` when it passes above or below the body.
-    fn footprint(&self, t_s: f64, scale: f64) -> ([f64; 2], [f64; 2]) {
+    /// The object's footprint at time `t_s` under closing-speed factor `scale` (module docs,
+    /// "Footprint").
+    fn footprint(&self, t_s: f64, scale: f64) -> Footprint {
         let f = &self.forecast;
         let s = t_s - f.t_s;
         let progress = s / f.tau_s;
         let edge = |i: usize| scale * (f.lateral_m[i] + (f.arrival_lateral_m[i] - f.lateral_m[i]) * progress);
-        // image lateral is positive right; the odometry frame's y is positive left
-        let (right, left) = (-edge(0).min(edge(1)), -edge(0).max(edge(1)));
-        let half_width = ((right - left).abs() / 2.0).max(0.02);
-        let half_depth = half_width.clamp(0.02, 2.5);
-        let nearest = scale * f.closing_mps * (f.tau_s - s);
+        // the odometry y (positive left) of the image's left and right edges (image lateral is
+        // positive right); an edge cut off by the image border stood still in the image, so it
+        // moves with the other one, the width it had at the forecast's time apart
+        let (mut y_left, mut y_right) = (-edge(0).min(edge(1)), -edge(0).max(edge(1)));
+        let seen_width = scale * (f.lateral_m[1] - f.lateral_m[0]).abs();
+        match self.clipped {
+            [true, false] => y_left = y_right + seen_width,
+            [false, true] => y_right = y_left - seen_width,
+            _ => {}
+        }
+        let width = (y_left - y_right).abs().max(0.04);
+        // the object's velocity over the ground in the origin's axes: its image motion relative
+        // to the robot (that of its edges not cut off by the image border) plus the robot's own
         let [vf, vl, _] = self.origin.velocity;
+        let edge_rate = |i: usize| -scale * (f.arrival_lateral_m[i] - f.lateral_m[i]) / f.tau_s;
+        let lateral_rate = match self.clipped {
+            [true, false] => edge_rate(1),
+            [false, true] => edge_rate(0),
+            _ => (edge_rate(0) + edge_rate(1)) / 2.0,
+        };
+        let ground = [vf - scale * f.closing_mps, vl + lateral_rate];
+        let height = scale * (f.arrival_vertical_m[1] - f.arrival_vertical_m[0]).abs();
+        // cut off by the border: as wide as the longest object at its direction of motion, the
+        // unseen part beyond the border
+        if self.clipped.contains(&true) {
+            let (sin, cos) = ground[1].atan2(ground[0]).sin_cos();
+            let hidden = (MAX_OBJECT_LENGTH_M * sin.abs() + height.min(width) * cos.abs() - width).max(0.0);
+            let share = hidden / self.clipped.iter().filter(|&&c| c).count() as f64;
+            if self.clipped[0] {
+                y_left += share;
+            }
+            if self.clipped[1] {
+                y_right -= share;
+            }
+        }
+        let width = (y_left - y_right).abs().max(0.04);
+        let (heading, [half_length, half_breadth]) = oriented_extent(width, height, ground);
+        let (sin, cos) = heading.sin_cos();
+        let half_forward = half_length * cos.abs() + half_breadth * sin.abs();
+        let nearest = scale * f.closing_mps * (f.tau_s - s);
         let centre = self
             .origin
-            .point_in_odometry(nearest + half_depth + vf * s, (left + right) / 2.0 + vl * s);
-        (centre, [half_depth, half_width])
+            .point_in_odometry(nearest + half_forward + vf * s, (y_left + y_right) / 2.0 + vl * s);
+        Footprint {
+            centre,
+            heading_rad: self.origin.heading_rad + heading,
+            half_extent: [half_length, half_breadth],
+        }
     }
 
     /// The factors on the forecast's metres under which the object is checked: 1 for an object
@@ -229,6 +279,78 @@ impl Remembered {
         let slowest = self.scales().into_iter().fold(1.0, f64::min);
         f.t_s + f.tau_s + (facts.body.behind_camera_m + depth) / (slowest * f.closing_mps).max(0.1)
     }
+}
+
+/// An object's footprint on the ground: a rectangle in the odometry frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Footprint {
+    /// Centre (m).
+    centre: [f64; 2],
+    /// Direction of its length (rad, counter-clockwise from the odometry frame's x).
+    heading_rad: f64,
+    /// Half its length and half its breadth (m).
+    half_extent: [f64; 2],
+}
+
+/// Longest object the planner assumes when the image leaves the length open (m): a head-on
+/// object's image shows its breadth, not its length.
+pub const MAX_OBJECT_LENGTH_M: f64 = 5.0;
+
+/// How near the image border (in image coordinates, the border at ±1) an edge counts as cut off
+/// by it: two pixels at 96².
+pub const BORDER_MARGIN: f64 = 0.04;
+
+/// Ground speed (m/s) below which an object's direction of motion is taken as unknown.
+const STILL_MPS: f64 = 0.2;
+
+/// An object's direction of motion relative to the origin's forward axis (rad) and its half
+/// length and half breadth (m), from its image width `width` (its extent across the line of
+/// sight), its height `height` and its velocity over the ground `ground` (forward, left): it is
+/// taken as long as it moves and as broad as it is high (at most as broad as its image is wide),
+/// its length the one whose projection across the line of sight is the image width — bounded
+/// by [`MAX_OBJECT_LENGTH_M`] where that projection leaves it open. A still object, or one whose
+/// length comes out shorter than its breadth, is a square as deep as its image is wide.
+fn oriented_extent(width: f64, height: f64, ground: [f64; 2]) -> (f64, [f64; 2]) {
+    let square = (0.0, [width / 2.0; 2]);
+    if ground[0].hypot(ground[1]) < STILL_MPS || !(height.is_finite() && height > 0.0) {
+        return square;
+    }
+    // fold the direction into [0, π/2] about the line of sight: a rectangle is symmetric
+    let heading = ground[1].atan2(ground[0]);
+    let (sin, cos) = heading.sin_cos();
+    let (sin, cos) = (sin.abs(), cos.abs());
+    let breadth = height.min(width);
+    let length = if sin > 1e-6 {
+        ((width - breadth * cos) / sin).min(MAX_OBJECT_LENGTH_M.max(width))
+    } else {
+        0.0
+    };
+    if length < breadth {
+        return square;
+    }
+    (heading, [length / 2.0, breadth / 2.0])
+}
+
+/// The signed gap (m) between the robot's body at `pose` and the footprint `object`: the largest
+/// separation along the four axes of the two rectangles (separating axes; negative: they overlap,
+/// by at least that much along every axis).
+fn gap(pose: &Odometry, body: &BodyExtent, object: &Footprint) -> f64 {
+    let rel = pose.point_in_body(object.centre);
+    let body_centre = [(body.ahead_of_camera_m - body.behind_camera_m) / 2.0, 0.0];
+    let body_half = [(body.ahead_of_camera_m + body.behind_camera_m) / 2.0, body.half_width_m];
+    let d = [rel[0] - body_centre[0], rel[1] - body_centre[1]];
+    let (sin, cos) = (object.heading_rad - pose.heading_rad).sin_cos();
+    let (u, v) = ([cos, sin], [-sin, cos]);
+    let [hl, hb] = object.half_extent;
+    let dot = |a: [f64; 2], b: [f64; 2]| a[0] * b[0] + a[1] * b[1];
+    [[1.0, 0.0], [0.0, 1.0], u, v]
+        .into_iter()
+        .map(|axis| {
+            let body_r = body_half[0] * axis[0].abs() + body_half[1] * axis[1].abs();
+            let object_r = hl * dot(axis, u).abs() + hb * dot(axis, v).abs();
+            dot(d, axis).abs() - body_r - object_r
+        })
+        .fold(f64::NEG_INFINITY, f64::max)
 }
 
 /// The planner's inputs about the robot for one decision.
@@ -299,11 +421,18 @@ impl Planner {
         let (s, c) = origin.heading_rad.sin_cos();
         origin.position_m[0] -= (vf * c - vl * s) * back;
         origin.position_m[1] -= (vf * s + vl * c) * back;
+        // image coordinates of the edges at the forecast's time (the border is at ±1)
+        let border =
+            |lateral: f64| lateral / (forecast.closing_mps * forecast.tau_s) / self.facts.pinhole.tan_half_fov();
         let entry = Remembered {
             id,
             forecast: *forecast,
             origin,
             refreshed_s: t_s,
+            clipped: [
+                border(forecast.lateral_m[0]) <= -1.0 + BORDER_MARGIN,
+                border(forecast.lateral_m[1]) >= 1.0 - BORDER_MARGIN,
+            ],
         };
         if let Some(slot) = self.objects.iter_mut().find(|o| o.id == id) {
             *slot = entry;
@@ -384,12 +513,7 @@ impl Planner {
             t += PLAN_STEP_S;
             for o in self.objects.iter().filter(|o| !o.passes_over_or_under(facts)) {
                 for (scale, c) in o.scales().into_iter().zip(clearance.iter_mut()) {
-                    let (centre, half) = o.footprint(t, scale);
-                    let rel = pose.point_in_body(centre);
-                    let gap_forward =
-                        (rel[0] - half[0] - body.ahead_of_camera_m).max(-body.behind_camera_m - (rel[0] + half[0]));
-                    let gap_lateral = rel[1].abs() - half[1] - body.half_width_m;
-                    *c = c.min(gap_forward.max(gap_lateral));
+                    *c = c.min(gap(&pose, body, &o.footprint(t, scale)));
                 }
             }
         }
@@ -425,6 +549,219 @@ impl Planner {
         match running {
             Some(r) if running_score.unwrap_or_else(|| self.score(r, ctx)) + SWITCH_MARGIN_M >= score => Some(r),
             _ => Some(best),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use loomlab_detector::Pinhole;
+
+    /// The corners of a rectangle (centre, heading, half extents) in the frame it is given in.
+    fn corners(centre: [f64; 2], heading: f64, [hl, hb]: [f64; 2]) -> [[f64; 2]; 4] {
+        let (s, c) = heading.sin_cos();
+        [[1.0, 1.0], [1.0, -1.0], [-1.0, -1.0], [-1.0, 1.0]]
+            .map(|[a, b]| [centre[0] + a * hl * c - b * hb * s, centre[1] + a * hl * s + b * hb * c])
+    }
+
+    /// Whether point `p` lies in the rectangle.
+    fn inside(p: [f64; 2], centre: [f64; 2], heading: f64, [hl, hb]: [f64; 2]) -> bool {
+        let (s, c) = heading.sin_cos();
+        let d = [p[0] - centre[0], p[1] - centre[1]];
+        (d[0] * c + d[1] * s).abs() <= hl + 1e-9 && (-d[0] * s + d[1] * c).abs() <= hb + 1e-9
+    }
+
+    /// The distance between two segments (0 when they cross).
+    fn segment_distance(a: [[f64; 2]; 2], b: [[f64; 2]; 2]) -> f64 {
+        let cross =
+            |o: [f64; 2], p: [f64; 2], q: [f64; 2]| (p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0]);
+        let (d1, d2) = (cross(b[0], b[1], a[0]), cross(b[0], b[1], a[1]));
+        let (d3, d4) = (cross(a[0], a[1], b[0]), cross(a[0], a[1], b[1]));
+        if d1 * d2 < 0.0 && d3 * d4 < 0.0 {
+            return 0.0;
+        }
+        let point_segment = |p: [f64; 2], s: [[f64; 2]; 2]| {
+            let v = [s[1][0] - s[0][0], s[1][1] - s[0][1]];
+            let w = [p[0] - s[0][0], p[1] - s[0][1]];
+            let t = ((w[0] * v[0] + w[1] * v[1]) / (v[0] * v[0] + v[1] * v[1])).clamp(0.0, 1.0);
+            (w[0] - t * v[0]).hypot(w[1] - t * v[1])
+        };
+        point_segment(a[0], b)
+            .min(point_segment(a[1], b))
+            .min(point_segment(b[0], a))
+            .min(point_segment(b[1], a))
+    }
+
+    #[test]
+    fn a_crossing_car_is_a_long_narrow_box_along_its_motion_and_a_ball_a_square() {
+        // a 4 × 1.8 m car (1.4 m high) driving at 29° to the line of sight: its image is as wide
+        // as its projection across the line of sight
+        let heading = 29f64.to_radians();
+        let width = 4.0 * heading.sin() + 1.4 * heading.cos();
+        let (h, [hl, hb]) = oriented_extent(width, 1.4, [-4.7 * heading.cos(), 4.7 * heading.sin()]);
+        assert!((h - (std::f64::consts::PI - heading)).abs() < 1e-9, "{h}");
+        assert!((hl - 2.0).abs() < 1e-9 && (hb - 0.7).abs() < 1e-9, "{hl} {hb}");
+        // a ball coming nearly head-on, or anything still: a square as deep as it is wide
+        assert_eq!(oriented_extent(0.3, 0.3, [-9.0, 0.5]), (0.0, [0.15, 0.15]));
+        assert_eq!(oriented_extent(1.8, 1.4, [0.05, 0.0]), (0.0, [0.9, 0.9]));
+        // a car head-on: as long as the bound allows (its image shows its breadth only)
+        let (_, [hl, hb]) = oriented_extent(1.8, 1.4, [-8.0, 0.3]);
+        assert!(
+            (hl - MAX_OBJECT_LENGTH_M / 2.0).abs() < 1e-9 && (hb - 0.7).abs() < 1e-9,
+            "{hl} {hb}"
+        );
+    }
+
+    #[test]
+    fn the_gap_between_rectangles_separates_and_overlaps_as_their_corners_do() {
+        let body = BodyExtent::default();
+        let mut rng = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..2000 {
+            let pose = Odometry {
+                position_m: [next() * 2.0 - 1.0, next() * 2.0 - 1.0],
+                heading_rad: next() * 6.3,
+                velocity: [0.0; 3],
+            };
+            let object = Footprint {
+                centre: [next() * 6.0 - 3.0, next() * 6.0 - 3.0],
+                heading_rad: next() * 6.3,
+                half_extent: [0.05 + next() * 2.0, 0.05 + next() * 1.0],
+            };
+            let g = gap(&pose, &body, &object);
+            // the body's rectangle in the odometry frame
+            let body_centre = pose.point_in_odometry((body.ahead_of_camera_m - body.behind_camera_m) / 2.0, 0.0);
+            let body_half = [(body.ahead_of_camera_m + body.behind_camera_m) / 2.0, body.half_width_m];
+            let (a, b) = (
+                corners(body_centre, pose.heading_rad, body_half),
+                corners(object.centre, object.heading_rad, object.half_extent),
+            );
+            let overlap = a
+                .iter()
+                .any(|&p| inside(p, object.centre, object.heading_rad, object.half_extent))
+                || b.iter().any(|&p| inside(p, body_centre, pose.heading_rad, body_half))
+                || (0..4)
+                    .any(|i| (0..4).any(|j| segment_distance([a[i], a[(i + 1) % 4]], [b[j], b[(j + 1) % 4]]) == 0.0));
+            let distance = (0..4)
+                .flat_map(|i| (0..4).map(move |j| (i, j)))
+                .map(|(i, j)| segment_distance([a[i], a[(i + 1) % 4]], [b[j], b[(j + 1) % 4]]))
+                .fold(f64::INFINITY, f64::min);
+            if overlap {
+                assert!(g <= 1e-9, "overlapping rectangles, gap {g}");
+            } else {
+                // separating axes: positive, and never more than the true distance
+                assert!(g > -1e-9 && g <= distance + 1e-9, "gap {g}, distance {distance}");
+            }
+        }
+    }
+
+    #[test]
+    fn an_oblique_cars_footprint_follows_the_true_box() {
+        // the car above, its centre 8 m ahead and 3.15 m right now, the robot cruising at 1 m/s:
+        // the forecast the gate makes of it (edges now and at arrival, closing 5.7 m/s)
+        let heading = 29f64.to_radians();
+        let (ground, car_half) = ([-4.7 * heading.cos(), 4.7 * heading.sin()], [2.0, 0.7]);
+        let half_forward = 2.0 * heading.cos() + 0.7 * heading.sin();
+        let half_across = 2.0 * heading.sin() + 0.7 * heading.cos();
+        let closing = 1.0 - ground[0];
+        let tau = (8.0 - half_forward) / closing;
+        let centre_at = |t: f64| [8.0 + (ground[0] - 1.0) * t, -3.15 + ground[1] * t];
+        let right = |t: f64| -centre_at(t)[1];
+        let forecast = CourseForecast {
+            t_s: 0.0,
+            tau_s: tau,
+            closing_mps: closing,
+            lateral_m: [right(0.0) - half_across, right(0.0) + half_across],
+            arrival_lateral_m: [right(tau) - half_across, right(tau) + half_across],
+            arrival_vertical_m: [-0.5, 0.9],
+            straight: Some(true),
+            standing: false,
+        };
+        let object = Remembered {
+            id: 0,
+            forecast,
+            origin: Odometry {
+                velocity: [1.0, 0.0, 0.0],
+                ..Odometry::default()
+            },
+            refreshed_s: 0.0,
+            clipped: [false; 2],
+        };
+        for t in [0.0, 0.5, tau, 1.5] {
+            let f = object.footprint(t, 1.0);
+            // the true centre in the odometry frame (the robot moved 1 m/s · t forward)
+            let truth = [centre_at(t)[0] + t, centre_at(t)[1]];
+            assert!(
+                (f.centre[0] - truth[0]).abs() < 1e-6 && (f.centre[1] - truth[1]).abs() < 1e-6,
+                "{t}: {f:?}"
+            );
+            assert!(
+                (f.heading_rad - (std::f64::consts::PI - heading)).sin().abs() < 1e-9,
+                "{t}: {f:?}"
+            );
+            assert!((f.half_extent[0] - car_half[0]).abs() < 1e-6 && (f.half_extent[1] - car_half[1]).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn an_object_cut_off_by_the_image_border_reaches_beyond_it() {
+        // the oblique car of the test above, its image cut off by the right border: its right
+        // edge stands still in the image while its left edge moves left
+        let heading = 29f64.to_radians();
+        let closing = 1.0 + 4.7 * heading.cos();
+        let tau = 1.0;
+        let tan_border = Pinhole::new(60.0).tan_half_fov();
+        let border_m = closing * tau * tan_border;
+        let forecast = CourseForecast {
+            t_s: 0.0,
+            tau_s: tau,
+            closing_mps: closing,
+            lateral_m: [border_m - 1.2, border_m],
+            arrival_lateral_m: [-1.7, 0.2],
+            arrival_vertical_m: [-0.5, 0.9],
+            straight: Some(true),
+            standing: false,
+        };
+        let mut planner = Planner::new(RobotFacts::default());
+        let now = Odometry {
+            velocity: [1.0, 0.0, 0.0],
+            ..Odometry::default()
+        };
+        planner.observe(0, &forecast, 0.0, &now, f64::NEG_INFINITY);
+        let seen = planner.objects[0];
+        assert_eq!(seen.clipped, [false, true]);
+        let whole = Remembered {
+            clipped: [false; 2],
+            ..seen
+        };
+        let right_most = |f: &Footprint| {
+            corners(f.centre, f.heading_rad, f.half_extent)
+                .iter()
+                .map(|c| c[1])
+                .fold(f64::INFINITY, f64::min)
+        };
+        let left_most = |f: &Footprint| {
+            corners(f.centre, f.heading_rad, f.half_extent)
+                .iter()
+                .map(|c| c[1])
+                .fold(f64::NEG_INFINITY, f64::max)
+        };
+        for t in [0.0, 0.5, 1.0] {
+            let (cut, as_seen) = (seen.footprint(t, 1.0), whole.footprint(t, 1.0));
+            // the unseen part lies beyond the right border: the footprint reaches further right
+            // (by metres: the longest object at the car's angle), its seen left edge moves as seen
+            assert!(
+                right_most(&cut) < right_most(&as_seen) - 1.0,
+                "{t}: {cut:?} vs {as_seen:?}"
+            );
+            let seen_left = -(forecast.lateral_m[0] + (forecast.arrival_lateral_m[0] - forecast.lateral_m[0]) * t);
+            assert!(left_most(&cut) >= seen_left - 1e-6, "{t}: {cut:?}");
         }
     }
 }
