@@ -25,6 +25,9 @@
 //! A trigger at `t0` runs the manoeuvre over `[t0, t0 + duration_s)`, then the cruise command is
 //! passed through again during the cooldown `[t0 + duration_s, t0 + duration_s + cooldown_s)`, in
 //! which no new trigger is accepted; from `t0 + duration_s + cooldown_s` on the controller is armed.
+//! With `manoeuvre = "plan"`, a stop or a reversal is followed by standing while the planner predicts
+//! that cruising on would meet a perceived object that waiting lets pass (at most
+//! [`crate::planner::MAX_WAIT_S`]); the cooldown starts when the wait ends.
 //! `t_s` must be non-decreasing within an episode; call [`EscapeController::reset`] between episodes.
 //!
 //! # Dodge side
@@ -406,8 +409,18 @@ impl ControllerEvent {
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Phase {
     Armed,
-    Manoeuvre { start_s: f64, chosen: Candidate },
-    Cooldown { until_s: f64 },
+    Manoeuvre {
+        start_s: f64,
+        chosen: Candidate,
+    },
+    /// Standing after a stop or a reversal until cruising on is clear (the planner's
+    /// [`Planner::keeps_waiting`]; at most [`crate::planner::MAX_WAIT_S`]).
+    Waiting {
+        since_s: f64,
+    },
+    Cooldown {
+        until_s: f64,
+    },
 }
 
 /// Threshold-triggered escape controller (see the module docs for the exact semantics).
@@ -568,6 +581,19 @@ impl EscapeController {
         self.planner.choose(&ctx, &preference, running)
     }
 
+    /// Whether the robot, standing after a stop or a reversal, keeps standing at `t_s`, `wait_s`
+    /// more at most (`manoeuvre = "plan"` with forecasts only; [`Planner::keeps_waiting`]).
+    fn keeps_waiting(&self, t_s: f64, cruise: VelocityCommand, wait_s: f64) -> bool {
+        let ctx = PlanContext {
+            t_s,
+            odometry: self.odometry,
+            cruise,
+            dodge_offset_m: self.dodge_offset_m,
+            config: &self.config,
+        };
+        wait_s > 0.0 && self.config.manoeuvre == Manoeuvre::Plan && self.planner.keeps_waiting(&ctx, wait_s)
+    }
+
     /// The manoeuvre the planner would choose now at `t_s` (`manoeuvre = "plan"`), preferring the
     /// dodge to `side`, then the other dodge, stopping, reversing, from the forecasts of the objects
     /// it was told about ([`Self::observe`]); without any forecast (or with another manoeuvre),
@@ -708,11 +734,22 @@ impl EscapeController {
             {
                 self.dodge_offset_m += lateral_mps * (t_s - t0);
             }
-            if let Phase::Manoeuvre { start_s, .. } = self.phase
+            if let Phase::Manoeuvre { start_s, chosen } = self.phase
                 && t_s >= start_s + cfg.duration_s
             {
+                self.phase = if chosen.holds() && self.keeps_waiting(t_s, cruise, crate::planner::MAX_WAIT_S) {
+                    Phase::Waiting { since_s: t_s }
+                } else {
+                    Phase::Cooldown {
+                        until_s: start_s + cfg.duration_s + cfg.cooldown_s,
+                    }
+                };
+            }
+            if let Phase::Waiting { since_s } = self.phase
+                && !self.keeps_waiting(t_s, cruise, crate::planner::MAX_WAIT_S - (t_s - since_s))
+            {
                 self.phase = Phase::Cooldown {
-                    until_s: start_s + cfg.duration_s + cfg.cooldown_s,
+                    until_s: t_s + cfg.cooldown_s,
                 };
             }
             if let Phase::Cooldown { until_s } = self.phase
@@ -781,6 +818,7 @@ impl EscapeController {
         let (command, event) = match self.phase {
             Phase::Armed => (cruise, ControllerEvent::Cruise),
             Phase::Cooldown { .. } => (cruise, ControllerEvent::Cooldown),
+            Phase::Waiting { .. } => (VelocityCommand::STOP, ControllerEvent::Manoeuvring { side: None }),
             Phase::Manoeuvre { chosen, .. } => (
                 self.dodge_command(chosen, cruise),
                 ControllerEvent::Manoeuvring {

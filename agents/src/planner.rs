@@ -27,9 +27,13 @@
 //! # Scale
 //! The image gives no scale: a forecast's metres hold for the closing speed the gate assumed. An
 //! object the gate recognised as standing in the world closes at the robot's own speed and is
-//! exact; every other object is checked under four hypotheses of its closing speed: the assumed one
-//! times each of [`SCALE_HYPOTHESES`] (0.5, 1, 1.6), and the robot's own speed (an object standing
-//! in the world that the gate did not recognise as one, e.g. a pole whose foot is hidden).
+//! exact; every other object is checked under five hypotheses of its closing speed: the assumed one
+//! times each of [`SCALE_HYPOTHESES`] (0.5, 1, 1.6), the robot's own speed (an object standing
+//! in the world that the gate did not recognise as one, e.g. a pole whose foot is hidden), and the
+//! scale that puts the object's bottom edge on the ground (the robot knows its camera's height: an
+//! object resting on the ground, a vehicle or a cart, is at the distance where its bottom meets the
+//! ground; bounded to 0.25–3.2 times the assumed scale; for a ball in flight it is one wrong guess
+//! among five).
 //!
 //! # Footprint
 //! An object's footprint on the ground is a rectangle along its direction of motion over the
@@ -42,8 +46,11 @@
 //! largest separation along their four axes (separating axes).
 //!
 //! # Candidates and choice
-//! Each candidate is a manoeuvre held for the controller's `duration_s`, then the cruise command:
-//! a sidestep (holonomic base) or an arc (differential drive) to either side, a stop, and reversing.
+//! Each candidate is a manoeuvre held for the controller's `duration_s`: a sidestep (holonomic
+//! base) or an arc (differential drive) to either side, then the cruise command; a stop, or
+//! reversing, then standing until cruising on is clear ([`Planner::keeps_waiting`]: the controller
+//! stands while waiting scores better than cruising on, at most [`MAX_WAIT_S`]; a robot that
+//! resumed its cruise at once would drive into an object crossing its path obliquely).
 //! Each is rolled out over [`PLAN_STEP_S`] steps with the drive's acceleration limits, the lateral
 //! excursion bounded by `max_dodge_offset_m` (the lane or corridor the robot knows it is in), to a
 //! horizon after the last object has passed (at most [`MAX_HORIZON_S`]). Its **clearance** under a
@@ -72,17 +79,20 @@ pub const MAX_PLANNED_OBJECTS: usize = 16;
 pub const PLAN_STEP_S: f64 = 1.0 / 120.0;
 /// Longest rollout (s).
 pub const MAX_HORIZON_S: f64 = 3.0;
+/// Longest wait after a stop or a reversal (s).
+pub const MAX_WAIT_S: f64 = 3.0;
 /// How long a forecast that is no longer refreshed is extrapolated (s).
 pub const FORECAST_MEMORY_S: f64 = 3.0;
 /// The closing speeds, as factors of the forecast's, under which a candidate must clear an object
 /// that does not stand in the world: the image gives no scale, so the forecast's metres hold for
 /// the assumed closing speed only (module docs, "Prediction").
 pub const SCALE_HYPOTHESES: [f64; 3] = [0.5, 1.0, 1.6];
-/// How many closing-speed hypotheses a candidate is checked under: [`SCALE_HYPOTHESES`] and the
-/// robot's own speed (`Remembered::scales`).
-pub const HYPOTHESES: usize = 4;
-/// The weights of the hypotheses in a candidate's score (the assumed closing speed counts twice).
-pub const HYPOTHESIS_WEIGHTS: [f64; HYPOTHESES] = [1.0, 2.0, 1.0, 1.0];
+/// How many closing-speed hypotheses a candidate is checked under: [`SCALE_HYPOTHESES`], the
+/// robot's own speed and the object resting on the ground (`Remembered::scales`).
+pub const HYPOTHESES: usize = 5;
+/// The weights of the hypotheses in a candidate's score (the assumed closing speed and the ground
+/// count twice).
+pub const HYPOTHESIS_WEIGHTS: [f64; HYPOTHESES] = [1.0, 2.0, 1.0, 1.0, 2.0];
 /// How much larger (m) another candidate's capped clearance must be to replace the running one.
 pub const SWITCH_MARGIN_M: f64 = 0.05;
 
@@ -122,6 +132,13 @@ impl Candidate {
             manoeuvre: Manoeuvre::DodgeLateral,
             side,
         }
+    }
+
+    /// Whether the robot waits after this manoeuvre, standing, until cruising on is clear
+    /// (stopping and reversing; module docs, "Candidates and choice"). A dodge moves the robot out
+    /// of the way; cruising on after it is part of the plan.
+    pub fn holds(&self) -> bool {
+        matches!(self.manoeuvre, Manoeuvre::Stop | Manoeuvre::Reverse)
     }
 
     /// Whether two candidates do the same (the side matters for lateral dodges only).
@@ -192,6 +209,9 @@ struct Remembered {
     refreshed_s: f64,
     /// Whether its image's left and right edges lay at the image border (cut off by it).
     clipped: [bool; 2],
+    /// The factor on the forecast's metres that puts the object's bottom on the ground (an object
+    /// resting on it: a vehicle, a cart), when its bottom is below the camera.
+    ground_scale: Option<f64>,
 }
 
 impl Remembered {
@@ -253,8 +273,9 @@ impl Remembered {
     }
 
     /// The factors on the forecast's metres under which the object is checked: 1 for an object
-    /// standing in the world; else [`SCALE_HYPOTHESES`] and the factor that makes it close at the
-    /// robot's own speed (an object standing in the world that the gate did not recognise as one).
+    /// standing in the world; else [`SCALE_HYPOTHESES`], the factor that makes it close at the
+    /// robot's own speed (an object standing in the world that the gate did not recognise as one)
+    /// and the one that puts its bottom on the ground.
     fn scales(&self) -> [f64; HYPOTHESES] {
         let f = &self.forecast;
         if f.standing {
@@ -262,7 +283,13 @@ impl Remembered {
         }
         let own_speed = (self.origin.velocity[0] / f.closing_mps).clamp(0.0, 1.0);
         let [a, b, c] = SCALE_HYPOTHESES;
-        [a, b, c, if own_speed > 0.0 { own_speed } else { b }]
+        [
+            a,
+            b,
+            c,
+            if own_speed > 0.0 { own_speed } else { b },
+            self.ground_scale.unwrap_or(b),
+        ]
     }
 
     /// Whether the object passes above or below the body (a straight vertical course that misses).
@@ -353,6 +380,26 @@ fn gap(pose: &Odometry, body: &BodyExtent, object: &Footprint) -> f64 {
         .fold(f64::NEG_INFINITY, f64::max)
 }
 
+/// A course of commands to predict: `manoeuvre` for `duration_s`, then standing for `wait_s`,
+/// then the cruise command.
+#[derive(Debug, Clone, Copy)]
+struct Rollout {
+    manoeuvre: VelocityCommand,
+    duration_s: f64,
+    wait_s: f64,
+}
+
+/// The score of clearances under the hypotheses: their weighted mean, each capped at `margin`.
+fn score_of(clearances: &[f64; HYPOTHESES], margin: f64) -> f64 {
+    let total: f64 = HYPOTHESIS_WEIGHTS.iter().sum();
+    clearances
+        .iter()
+        .zip(HYPOTHESIS_WEIGHTS)
+        .map(|(c, w)| c.min(margin) * w)
+        .sum::<f64>()
+        / total
+}
+
 /// The planner's inputs about the robot for one decision.
 #[derive(Debug, Clone, Copy)]
 pub struct PlanContext<'a> {
@@ -433,6 +480,9 @@ impl Planner {
                 border(forecast.lateral_m[0]) <= -1.0 + BORDER_MARGIN,
                 border(forecast.lateral_m[1]) >= 1.0 - BORDER_MARGIN,
             ],
+            ground_scale: Some(self.facts.body.below_camera_m / -forecast.arrival_vertical_m[0])
+                .filter(|s| s.is_finite() && *s > 0.0)
+                .map(|s| s.clamp(SCALE_HYPOTHESES[0] / 2.0, SCALE_HYPOTHESES[2] * 2.0)),
         };
         if let Some(slot) = self.objects.iter_mut().find(|o| o.id == id) {
             *slot = entry;
@@ -466,26 +516,60 @@ impl Planner {
     /// A candidate's score: the weighted mean over the closing-speed hypotheses of its clearance
     /// capped at `clearance_margin_m` ([`HYPOTHESIS_WEIGHTS`]).
     pub fn score(&self, candidate: Candidate, ctx: &PlanContext<'_>) -> f64 {
-        let margin = ctx.config.clearance_margin_m;
-        let total: f64 = HYPOTHESIS_WEIGHTS.iter().sum();
-        self.clearances(candidate, ctx)
-            .iter()
-            .zip(HYPOTHESIS_WEIGHTS)
-            .map(|(c, w)| c.min(margin) * w)
-            .sum::<f64>()
-            / total
+        score_of(&self.clearances(candidate, ctx), ctx.config.clearance_margin_m)
     }
 
-    /// The clearance of `candidate` under each closing-speed hypothesis.
+    /// Whether a robot standing after a manoeuvre that [holds](Candidate::holds) should keep
+    /// standing, `wait_s` at most: waiting, then cruising on, scores better than cruising on now
+    /// by more than [`SWITCH_MARGIN_M`] (never for an object standing in the world: it does not
+    /// pass a robot that waits).
+    pub fn keeps_waiting(&self, ctx: &PlanContext<'_>, wait_s: f64) -> bool {
+        if self.objects.is_empty() {
+            return false;
+        }
+        let wait = Rollout {
+            manoeuvre: VelocityCommand::STOP,
+            duration_s: 0.0,
+            wait_s,
+        };
+        let cruise_on = Rollout {
+            manoeuvre: ctx.cruise,
+            duration_s: 0.0,
+            wait_s: 0.0,
+        };
+        let margin = ctx.config.clearance_margin_m;
+        score_of(&self.rollout(&wait, ctx), margin) > score_of(&self.rollout(&cruise_on, ctx), margin) + SWITCH_MARGIN_M
+    }
+
+    /// The clearance of `candidate` under each closing-speed hypothesis: its manoeuvre for
+    /// `duration_s`, then (if it [holds](Candidate::holds)) standing for [`MAX_WAIT_S`], then
+    /// the cruise command.
     fn clearances(&self, candidate: Candidate, ctx: &PlanContext<'_>) -> [f64; HYPOTHESES] {
+        let rollout = Rollout {
+            manoeuvre: ctx.config.command(candidate, ctx.cruise, self.facts.base),
+            duration_s: ctx.config.duration_s,
+            wait_s: if candidate.holds() { MAX_WAIT_S } else { 0.0 },
+        };
+        self.rollout(&rollout, ctx)
+    }
+
+    /// The clearance of `rollout` under each closing-speed hypothesis.
+    fn rollout(&self, rollout: &Rollout, ctx: &PlanContext<'_>) -> [f64; HYPOTHESES] {
         let facts = &self.facts;
+        // an object standing in the world passes a robot that waits only once it drives on
+        let delay = if rollout.wait_s > 0.0 {
+            rollout.duration_s + rollout.wait_s
+        } else {
+            0.0
+        };
         let end = self
             .objects
             .iter()
             .filter(|o| !o.passes_over_or_under(facts))
             .map(|o| o.passed_s(facts))
             .fold(f64::NEG_INFINITY, f64::max)
-            .min(ctx.t_s + MAX_HORIZON_S);
+            .min(ctx.t_s + MAX_HORIZON_S)
+            + delay;
         let mut clearance = [f64::INFINITY; HYPOTHESES];
         if end <= ctx.t_s {
             return clearance;
@@ -494,10 +578,12 @@ impl Planner {
         let mut pose = ctx.odometry;
         let mut offset = ctx.dodge_offset_m;
         let mut t = ctx.t_s;
-        let manoeuvre = ctx.config.command(candidate, ctx.cruise, facts.base);
         while t < end {
-            let mut command = if t - ctx.t_s < ctx.config.duration_s {
-                manoeuvre
+            let since = t - ctx.t_s;
+            let mut command = if since < rollout.duration_s {
+                rollout.manoeuvre
+            } else if since < rollout.duration_s + rollout.wait_s {
+                VelocityCommand::STOP
             } else {
                 ctx.cruise
             };
@@ -692,6 +778,7 @@ mod tests {
             },
             refreshed_s: 0.0,
             clipped: [false; 2],
+            ground_scale: None,
         };
         for t in [0.0, 0.5, tau, 1.5] {
             let f = object.footprint(t, 1.0);

@@ -6,6 +6,7 @@ mod events;
 mod hopfield_rendered;
 mod latency;
 mod parser_fuzz;
+mod planner_scenes;
 mod reference;
 mod registry;
 mod runner;
