@@ -9,7 +9,7 @@ PYTHON ?= python3
 # Mesa's Vulkan loader complains on every device creation when XDG_RUNTIME_DIR is unset (CI, containers).
 export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 $$d && echo $$d)
 
-.PHONY: run cli test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-interpreter python-venv python-env python-examples suite-check sweep bless readme-table heldout heldout-bless bench bench-python bench-peer figures fmt rl-env rl-train rl-train-detectors rl-train-privileged rl-table rl-table-docs rl-result
+.PHONY: run cli test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-interpreter python-venv python-env python-examples suite-check sweep bless readme-table heldout heldout-bless events events-bless bench bench-python bench-events bench-peer figures fmt rl-env rl-train rl-train-detectors rl-train-privileged rl-table rl-table-docs rl-result
 
 # One build for everything that runs code: `make run`, the tests, the suite check, the Python
 # binding and the sweep tests all use the release profile of one workspace (one Cargo.lock, the
@@ -194,8 +194,23 @@ DOC_TABLES = README.md docs/results.md
 ROBOT_BASELINE ?= scenarios/baseline/default-robot-report.json
 readme-table: cli
 	$(BIN) table $(BASELINE) $(addprefix --update ,$(DOC_TABLES))
+	$(BIN) table $(EVENTS_BASELINE) --tag events $(addprefix --update ,$(DOC_TABLES) docs/events.md)
 	$(BIN) table $(HELDOUT_BASELINE) --tag heldout $(addprefix --update ,$(DOC_TABLES))
 	$(BIN) table $(BASELINE) --compare $(ROBOT_BASELINE) $(addprefix --update ,$(DOC_TABLES))
+
+## The default suite on the event camera (`--sensor events`), every registered row (`--detectors
+## all`: the suite's rows, which read the same frames as without it, and the event rows
+## `event_soc` and `event_lgmd`): `make events` compares a run with its committed baseline,
+## `make events-bless` makes a run the new baseline and regenerates the `@events` tables
+## (docs/events.md). Not in `make test` (~8 min on 2 cores).
+EVENTS_BASELINE ?= scenarios/baseline/default-events-report.json
+EVENTS_RUN = $(BIN) run --sensor events --detectors all --out out/events --overwrite --brief --baseline $(EVENTS_BASELINE)
+events: deps cli
+	$(EVENTS_RUN)
+
+events-bless: deps cli
+	$(EVENTS_RUN) --bless
+	$(MAKE) --no-print-directory readme-table
 
 ## The held-out suite (scenarios/suites/heldout: scenario families the default suite does not have,
 ## never tuned on; the default suite's detector rows): `make heldout` runs it into $(HELDOUT_OUT)
@@ -285,6 +300,12 @@ bench: deps
 ## (docs/adding-a-detector.md; a benchmark, not a test).
 bench-python: python-env
 	$(VENV)/bin/python python/bench/python_detector_overhead.py
+
+## The event camera's cost: the default suite under the `ideal` and the `events` sensor profiles,
+## alternately, with the ratio (python/bench/event_camera_cost.py; a benchmark, not a test; stdlib
+## only). EVENT_BENCH_ARGS: e.g. `--limit 40 --rounds 3`.
+bench-events: cli
+	$(PYTHON) python/bench/event_camera_cost.py --bin $(BIN) $(EVENT_BENCH_ARGS)
 
 ## loomlab's render step against pybullet's TinyRenderer (plane + sphere) at 64² and 128², timed
 ## alternately in one run, with the ratio (python/bench/peer_pybullet.py; a benchmark, not a test).

@@ -17,6 +17,9 @@ const HELDOUT_BASELINE: &str = "scenarios/suites/heldout/baseline/report.json";
 /// The default suite's committed report under the `robot` sensor profile (the `results-robot`
 /// block sets it beside [`BASELINE`]).
 const ROBOT_BASELINE: &str = "scenarios/baseline/default-robot-report.json";
+/// The default suite's committed report on the event camera (`make events`: every registered
+/// row, the event rows among them); its blocks are tagged `@events`.
+const EVENTS_BASELINE: &str = "scenarios/baseline/default-events-report.json";
 /// Documents with generated blocks (the Makefile's `DOC_TABLES`).
 const GENERATED: [&str; 2] = ["README.md", "docs/results.md"];
 
@@ -95,6 +98,49 @@ fn generated_robot_comparison_matches_both_baselines() {
         // a stale block is found: the block with another report's numbers
         let swapped = stale_compare_blocks(&results, &robot, &ideal).unwrap();
         assert_eq!(swapped, ["results-robot"]);
+    }
+}
+
+#[test]
+fn generated_events_tables_match_the_events_baseline() {
+    let report = Report::read_json(&root().join(EVENTS_BASELINE)).unwrap();
+    assert_eq!(report.sensor_profile.as_deref(), Some("events"), "{EVENTS_BASELINE}");
+    let ideal = baseline();
+    assert_eq!(
+        (report.episodes, report.seed),
+        (ideal.episodes, ideal.seed),
+        "the default suite's episodes"
+    );
+    for doc in ["README.md", "docs/results.md", "docs/events.md"] {
+        let stale = stale_tagged_blocks(&read(doc), &report, Some("events")).unwrap_or_else(|e| panic!("{doc}: {e}"));
+        assert!(
+            stale.is_empty(),
+            "{doc}: the generated block(s) {stale:?} disagree with {EVENTS_BASELINE}; regenerate them with `{REGENERATE}`"
+        );
+    }
+    // the README's table on events has every row, the event rows among them; the frame rows read
+    // the same frames as without the event camera, so they equal the default baseline's
+    let readme = read("README.md");
+    let begin = readme
+        .find("<!-- results-table@events:begin -->")
+        .expect("README has the event camera's table");
+    let table = &readme[begin..readme.find("<!-- results-table@events:end -->").unwrap()];
+    for label in report.detectors.keys() {
+        assert!(
+            table.contains(&format!("| `{label}`")),
+            "the events table lacks the row {label}"
+        );
+    }
+    for label in ["event_soc", "event_lgmd"] {
+        assert!(report.detectors.contains_key(label), "{EVENTS_BASELINE} lacks {label}");
+    }
+    for (label, frames) in &ideal.detectors {
+        let events = &report.detectors[label];
+        assert_eq!(
+            (events.hits, events.false_alarms, events.evaded, events.collisions),
+            (frames.hits, frames.false_alarms, frames.evaded, frames.collisions),
+            "{label}: a frame row's outcome on the event camera differs from the frames baseline's"
+        );
     }
 }
 

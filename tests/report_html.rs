@@ -249,3 +249,73 @@ fn no_html_writes_no_page_and_overwrite_removes_an_old_one() {
     assert!(out.join("report.json").is_file());
     assert!(!out.join("report.html").exists() && !out.join("exemplars").exists());
 }
+
+/// The frames of a GIF, as RGBA images.
+fn gif_frames(gif: &Path) -> Vec<image::RgbaImage> {
+    use image::AnimationDecoder;
+    let file = std::io::BufReader::new(std::fs::File::open(gif).unwrap());
+    image::codecs::gif::GifDecoder::new(file)
+        .unwrap()
+        .into_frames()
+        .collect_frames()
+        .unwrap()
+        .into_iter()
+        .map(|f| f.into_buffer())
+        .collect()
+}
+
+#[test]
+fn an_event_camera_run_shows_each_exemplars_events() {
+    let dir = common::tmp("report-html", "events");
+    let suite = tiny_suite(&dir);
+    let out = dir.join("out");
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--quiet",
+        "--no-plots",
+        "--sensor",
+        "events",
+        "--detectors",
+        "soc,event_soc",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    let srcs = |class: &str| -> Vec<String> {
+        html.split(&format!("<img class=\"{class}\" src=\""))
+            .skip(1)
+            .map(|r| r[..r.find('"').unwrap()].to_string())
+            .collect()
+    };
+    let (views, events) = (srcs("view"), srcs("view events"));
+    assert!(!views.is_empty());
+    assert_eq!(views.len(), events.len(), "one events GIF per exemplar: {events:?}");
+    for (v, e) in views.iter().zip(&events) {
+        assert_eq!(e, &v.replace(".gif", "_events.gif"));
+        let (view_frames, event_frames) = (gif_frames(&out.join(v)), gif_frames(&out.join(e)));
+        assert_eq!(view_frames.len(), event_frames.len(), "{e}: the view's frames");
+        // the approaching ball makes events: some frame has pixels off the mid-grey of "none"
+        let image_rows = event_frames[0].height() - 24;
+        let eventful = event_frames
+            .iter()
+            .any(|f| (0..image_rows).any(|y| (0..f.width()).any(|x| f.get_pixel(x, y).0[0].abs_diff(128) > 40)));
+        assert!(eventful, "{e}: no events shown");
+    }
+    // --overwrite removes the events GIFs with the rest of the run
+    let o = loomlab(&[
+        "run",
+        s(&suite),
+        "--out",
+        s(&out),
+        "--quiet",
+        "--no-plots",
+        "--overwrite",
+        "--limit",
+        "1",
+        "--no-html",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(!out.join(&events[0]).exists(), "{} left behind", events[0]);
+}

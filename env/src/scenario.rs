@@ -256,6 +256,18 @@ impl ScenarioEpisodes {
                 sc.episodes[0].world.camera.n
             )));
         }
+        let events = |e: &EpisodeSpec| !e.world.camera.kind.is_frames();
+        if let Some(e) = sc.episodes.iter().find(|e| events(e) != events(&sc.episodes[0])) {
+            let kind = |e: &EpisodeSpec| if events(e) { "events" } else { "frames" };
+            return Err(EnvError::Scenario(format!(
+                "{}: episode {} has camera kind `{}` but episode 0 has `{}`; an environment observes one kind of \
+                 camera, so do not sweep `world.camera.kind` (or set the sensor option)",
+                path.display(),
+                e.index,
+                kind(e),
+                kind(&sc.episodes[0])
+            )));
+        }
         Ok(())
     }
 }

@@ -19,7 +19,8 @@ fn inf_if_none(v: Option<f64>) -> f64 {
 }
 
 /// The observation of one environment: raw, a dict (per-detector signals under the detector
-/// labels); normalized, the feature vector (a dict `{features, frame}` when frames are observed).
+/// labels); normalized, the feature vector (a dict `{features, frame}` when frames are observed);
+/// with an event camera the observed frame comes with `events` (ON and OFF counts, 2×n×n).
 pub fn obs_dict<'py>(py: Python<'py>, meta: &Meta, obs: &Observation) -> PyResult<Bound<'py, PyAny>> {
     let n = meta.frame_size as usize;
     if meta.obs_mode.is_vector() {
@@ -31,6 +32,9 @@ pub fn obs_dict<'py>(py: Python<'py>, meta: &Meta, obs: &Observation) -> PyResul
                 let d = PyDict::new(py);
                 d.set_item("features", features)?;
                 d.set_item("frame", PyArray1::from_slice(py, frame).reshape([n, n])?)?;
+                if let Some(e) = &obs.events {
+                    d.set_item("events", PyArray1::from_slice(py, e).reshape([2, n, n])?)?;
+                }
                 Ok(d.into_any())
             }
         };
@@ -45,6 +49,9 @@ pub fn obs_dict<'py>(py: Python<'py>, meta: &Meta, obs: &Observation) -> PyResul
     d.set_item("robot", PyArray1::from_slice(py, &obs.robot))?;
     if let Some(f) = &obs.frame {
         d.set_item("frame", PyArray1::from_slice(py, f).reshape([n, n])?)?;
+    }
+    if let Some(e) = &obs.events {
+        d.set_item("events", PyArray1::from_slice(py, e).reshape([2, n, n])?)?;
     }
     Ok(d.into_any())
 }
@@ -195,6 +202,16 @@ impl<'py> Batch<'py> {
                 }
             }
             obs.set_item("frame", PyArray1::from_vec(py, frames).reshape([m, n, n])?)?;
+            if meta.event_camera {
+                let mut counts = Vec::with_capacity(m * 2 * n * n);
+                for r in results {
+                    match &r.obs.events {
+                        Some(e) => counts.extend_from_slice(e),
+                        None => counts.resize(counts.len() + 2 * n * n, 0),
+                    }
+                }
+                obs.set_item("events", PyArray1::from_vec(py, counts).reshape([m, 2, n, n])?)?;
+            }
         }
 
         let reward = PyArray1::from_vec(py, results.iter().map(|r| r.reward).collect()).into_any();

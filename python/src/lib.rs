@@ -77,6 +77,7 @@ struct Meta {
     duration_steps: u64,
     action_kind: ActionKind,
     observe_frames: bool,
+    event_camera: bool,
     obs_mode: ObsMode,
     feature_names: Vec<String>,
     feature_low: Vec<f32>,
@@ -97,6 +98,7 @@ impl Meta {
             duration_steps: env.duration_steps(),
             action_kind: env.options().action_kind,
             observe_frames: env.options().observe_frames,
+            event_camera: env.event_camera(),
             obs_mode: env.options().obs_mode,
             feature_names: env.feature_specs().into_iter().map(|f| f.name).collect(),
             feature_low: env.feature_specs().iter().map(|f| f.low).collect(),
@@ -160,6 +162,12 @@ macro_rules! meta_getters {
             #[getter]
             fn observe_frames(&self) -> bool {
                 self.meta.observe_frames
+            }
+            /// Whether the episodes have an event camera (observed frames then come with the
+            /// period's event counts, `obs["events"]`).
+            #[getter]
+            fn event_camera(&self) -> bool {
+                self.meta.event_camera
             }
             /// The GPU adapter that renders.
             #[getter]

@@ -71,3 +71,44 @@ def test_unknown_profile_is_a_clear_value_error(short_kwargs, name):
     with pytest.raises(SensorProfileError):
         EscapeVectorEnv(2, sensor=name, **short_kwargs)
     assert issubclass(SensorProfileError, ScenarioError)
+
+
+def test_observed_frames_come_with_the_event_cameras_counts(short_kwargs):
+    """With an event camera (``sensor="events"``) ``observe_frames`` adds ``events``: the period's ON
+    and OFF counts per pixel, in the observation space, zero on the reset frame, seeded; on frames
+    alone there is no ``events`` key."""
+
+    def run(seed: int) -> np.ndarray:
+        env = EscapeEnv(observe_frames=True, sensor="events", **short_kwargs)
+        try:
+            assert env._native.event_camera
+            assert env.observation_space["events"].shape == (2, 32, 32)
+            obs, _ = env.reset(seed=seed)
+            assert env.observation_space.contains(obs)
+            counts = [obs["events"].copy()]
+            for _ in range(30):
+                obs, *_ = env.step(np.zeros(3, dtype=np.float32))
+                assert env.observation_space.contains(obs)
+                counts.append(obs["events"].copy())
+        finally:
+            env.close()
+        return np.stack(counts)
+
+    a, a2 = run(1), run(1)
+    assert a.dtype == np.uint16 and a.shape == (31, 2, 32, 32)
+    assert not a[0].any(), "no events before the first period"
+    assert a[1:].sum() > 0, "the approaching ball makes events"
+    np.testing.assert_array_equal(a, a2)
+    env = EscapeEnv(observe_frames=True, **short_kwargs)
+    try:
+        obs, _ = env.reset(seed=1)
+        assert "events" not in obs and "events" not in env.observation_space.spaces
+    finally:
+        env.close()
+
+
+def test_an_environment_observes_one_kind_of_camera(short_toml):
+    """A scenario that sweeps the camera kind is refused: the observation space depends on it."""
+    toml = short_toml + '\n[sweep]\n"world.camera.kind" = ["frames", "events"]\n'
+    with pytest.raises(ScenarioError, match=r"camera kind `events` but episode 0 has `frames`"):
+        EscapeEnv(scenario_toml=toml, frame_size=32)

@@ -152,15 +152,24 @@ fn exemplar_html(e: &Exemplar) -> Result<String, ReportError> {
     let _ = write!(
         b,
         "<div class=\"exemplar\" id=\"{}\"><div><img class=\"view\" src=\"{}\" alt=\"robot's view, {} episode {}\" \
-         data-frames=\"{}\" data-alarms=\"{}\"><div class=\"facts\"><b>episode {}</b><br>",
+         data-frames=\"{}\" data-alarms=\"{}\">",
         anchor("exemplar", &format!("{}_{}", c.scenario, c.episode)),
         escape(&e.gif),
         escape(&c.scenario),
         c.episode,
         e.gif_frames,
         e.alarms.len(),
-        c.episode
     );
+    if let Some(events) = &e.events_gif {
+        let _ = write!(
+            b,
+            "<img class=\"view events\" src=\"{}\" alt=\"event camera, {} episode {} (ON brighter, OFF darker)\">",
+            escape(events),
+            escape(&c.scenario),
+            c.episode
+        );
+    }
+    let _ = write!(b, "<div class=\"facts\"><b>episode {}</b><br>", c.episode);
     for (kind, det) in &c.reasons {
         let class = match kind {
             crate::exemplar::ExemplarKind::Miss => "miss",

@@ -321,12 +321,7 @@ impl EventOutputs {
         }
         if show {
             if let Some(gif) = self.gif.as_mut() {
-                let image: Vec<f32> = self
-                    .net
-                    .iter()
-                    .map(|&v| 0.5 + 0.5 * (v / 4.0).clamp(-1.0, 1.0))
-                    .collect();
-                gif.add(&image)?;
+                gif.add(&loomlab_report::exemplar::event_image(&self.net))?;
             }
             self.net.iter_mut().for_each(|v| *v = 0.0);
         }

@@ -113,6 +113,10 @@ impl Html<'_> {
         };
         for c in &choices {
             self.run_dir.record(&format!("{EXEMPLARS_DIR}/{}", c.gif_name()))?;
+            if !spec(&c.scenario, c.episode)?.world.camera.kind.is_frames() {
+                self.run_dir
+                    .record(&format!("{EXEMPLARS_DIR}/{}", c.events_gif_name()))?;
+            }
         }
         self.run_dir.record(REPORT_HTML)?;
         let rerun_count = choices

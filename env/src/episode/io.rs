@@ -74,6 +74,10 @@ pub struct Observation {
     pub robot: [f32; ROBOT_DIM],
     /// The egocentric frame, n·n grey levels row-major (row 0 at the top), if observed.
     pub frame: Option<Vec<u8>>,
+    /// With [`EnvOptions::observe_frames`] and an event camera ([`EscapeEnv::event_camera`]): the
+    /// period's ON then OFF event counts per pixel (2·n·n, each n·n row-major); zeros on the reset
+    /// frame.
+    pub events: Option<Vec<u16>>,
     /// The feature vector ([`crate::features`]), when [`EnvOptions::obs_mode`] is
     /// [`ObsMode::Normalized`] or [`ObsMode::Privileged`].
     pub features: Option<Vec<f32>>,

@@ -85,6 +85,16 @@ impl EscapeEnv {
         &self.base.episodes
     }
 
+    /// Whether the episodes have an event camera (`[world.camera] kind = "events"`, or the
+    /// `events` sensor profile): then the observed frames come with the period's event counts
+    /// ([`Observation::events`]) and the detectors get the events.
+    pub fn event_camera(&self) -> bool {
+        self.base
+            .episodes
+            .first()
+            .is_some_and(|e| !e.world.camera.kind.is_frames())
+    }
+
     /// The options.
     pub fn options(&self) -> &EnvOptions {
         &self.options

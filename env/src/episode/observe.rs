@@ -82,6 +82,11 @@ impl EscapeEnv {
             .options
             .observe_frames
             .then(|| out.frame.iter().map(|&v| to_u8(v)).collect());
+        let events_u16: Option<Vec<u16>> =
+            (self.options.observe_frames && r.sim.event_stream().is_some()).then(|| match r.sim.events() {
+                Some(p) => p.on_counts.iter().chain(&p.off_counts).copied().collect(),
+                None => vec![0; 2 * n * n],
+            });
         if out.frame_index == 0 {
             // the reset frame: detectors see their first frame in the first step
             for (names, d) in self.signal_names.iter().zip(&self.detectors) {
@@ -172,6 +177,7 @@ impl EscapeEnv {
             alarm,
             robot,
             frame: frame_u8,
+            events: events_u16,
             features: None,
         };
         let obs = match self.options.obs_mode {

@@ -276,8 +276,7 @@ def make_spaces(native: Any) -> Tuple[spaces.Space, spaces.Space]:
         )
         if not native.observe_frames:
             return features, action
-        n = native.frame_size
-        return spaces.Dict({"features": features, "frame": spaces.Box(0, 255, shape=(n, n), dtype=np.uint8)}), action
+        return spaces.Dict({"features": features, **_frame_spaces(native)}), action
     obs: Dict[str, spaces.Space] = {}
     for label, names in zip(native.detector_labels, native.signal_names):
         lim = _native.SIGNAL_LIMIT
@@ -287,9 +286,19 @@ def make_spaces(native: Any) -> Tuple[spaces.Space, spaces.Space]:
     lim = _native.ROBOT_LIMIT
     obs["robot"] = spaces.Box(-lim, lim, shape=(len(native.robot_fields),), dtype=np.float32)
     if native.observe_frames:
-        n = native.frame_size
-        obs["frame"] = spaces.Box(0, 255, shape=(n, n), dtype=np.uint8)
+        obs.update(_frame_spaces(native))
     return spaces.Dict(obs), action
+
+
+def _frame_spaces(native: Any) -> Dict[str, spaces.Space]:
+    """What ``observe_frames`` adds: ``frame`` (n×n uint8) and, with an event camera
+    (``sensor="events"`` or ``[world.camera] kind = "events"``), ``events``: the camera period's ON
+    and OFF event counts per pixel (2×n×n uint16)."""
+    n = native.frame_size
+    out: Dict[str, spaces.Space] = {"frame": spaces.Box(0, 255, shape=(n, n), dtype=np.uint8)}
+    if native.event_camera:
+        out["events"] = spaces.Box(0, np.iinfo(np.uint16).max, shape=(2, n, n), dtype=np.uint16)
+    return out
 
 
 def _scenario_arg(
@@ -413,7 +422,8 @@ class EscapeEnv(gym.Env):
     ``obs_mode="raw"`` (default): a ``Dict`` of one ``Box(-1e6, 1e6)`` per detector label (its
     output then its auxiliary signals, ``signal_names``), ``theta_hat`` (θ̂ in degrees, [0, 180]),
     ``alarm`` (``MultiBinary(D)``), ``robot`` (``x_m, y_m, yaw_rad, forward_mps, yaw_rate_rps,
-    lateral_mps, t_s``) and, with ``observe_frames``, ``frame`` (n×n uint8).
+    lateral_mps, t_s``) and, with ``observe_frames``, ``frame`` (n×n uint8) and, with an event
+    camera (``sensor="events"``), ``events`` (the period's ON and OFF event counts, 2×n×n uint16).
 
     ``obs_mode="normalized"``: one ``Box(low, high, (3·D + 10,), float32)`` of bounded features a
     policy network can take as they are (``D`` detectors; names in ``self._native.feature_names``,

@@ -62,6 +62,11 @@ impl ExemplarChoice {
     pub fn gif_name(&self) -> String {
         format!("{}_{:04}.gif", self.scenario, self.episode)
     }
+
+    /// File name of the events GIF (in [`crate::EXEMPLARS_DIR`]), with an event camera.
+    pub fn events_gif_name(&self) -> String {
+        format!("{}_{:04}_events.gif", self.scenario, self.episode)
+    }
 }
 
 /// The exemplary episodes of a run, scenario by scenario in suite order, from every episode's

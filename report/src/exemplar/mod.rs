@@ -11,6 +11,8 @@
 //! view ([`build`]): at most [`MAX_GIF_FRAMES`] frames (subsampled, every detector's alarm frame
 //! kept) of at most [`MAX_GIF_SIZE`] pixels, each alarm frame with a thick border in the alarming
 //! detector's colour and its label, the frames after the featured detector's alarm with a thin one.
+//! With an event camera a second GIF shows the same frames' events (those since the previous shown
+//! frame: ON brighter, OFF darker than mid-grey), so every frame of the episode is rendered again.
 //!
 //! Cost: the traces come from the runs the CLI keeps while the suite runs ([`ExemplarRuns`]: at
 //! most four per scenario); only an exemplar from an earlier invocation (a resumed run) is run
@@ -36,6 +38,7 @@ use loomlab_sim::GpuContext;
 use crate::ReportError;
 use crate::run_plots::Figure;
 use capture::capture;
+pub use capture::event_image;
 pub use choice::{ExemplarChoice, ExemplarKind, choose};
 pub use runs::ExemplarRuns;
 pub use trace::trace_figure;
@@ -60,6 +63,9 @@ pub struct Exemplar {
     pub gif: String,
     /// Frames in the GIF.
     pub gif_frames: usize,
+    /// With an event camera: the events GIF's path relative to the page (the same frames, each
+    /// showing the events since the previous one).
+    pub events_gif: Option<String>,
     /// Alarm frames marked in the GIF (detector label, frame index in the episode).
     pub alarms: Vec<(String, usize)>,
     /// The trace plot.
@@ -96,13 +102,13 @@ pub fn build(
         .filter_map(|d| Some((d.label.clone(), alarm_frame(&d.signal, d.threshold)?)))
         .collect();
     let wanted = gif_frames(len, &alarms.iter().map(|(_, k)| *k).collect::<Vec<_>>());
-    let frames = capture(ctx, spec, len, &wanted).map_err(fail)?;
+    let captured = capture(ctx, spec, len, &wanted).map_err(fail)?;
     let labels: Vec<String> = tr.detectors.iter().map(|d| d.label.clone()).collect();
     let featured = labels.iter().position(|l| l == choice.featured());
-    let gif = GifEpisode {
+    let view = GifEpisode {
         n: spec.world.camera.n,
         hz: f64::from(spec.world.camera_hz),
-        frames: &frames,
+        frames: &captured.frames,
         t_s: &tr.t_s,
         theta_deg: &tr.angular_size_deg,
         labels: &labels,
@@ -110,9 +116,17 @@ pub fn build(
         featured,
     };
     std::fs::create_dir_all(dir).map_err(|e| ReportError::io(dir, e))?;
-    let path = dir.join(choice.gif_name());
-    let bytes = gif.encode().map_err(fail)?;
-    std::fs::write(&path, bytes).map_err(|e| ReportError::io(&path, e))?;
+    let write = |name: &str, episode: GifEpisode<'_>| -> Result<String, ReportError> {
+        let path = dir.join(name);
+        let bytes = episode.encode().map_err(fail)?;
+        std::fs::write(&path, bytes).map_err(|e| ReportError::io(&path, e))?;
+        Ok(format!("{gif_rel}/{}", crate::html::url_segment(name)))
+    };
+    let events_gif = match &captured.events {
+        Some(events) => Some(write(&choice.events_gif_name(), GifEpisode { frames: events, ..view })?),
+        None => None,
+    };
+    let view = write(&choice.gif_name(), view)?;
     Ok(Exemplar {
         choice: choice.clone(),
         params: run.outcome.params.clone(),
@@ -122,8 +136,9 @@ pub fn build(
             .iter()
             .map(|d| (d.detector.clone(), d.outcome, d.t_alarm_s))
             .collect(),
-        gif: format!("{gif_rel}/{}", crate::html::url_segment(&choice.gif_name())),
-        gif_frames: frames.len(),
+        gif: view,
+        gif_frames: captured.frames.len(),
+        events_gif,
         alarms,
         trace: trace_figure(run),
     })
