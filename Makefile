@@ -194,7 +194,7 @@ DOC_TABLES = README.md docs/results.md
 ROBOT_BASELINE ?= scenarios/baseline/default-robot-report.json
 readme-table: cli
 	$(BIN) table $(BASELINE) $(addprefix --update ,$(DOC_TABLES))
-	$(BIN) table $(EVENTS_BASELINE) --tag events $(addprefix --update ,$(DOC_TABLES) docs/events.md)
+	$(BIN) table $(EVENTS_BASELINE) --tag events --update README.md --update docs/events.md
 	$(BIN) table $(HELDOUT_BASELINE) --tag heldout $(addprefix --update ,$(DOC_TABLES))
 	$(BIN) table $(BASELINE) --compare $(ROBOT_BASELINE) $(addprefix --update ,$(DOC_TABLES))
 

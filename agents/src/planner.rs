@@ -215,10 +215,34 @@ struct Remembered {
 }
 
 impl Remembered {
-    /// The object's footprint at time `t_s` under closing-speed factor `scale` (module docs,
-    /// "Footprint").
-    fn footprint(&self, t_s: f64, scale: f64) -> Footprint {
+    /// What the object's footprint under closing-speed factor `scale` keeps over time: its
+    /// velocity over the ground and so its direction and height (module docs, "Footprint").
+    fn motion(&self, scale: f64) -> Motion {
         let f = &self.forecast;
+        // the object's velocity over the ground in the origin's axes: its image motion relative
+        // to the robot (that of its edges not cut off by the image border) plus the robot's own
+        let [vf, vl, _] = self.origin.velocity;
+        let edge_rate = |i: usize| -scale * (f.arrival_lateral_m[i] - f.lateral_m[i]) / f.tau_s;
+        let lateral_rate = match self.clipped {
+            [true, false] => edge_rate(1),
+            [false, true] => edge_rate(0),
+            _ => (edge_rate(0) + edge_rate(1)) / 2.0,
+        };
+        let ground = [vf - scale * f.closing_mps, vl + lateral_rate];
+        let heading = ground[1].atan2(ground[0]);
+        let (sin, cos) = heading.sin_cos();
+        Motion {
+            scale,
+            heading,
+            sin_cos: [sin.abs(), cos.abs()],
+            moving: ground[0].hypot(ground[1]) >= STILL_MPS,
+            height: scale * (f.arrival_vertical_m[1] - f.arrival_vertical_m[0]).abs(),
+        }
+    }
+
+    /// The object's footprint at time `t_s` under `motion` (its [`Self::motion`] at a scale).
+    fn footprint(&self, t_s: f64, motion: &Motion) -> Footprint {
+        let (f, scale) = (&self.forecast, motion.scale);
         let s = t_s - f.t_s;
         let progress = s / f.tau_s;
         let edge = |i: usize| scale * (f.lateral_m[i] + (f.arrival_lateral_m[i] - f.lateral_m[i]) * progress);
@@ -232,23 +256,12 @@ impl Remembered {
             [false, true] => y_right = y_left - seen_width,
             _ => {}
         }
-        let width = (y_left - y_right).abs().max(0.04);
-        // the object's velocity over the ground in the origin's axes: its image motion relative
-        // to the robot (that of its edges not cut off by the image border) plus the robot's own
-        let [vf, vl, _] = self.origin.velocity;
-        let edge_rate = |i: usize| -scale * (f.arrival_lateral_m[i] - f.lateral_m[i]) / f.tau_s;
-        let lateral_rate = match self.clipped {
-            [true, false] => edge_rate(1),
-            [false, true] => edge_rate(0),
-            _ => (edge_rate(0) + edge_rate(1)) / 2.0,
-        };
-        let ground = [vf - scale * f.closing_mps, vl + lateral_rate];
-        let height = scale * (f.arrival_vertical_m[1] - f.arrival_vertical_m[0]).abs();
         // cut off by the border: as wide as the longest object at its direction of motion, the
         // unseen part beyond the border
         if self.clipped.contains(&true) {
-            let (sin, cos) = ground[1].atan2(ground[0]).sin_cos();
-            let hidden = (MAX_OBJECT_LENGTH_M * sin.abs() + height.min(width) * cos.abs() - width).max(0.0);
+            let width = (y_left - y_right).abs().max(0.04);
+            let [sin, cos] = motion.sin_cos;
+            let hidden = (MAX_OBJECT_LENGTH_M * sin + motion.height.min(width) * cos - width).max(0.0);
             let share = hidden / self.clipped.iter().filter(|&&c| c).count() as f64;
             if self.clipped[0] {
                 y_left += share;
@@ -258,10 +271,13 @@ impl Remembered {
             }
         }
         let width = (y_left - y_right).abs().max(0.04);
-        let (heading, [half_length, half_breadth]) = oriented_extent(width, height, ground);
-        let (sin, cos) = heading.sin_cos();
-        let half_forward = half_length * cos.abs() + half_breadth * sin.abs();
+        let (heading, [half_length, half_breadth], [sin, cos]) = match oriented_extent(width, motion) {
+            Some(half) => (motion.heading, half, motion.sin_cos),
+            None => (0.0, [width / 2.0; 2], [0.0, 1.0]),
+        };
+        let half_forward = half_length * cos + half_breadth * sin;
         let nearest = scale * f.closing_mps * (f.tau_s - s);
+        let [vf, vl, _] = self.origin.velocity;
         let centre = self
             .origin
             .point_in_odometry(nearest + half_forward + vf * s, (y_left + y_right) / 2.0 + vl * s);
@@ -330,32 +346,43 @@ pub const BORDER_MARGIN: f64 = 0.04;
 /// Ground speed (m/s) below which an object's direction of motion is taken as unknown.
 const STILL_MPS: f64 = 0.2;
 
+/// What an object's footprint keeps over time under one closing-speed hypothesis
+/// ([`Remembered::motion`]): computed once per rollout, not per step.
+#[derive(Debug, Clone, Copy, Default)]
+struct Motion {
+    /// The factor on the forecast's metres.
+    scale: f64,
+    /// Direction of its motion over the ground from the origin's forward axis (rad).
+    heading: f64,
+    /// |sin| and |cos| of `heading` (its direction folded about the line of sight: a rectangle is
+    /// symmetric).
+    sin_cos: [f64; 2],
+    /// Whether it moves over the ground (at least [`STILL_MPS`]): else its direction is unknown.
+    moving: bool,
+    /// Its height (m).
+    height: f64,
+}
+
 /// An object's direction of motion relative to the origin's forward axis (rad) and its half
 /// length and half breadth (m), from its image width `width` (its extent across the line of
-/// sight), its height `height` and its velocity over the ground `ground` (forward, left): it is
-/// taken as long as it moves and as broad as it is high (at most as broad as its image is wide),
-/// its length the one whose projection across the line of sight is the image width — bounded
-/// by [`MAX_OBJECT_LENGTH_M`] where that projection leaves it open. A still object, or one whose
-/// length comes out shorter than its breadth, is a square as deep as its image is wide.
-fn oriented_extent(width: f64, height: f64, ground: [f64; 2]) -> (f64, [f64; 2]) {
-    let square = (0.0, [width / 2.0; 2]);
-    if ground[0].hypot(ground[1]) < STILL_MPS || !(height.is_finite() && height > 0.0) {
-        return square;
+/// sight) and its `motion` (velocity over the ground, height): it is taken as long as it moves and
+/// as broad as it is high (at most as broad as its image is wide), its length the one whose
+/// projection across the line of sight is the image width — bounded by [`MAX_OBJECT_LENGTH_M`]
+/// where that projection leaves it open. `None` for a still object, or one whose length comes out
+/// shorter than its breadth: a square as deep as its image is wide.
+fn oriented_extent(width: f64, motion: &Motion) -> Option<[f64; 2]> {
+    let height = motion.height;
+    if !motion.moving || !(height.is_finite() && height > 0.0) {
+        return None;
     }
-    // fold the direction into [0, π/2] about the line of sight: a rectangle is symmetric
-    let heading = ground[1].atan2(ground[0]);
-    let (sin, cos) = heading.sin_cos();
-    let (sin, cos) = (sin.abs(), cos.abs());
+    let [sin, cos] = motion.sin_cos;
     let breadth = height.min(width);
     let length = if sin > 1e-6 {
         ((width - breadth * cos) / sin).min(MAX_OBJECT_LENGTH_M.max(width))
     } else {
         0.0
     };
-    if length < breadth {
-        return square;
-    }
-    (heading, [length / 2.0, breadth / 2.0])
+    (length >= breadth).then_some([length / 2.0, breadth / 2.0])
 }
 
 /// The signed gap (m) between the robot's body at `pose` and the footprint `object`: the largest
@@ -575,6 +602,12 @@ impl Planner {
             return clearance;
         }
         let body = &facts.body;
+        // what each object's footprint keeps over time, per hypothesis (on the stack: a decision
+        // allocates nothing)
+        let mut motions = [[Motion::default(); HYPOTHESES]; MAX_PLANNED_OBJECTS];
+        for (o, m) in self.objects.iter().zip(motions.iter_mut()) {
+            *m = o.scales().map(|scale| o.motion(scale));
+        }
         let mut pose = ctx.odometry;
         let mut offset = ctx.dodge_offset_m;
         let mut t = ctx.t_s;
@@ -597,9 +630,12 @@ impl Planner {
             pose.advance(&command, PLAN_STEP_S, facts);
             offset += (before + pose.velocity[1]) / 2.0 * PLAN_STEP_S - ctx.cruise.lateral_mps * PLAN_STEP_S;
             t += PLAN_STEP_S;
-            for o in self.objects.iter().filter(|o| !o.passes_over_or_under(facts)) {
-                for (scale, c) in o.scales().into_iter().zip(clearance.iter_mut()) {
-                    *c = c.min(gap(&pose, body, &o.footprint(t, scale)));
+            for (o, motions) in self.objects.iter().zip(&motions) {
+                if o.passes_over_or_under(facts) {
+                    continue;
+                }
+                for (motion, c) in motions.iter().zip(clearance.iter_mut()) {
+                    *c = c.min(gap(&pose, body, &o.footprint(t, motion)));
                 }
             }
         }
@@ -683,16 +719,28 @@ mod tests {
     fn a_crossing_car_is_a_long_narrow_box_along_its_motion_and_a_ball_a_square() {
         // a 4 × 1.8 m car (1.4 m high) driving at 29° to the line of sight: its image is as wide
         // as its projection across the line of sight
+        // the motion of an object of `height` moving over the ground at `ground` (forward, left)
+        let motion = |height: f64, ground: [f64; 2]| {
+            let heading = ground[1].atan2(ground[0]);
+            Motion {
+                scale: 1.0,
+                heading,
+                sin_cos: [heading.sin().abs(), heading.cos().abs()],
+                moving: ground[0].hypot(ground[1]) >= STILL_MPS,
+                height,
+            }
+        };
         let heading = 29f64.to_radians();
         let width = 4.0 * heading.sin() + 1.4 * heading.cos();
-        let (h, [hl, hb]) = oriented_extent(width, 1.4, [-4.7 * heading.cos(), 4.7 * heading.sin()]);
-        assert!((h - (std::f64::consts::PI - heading)).abs() < 1e-9, "{h}");
+        let car = motion(1.4, [-4.7 * heading.cos(), 4.7 * heading.sin()]);
+        assert!((car.heading - (std::f64::consts::PI - heading)).abs() < 1e-9, "{car:?}");
+        let [hl, hb] = oriented_extent(width, &car).unwrap();
         assert!((hl - 2.0).abs() < 1e-9 && (hb - 0.7).abs() < 1e-9, "{hl} {hb}");
         // a ball coming nearly head-on, or anything still: a square as deep as it is wide
-        assert_eq!(oriented_extent(0.3, 0.3, [-9.0, 0.5]), (0.0, [0.15, 0.15]));
-        assert_eq!(oriented_extent(1.8, 1.4, [0.05, 0.0]), (0.0, [0.9, 0.9]));
+        assert_eq!(oriented_extent(0.3, &motion(0.3, [-9.0, 0.5])), None);
+        assert_eq!(oriented_extent(1.8, &motion(1.4, [0.05, 0.0])), None);
         // a car head-on: as long as the bound allows (its image shows its breadth only)
-        let (_, [hl, hb]) = oriented_extent(1.8, 1.4, [-8.0, 0.3]);
+        let [hl, hb] = oriented_extent(1.8, &motion(1.4, [-8.0, 0.3])).unwrap();
         assert!(
             (hl - MAX_OBJECT_LENGTH_M / 2.0).abs() < 1e-9 && (hb - 0.7).abs() < 1e-9,
             "{hl} {hb}"
@@ -781,7 +829,7 @@ mod tests {
             ground_scale: None,
         };
         for t in [0.0, 0.5, tau, 1.5] {
-            let f = object.footprint(t, 1.0);
+            let f = object.footprint(t, &object.motion(1.0));
             // the true centre in the odometry frame (the robot moved 1 m/s · t forward)
             let truth = [centre_at(t)[0] + t, centre_at(t)[1]];
             assert!(
@@ -840,7 +888,10 @@ mod tests {
                 .fold(f64::NEG_INFINITY, f64::max)
         };
         for t in [0.0, 0.5, 1.0] {
-            let (cut, as_seen) = (seen.footprint(t, 1.0), whole.footprint(t, 1.0));
+            let (cut, as_seen) = (
+                seen.footprint(t, &seen.motion(1.0)),
+                whole.footprint(t, &whole.motion(1.0)),
+            );
             // the unseen part lies beyond the right border: the footprint reaches further right
             // (by metres: the longest object at the car's angle), its seen left edge moves as seen
             assert!(

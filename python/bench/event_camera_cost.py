@@ -1,14 +1,17 @@
 """What the event camera costs: the default suite on frames and on events, side by side.
 
-Runs ``loomlab run`` alternately under the sensor profiles ``ideal`` (frames) and ``events`` (the
-event camera: adaptive sub-frames, ``docs/events.md``), the same suite, seed and rows (the suite's
-own: the frame rows read the same frames either way, so the difference is the camera's cost:
-the extra sub-frame renders and the conversion to events). Each round runs both; the wall time of
-each run is the ``wall_time_s`` its report.json records and the CPU time its process used.
+Runs ``loomlab run --detectors all`` alternately under the sensor profiles ``ideal`` (frames) and
+``events`` (the event camera: adaptive sub-frames, ``docs/events.md``), the same suite, seed and
+rows: the suite's own and the event rows ``event_soc`` and ``event_lgmd``, which read the event
+camera's events under ``events`` and the same model's events made from consecutive frames under
+``ideal``. The frame rows read the same frames either way, so the difference is the event camera's
+cost: the extra sub-frame renders and the conversion to events, for the open loop and the event
+rows' closed-loop tails (a frame row's tail renders no sub-frames). Each round runs both; the wall
+time of each run is the ``wall_time_s`` its report.json records and the CPU time its process used.
 
 Run from the repository root, after ``make cli`` (stdlib only: any Python 3.8+)::
 
-    python3 python/bench/event_camera_cost.py                    # the whole suite, 1 round: ~8 min on 2 cores
+    python3 python/bench/event_camera_cost.py                    # the whole suite, 1 round: ~12 min on 2 cores
     python3 python/bench/event_camera_cost.py --limit 40 --rounds 3
 
 It prints one Markdown table (docs/events.md quotes it): each run's wall and CPU time and the
@@ -32,7 +35,8 @@ from typing import Dict, List, Tuple
 
 def run_once(binary: str, profile: str, out: Path, limit: int | None, suite: str | None) -> Tuple[float, float]:
     """One ``loomlab run`` under ``profile``: its report's wall time (s) and the CPU time (s) it used."""
-    cmd = [binary, "run", "--sensor", profile, "--out", str(out), "--overwrite", "-q", "--no-plots", "--no-html"]
+    cmd = [binary, "run", "--sensor", profile, "--detectors", "all", "--out", str(out), "--overwrite", "-q"]
+    cmd += ["--no-plots", "--no-html"]
     if suite:
         cmd.insert(2, suite)
     if limit:
@@ -67,7 +71,7 @@ def main() -> None:
                 print(f"round {r + 1}/{args.rounds} {profile}: {wall:.1f} s wall, {cpu:.1f} s CPU", file=sys.stderr)
     episodes = f"first {args.limit} episodes" if args.limit else "every episode"
     suite = args.suite or "the default suite"
-    print(f"{suite}, {episodes}, its own rows, {args.rounds} round(s), {os.cpu_count()} CPUs\n")
+    print(f"{suite}, {episodes}, its own rows and the event rows, {args.rounds} round(s), {os.cpu_count()} CPUs\n")
     print("| camera | wall (s), per round | CPU (s), per round |")
     print("|---|---|---|")
     for profile, label in (("ideal", "frames (`ideal`)"), ("events", "events (`events`)")):

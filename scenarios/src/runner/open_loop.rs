@@ -94,6 +94,9 @@ pub(super) struct OpenLoop {
     pub(super) detectors: Vec<DetectorRecord>,
     /// Per detector entry, the first entry that runs the same detector ([`same_detector_as`]).
     pub(super) runs_as: Vec<usize>,
+    /// Per detector entry, whether its detector reads an event camera's events
+    /// ([`loomlab_detector::Detector::reads_events`]).
+    pub(super) reads_events: Vec<bool>,
     /// Each detector instance's signals per frame (entries that run their own instance only): a
     /// closed-loop tail's agent replays them up to its alarm.
     pub(super) history: Vec<Vec<Signals>>,
@@ -146,12 +149,16 @@ impl Runner {
             truth: Vec::with_capacity(total),
             detectors: ep.detectors.iter().map(|d| DetectorRecord::new(d, ep, total)).collect(),
             history: vec![Vec::new(); ep.detectors.len()],
+            reads_events: (0..ep.detectors.len())
+                .map(|i| instances.built[runs_as[i]].as_ref().is_some_and(|d| d.reads_events()))
+                .collect(),
             runs_as,
             object_names,
         };
         let mut recorder = TruthRecorder::new(&sim);
-        // with an event camera, the open loop converts the views it renders itself
-        let mut stream = sim.take_event_stream();
+        // with an event camera, the open loop converts the views it renders itself; when no row
+        // reads events (frame rows only), it renders no sub-frames: nothing would read them
+        let mut stream = sim.take_event_stream().filter(|_| pass.reads_events.contains(&true));
         let stepped = self.open_loop_steps(
             c,
             (&mut sim, &mut stream),
@@ -311,7 +318,9 @@ fn open_loop_decisions(
         if record.alarmed_at.is_none() && value >= spec.threshold {
             record.alarmed_at = Some(k);
             record.snapshot = instances.built[pass.runs_as[i]].as_ref().and_then(|d| d.snapshot());
-            record.events = stream.cloned();
+            // a tail continues the event camera for a row that reads it (a frame row's tail
+            // renders no sub-frames)
+            record.events = stream.filter(|_| pass.reads_events[i]).cloned();
         }
     }
 }
