@@ -372,7 +372,7 @@ struct Motion {
 /// shorter than its breadth: a square as deep as its image is wide.
 fn oriented_extent(width: f64, motion: &Motion) -> Option<[f64; 2]> {
     let height = motion.height;
-    if !motion.moving || !(height.is_finite() && height > 0.0) {
+    if !(motion.moving && height.is_finite() && height > 0.0) {
         return None;
     }
     let [sin, cos] = motion.sin_cos;
