@@ -62,9 +62,9 @@
 //! (the fixed rule's choice), the other side, stopping, reversing. While a manoeuvre runs it is
 //! replaced only when another candidate's score is larger by [`SWITCH_MARGIN_M`].
 //!
-//! Cost per decision (criterion, `cargo bench -p loomlab-agents --bench strategy`, 2-core machine
-//! under load): 0.09 ms with one object, 0.25 ms with three, 0.9 ms with eight; it runs only at an
-//! alarm and while one lasts during a manoeuvre.
+//! Cost per decision (criterion, `cargo bench -p loomlab-agents --bench strategy`, 2-core machine;
+//! docs/benchmarks.md): 0.41 ms with one object, 1.2 ms with three, 3.3 ms with eight; it runs only
+//! at an alarm, while one lasts during a manoeuvre and while the robot waits.
 //!
 //! The planner keeps at most [`MAX_PLANNED_OBJECTS`] forecasts in buffers reserved at
 //! construction: a decision allocates nothing.
