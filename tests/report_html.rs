@@ -62,16 +62,21 @@ fn open(chromium: &str, page: &Path, scratch: &Path) -> (String, Vec<String>) {
     (text(&o.stdout), errors)
 }
 
-/// The GIF's frames whose delay marks them as alarm frames (1 s on screen), and whether each has
-/// a coloured (non-grey) border: the alarm mark.
-fn alarm_frames_marked(gif: &Path) -> Vec<bool> {
+/// The frames of a GIF.
+fn gif_frames(gif: &Path) -> Vec<image::Frame> {
     use image::AnimationDecoder;
     let file = std::io::BufReader::new(std::fs::File::open(gif).unwrap());
-    let frames = image::codecs::gif::GifDecoder::new(file)
+    image::codecs::gif::GifDecoder::new(file)
         .unwrap()
         .into_frames()
         .collect_frames()
-        .unwrap();
+        .unwrap()
+}
+
+/// The GIF's frames whose delay marks them as alarm frames (1 s on screen), and whether each has
+/// a coloured (non-grey) border: the alarm mark.
+fn alarm_frames_marked(gif: &Path) -> Vec<bool> {
+    let frames = gif_frames(gif);
     assert!(
         !frames.is_empty() && frames.len() <= 80,
         "{}: {} frames",
@@ -250,20 +255,6 @@ fn no_html_writes_no_page_and_overwrite_removes_an_old_one() {
     assert!(!out.join("report.html").exists() && !out.join("exemplars").exists());
 }
 
-/// The frames of a GIF, as RGBA images.
-fn gif_frames(gif: &Path) -> Vec<image::RgbaImage> {
-    use image::AnimationDecoder;
-    let file = std::io::BufReader::new(std::fs::File::open(gif).unwrap());
-    image::codecs::gif::GifDecoder::new(file)
-        .unwrap()
-        .into_frames()
-        .collect_frames()
-        .unwrap()
-        .into_iter()
-        .map(|f| f.into_buffer())
-        .collect()
-}
-
 #[test]
 fn an_event_camera_run_shows_each_exemplars_events() {
     let dir = common::tmp("report-html", "events");
@@ -295,6 +286,7 @@ fn an_event_camera_run_shows_each_exemplars_events() {
     for (v, e) in views.iter().zip(&events) {
         assert_eq!(e, &v.replace(".gif", "_events.gif"));
         let (view_frames, event_frames) = (gif_frames(&out.join(v)), gif_frames(&out.join(e)));
+        let event_frames: Vec<&image::RgbaImage> = event_frames.iter().map(|f| f.buffer()).collect();
         assert_eq!(view_frames.len(), event_frames.len(), "{e}: the view's frames");
         // the approaching ball makes events: some frame has pixels off the mid-grey of "none"
         let image_rows = event_frames[0].height() - 24;

@@ -571,27 +571,27 @@ impl EscapeController {
             Candidate::ALL[2],
             Candidate::ALL[3],
         ];
-        let ctx = PlanContext {
+        self.planner
+            .choose(&self.plan_context(t_s, cruise), &preference, running)
+    }
+
+    /// What the planner knows of the robot at `t_s`, cruising at `cruise`.
+    fn plan_context(&self, t_s: f64, cruise: VelocityCommand) -> PlanContext<'_> {
+        PlanContext {
             t_s,
             odometry: self.odometry,
             cruise,
             dodge_offset_m: self.dodge_offset_m,
             config: &self.config,
-        };
-        self.planner.choose(&ctx, &preference, running)
+        }
     }
 
     /// Whether the robot, standing after a stop or a reversal, keeps standing at `t_s`, `wait_s`
     /// more at most (`manoeuvre = "plan"` with forecasts only; [`Planner::keeps_waiting`]).
     fn keeps_waiting(&self, t_s: f64, cruise: VelocityCommand, wait_s: f64) -> bool {
-        let ctx = PlanContext {
-            t_s,
-            odometry: self.odometry,
-            cruise,
-            dodge_offset_m: self.dodge_offset_m,
-            config: &self.config,
-        };
-        wait_s > 0.0 && self.config.manoeuvre == Manoeuvre::Plan && self.planner.keeps_waiting(&ctx, wait_s)
+        wait_s > 0.0
+            && self.config.manoeuvre == Manoeuvre::Plan
+            && self.planner.keeps_waiting(&self.plan_context(t_s, cruise), wait_s)
     }
 
     /// The manoeuvre the planner would choose now at `t_s` (`manoeuvre = "plan"`), preferring the
