@@ -35,6 +35,17 @@ fn baseline() -> Report {
     Report::read_json(&root().join(BASELINE)).unwrap()
 }
 
+/// The generated block `name` (with its tag, e.g. `results-brief@heldout`) of document `doc`,
+/// from its begin marker to its end marker.
+fn generated_block(doc: &str, name: &str) -> String {
+    let text = read(doc);
+    let begin = text
+        .find(&format!("<!-- {name}:begin -->"))
+        .unwrap_or_else(|| panic!("{doc} lacks the block {name}"));
+    let end = text.find(&format!("<!-- {name}:end -->")).unwrap();
+    text[begin..end].to_string()
+}
+
 #[test]
 fn generated_tables_match_the_baseline() {
     let report = baseline();
@@ -46,12 +57,7 @@ fn generated_tables_match_the_baseline() {
         );
     }
     // The README's table is one of them, and it carries the reference rows beside the detectors.
-    let readme = read("README.md");
-    let begin = readme
-        .find("<!-- results-table:begin -->")
-        .expect("README has the results table");
-    let end = readme.find("<!-- results-table:end -->").unwrap();
-    let table = &readme[begin..end];
+    let table = generated_block("README.md", "results-table");
     for label in report.detectors.keys() {
         assert!(
             table.contains(&format!("| `{label}`")),
@@ -75,11 +81,7 @@ fn generated_robot_comparison_matches_both_baselines() {
     }
     // in the README (every row, as the robot profile's issue asks) and in docs/results.md
     for doc in ["README.md", "docs/results.md"] {
-        let results = read(doc);
-        let begin = results
-            .find("<!-- results-robot:begin -->")
-            .unwrap_or_else(|| panic!("{doc} has the results-robot block"));
-        let block = &results[begin..results.find("<!-- results-robot:end -->").unwrap()];
+        let block = generated_block(doc, "results-robot");
         assert!(block.contains(&render_compare_block("results-robot", &ideal, &robot).unwrap()));
         // every row, with both profiles' rates and the change in percentage points
         for (label, s) in &ideal.detectors {
@@ -96,7 +98,7 @@ fn generated_robot_comparison_matches_both_baselines() {
             }
         }
         // a stale block is found: the block with another report's numbers
-        let swapped = stale_compare_blocks(&results, &robot, &ideal).unwrap();
+        let swapped = stale_compare_blocks(&read(doc), &robot, &ideal).unwrap();
         assert_eq!(swapped, ["results-robot"]);
     }
 }
@@ -120,11 +122,7 @@ fn generated_events_tables_match_the_events_baseline() {
     }
     // the README's table on events has every row, the event rows among them; the frame rows read
     // the same frames as without the event camera, so they equal the default baseline's
-    let readme = read("README.md");
-    let begin = readme
-        .find("<!-- results-table@events:begin -->")
-        .expect("README has the event camera's table");
-    let table = &readme[begin..readme.find("<!-- results-table@events:end -->").unwrap()];
+    let table = generated_block("README.md", "results-table@events");
     for label in report.detectors.keys() {
         assert!(
             table.contains(&format!("| `{label}`")),
@@ -155,15 +153,7 @@ fn generated_heldout_tables_match_the_heldout_baseline() {
         );
     }
     // the README shows the held-out suite's short table, docs/results.md its full one with every row
-    let block = |doc: &str, name: &str| {
-        let text = read(doc);
-        let begin = text
-            .find(&format!("<!-- {name}@heldout:begin -->"))
-            .unwrap_or_else(|| panic!("{doc} lacks the block {name}@heldout"));
-        let end = text.find(&format!("<!-- {name}@heldout:end -->")).unwrap();
-        text[begin..end].to_string()
-    };
-    let brief = block("README.md", "results-brief");
+    let brief = generated_block("README.md", "results-brief@heldout");
     let (best, _) = best_detector_row(&report).unwrap();
     for label in [best, "ideal_course", "oracle"] {
         assert!(
@@ -171,7 +161,7 @@ fn generated_heldout_tables_match_the_heldout_baseline() {
             "README's held-out table lacks {label}"
         );
     }
-    let full = block("docs/results.md", "results-full");
+    let full = generated_block("docs/results.md", "results-full@heldout");
     for label in report.detectors.keys() {
         assert!(
             full.contains(&format!("| `{label}`")),
