@@ -667,7 +667,8 @@ impl EscapeController {
             let index = match self.object_deciders.iter().position(|(id, _)| *id == o.id) {
                 Some(i) => i,
                 None => {
-                    self.object_deciders.push((o.id, self.config.decider(&self.facts)));
+                    self.object_deciders
+                        .push((o.id, self.config.decider(&self.facts).for_one_object()));
                     self.object_deciders.len() - 1
                 }
             };

@@ -869,6 +869,63 @@ mod strategies {
         out
     }
 
+    /// The decisions about a ball of radius 0.2 m that stands 12 m ahead, `lateral_m` to the side
+    /// (positive left), while the robot drives at 1 m/s, and from `launch_s` on flies at 12 m/s
+    /// along the robot's heading towards it (`None`: it stands throughout).
+    fn run_thrown_along_heading(mut s: Decider, lateral_m: f64, launch_s: Option<f64>) -> Vec<(f64, Decision)> {
+        let cruise = SelfMotion {
+            forward_mps: 1.0,
+            ..SelfMotion::default()
+        };
+        let mut out = Vec::new();
+        for k in 0..2000 {
+            let t = k as f64 * DT;
+            let flight = launch_s.map_or(0.0, |l| 12.0 * (t - l).max(0.0));
+            let x = 12.0 - t - flight;
+            if x < 0.5 {
+                break;
+            }
+            out.push((t, s.decide(t, box_percept([x, lateral_m, 0.0], [0.2; 3]), cruise)));
+        }
+        out
+    }
+
+    #[test]
+    fn a_ball_seen_standing_then_thrown_along_the_heading_is_judged_at_its_speed() {
+        let cfg = config(Course::Image);
+        let facts = RobotFacts::default();
+        let alarms =
+            |frames: &[(f64, Decision)]| frames.iter().filter(|(_, d)| d.value >= cfg.alarm_threshold()).count();
+        // it passes 0.7 m beside the camera, 0.3 m clear of the body: its edges expand about the
+        // heading as a standing object's would, 13× nearer and smaller
+        let driving = cfg.decider(&facts);
+        let bound = cfg.decider(&facts).for_one_object();
+        let near_miss = run_thrown_along_heading(bound.clone(), 0.7, Some(0.5));
+        assert_eq!(
+            alarms(&near_miss),
+            0,
+            "seen standing before the throw: judged as moving"
+        );
+        assert!(
+            near_miss
+                .iter()
+                .any(|(t, d)| *t > 0.6 && d.forecast.is_some_and(|f| !f.standing && f.closing_mps == 10.0)),
+            "after the throw the assumed closing speed scales it"
+        );
+        assert!(
+            alarms(&run_thrown_along_heading(driving.clone(), 0.7, Some(0.5))) > 0,
+            "a decider not bound to one object reads it as standing close by"
+        );
+        // a throw at the body still alarms, and a ball that stands on the path alarms as before
+        assert!(alarms(&run_thrown_along_heading(bound.clone(), 0.1, Some(0.5))) > 0);
+        let standing = run_thrown_along_heading(bound, 0.1, None);
+        assert!(alarms(&standing) > 0);
+        assert!(
+            standing.iter().filter_map(|(_, d)| d.forecast).all(|f| f.standing),
+            "a standing object stays standing"
+        );
+    }
+
     #[test]
     fn course_gate_judges_wide_and_tall_objects_by_their_image_edges() {
         let cfg = config(Course::Image);

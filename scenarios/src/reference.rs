@@ -198,7 +198,7 @@ impl IdealObserver {
             let visible = o.in_view && f64::from(o.angular_size_deg) <= fov;
             if self.per_object.len() <= o.id {
                 self.per_object
-                    .resize_with(o.id + 1, || self.config.decider(&self.facts));
+                    .resize_with(o.id + 1, || self.config.decider(&self.facts).for_one_object());
             }
             let percept = Percept {
                 value: if visible {

@@ -5,6 +5,7 @@
 use super::fit::{Parabola, parabola, slope};
 use super::percept::SelfMotion;
 use super::rule::{BodyExtent, Course, DecisionRule};
+use super::standing::WorldMotionMemory;
 use super::window::{Sample, SampleWindow};
 
 /// The rate of change of the time to contact, dτ/dt, at or above which an approaching object
@@ -61,6 +62,9 @@ pub(super) struct CourseAssessment {
     pub(super) arrival_extent_m: Option<[f64; 4]>,
     pub(super) tau_rate: Option<f64>,
     pub(super) gate_open: bool,
+    /// The edges expanded as a standing object's, but the object came nearer than a standing one
+    /// could have (`standing.rs`): it moves in the world.
+    pub(super) seen_moving: bool,
 }
 
 /// The edges' predicted lateral `[left, right]` and vertical `[bottom, top]` offsets (m) when the
@@ -76,6 +80,7 @@ struct EdgeForecast {
     closing_mps: f64,
     lateral_m: [f64; 2],
     standing: bool,
+    seen_moving: bool,
 }
 
 /// The estimates over the gate's window (`course_window_s`) that the gate's tests read.
@@ -91,7 +96,9 @@ struct CourseEstimates {
     speed: f64,
 }
 
-/// The course gate on the window at `t_s` (this frame's θ `theta_rad`, τ̂ `tau_s`).
+/// The course gate on the window at `t_s` (this frame's θ `theta_rad`, τ̂ `tau_s`), with what the
+/// decider remembers of its object's motion in the world (`None`: a decider not bound to one object).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn assess(
     window: &SampleWindow,
     t_s: f64,
@@ -100,10 +107,11 @@ pub(super) fn assess(
     motion: &SelfMotion,
     rule: &DecisionRule,
     body: &BodyExtent,
+    world_motion: Option<&WorldMotionMemory>,
 ) -> CourseAssessment {
     let course_from = t_s - rule.course_window_s - 1e-9;
     let course = || window.since(course_from);
-    let e = estimate(course, tau_s, motion, rule);
+    let e = estimate(course, tau_s, motion, rule, world_motion);
     let pass_side = match e.predicted_edges {
         Some(([l, r], _)) => {
             let (centre, half) = ((l + r) / 2.0, (r - l).abs() / 2.0);
@@ -142,6 +150,7 @@ pub(super) fn assess(
         arrival_extent_m: e.predicted_edges.map(|([l, r], [b, t])| [l, r, b, t]),
         tau_rate: e.tau_rate,
         gate_open,
+        seen_moving: e.edge_forecast.as_ref().is_some_and(|f| f.seen_moving),
     }
 }
 
@@ -151,6 +160,7 @@ fn estimate<'a, I>(
     tau_s: Option<f64>,
     motion: &SelfMotion,
     rule: &DecisionRule,
+    world_motion: Option<&WorldMotionMemory>,
 ) -> CourseEstimates
 where
     I: Iterator<Item = &'a Sample> + Clone,
@@ -177,7 +187,7 @@ where
         _ => None,
     };
     let speed = rule.course_closing_speed_mps.max(motion.forward_mps);
-    let edge_forecast = arrival_edges(&course, theta_fit, speed, motion);
+    let edge_forecast = arrival_edges(&course, theta_fit, speed, motion, world_motion);
     let predicted_edges = edge_forecast.as_ref().map(|f| f.edges);
     // dτ/dt from ln θ = a + b·t + c·t²: τ = 1/(b + 2ct), so dτ/dt = −2c/b² at the window's mean
     let ln_theta = || course().filter(|s| s.has_theta()).map(|s| (s.t, s.theta_rad.ln()));
@@ -207,6 +217,7 @@ fn arrival_edges<'a, I>(
     theta_fit: Option<(f64, f64, f64)>,
     speed: f64,
     motion: &SelfMotion,
+    world_motion: Option<&WorldMotionMemory>,
 ) -> Option<EdgeForecast>
 where
     I: Iterator<Item = &'a Sample> + Clone,
@@ -219,18 +230,24 @@ where
     let edges = [rate(0)?, rate(1)?, rate(2)?, rate(3)?];
     // an object that stands in the world, seen from a robot driving straight, has
     // d(tan a)/dt = tan a / τ at every edge: then it closes at the robot's own speed
-    let standing = motion.forward_mps > 0.0
+    let radial = motion.forward_mps > 0.0
         && motion.yaw_rate_rps == 0.0
         && edges
             .iter()
             .all(|&(rate, mean)| (rate * tau_c - mean).abs() <= STANDING_TOLERANCE * mean.abs().max(0.05));
-    let closing = if standing { motion.forward_mps } else { speed };
-    let scale = closing * tau_c.powi(2);
-    let lateral = |(rate, mean): (f64, f64)| scale * (rate - motion.yaw_rate_rps * (1.0 + mean * mean));
     let (n, t_sum) = course()
         .filter(|s| s.edges_tan.is_some())
         .fold((0.0, 0.0), |(n, sum), s| (n + 1.0, sum + s.t));
     let t_mean = t_sum / n;
+    // radial expansion reads as standing unless the object was seen to come nearer than a
+    // standing one could (standing.rs)
+    let standing = radial
+        && world_motion
+            .and_then(|m| m.min_standing_tau_s(t_mean, motion.forward_mps))
+            .is_none_or(|least| tau_c >= least);
+    let closing = if standing { motion.forward_mps } else { speed };
+    let scale = closing * tau_c.powi(2);
+    let lateral = |(rate, mean): (f64, f64)| scale * (rate - motion.yaw_rate_rps * (1.0 + mean * mean));
     Some(EdgeForecast {
         edges: (
             [lateral(edges[0]), lateral(edges[1])],
@@ -241,6 +258,7 @@ where
         closing_mps: closing,
         lateral_m: [closing * tau_c * edges[0].1, closing * tau_c * edges[1].1],
         standing,
+        seen_moving: radial && !standing,
     })
 }
 

@@ -125,6 +125,7 @@ mod manoeuvre;
 mod percept;
 mod persistence;
 mod rule;
+mod standing;
 mod tau;
 mod window;
 
@@ -140,6 +141,7 @@ use loomlab_detector::{ImageRegion, Pinhole};
 use crate::RobotFacts;
 
 use persistence::Persistence;
+use standing::WorldMotionMemory;
 use window::SampleWindow;
 
 /// A θ̂ that changes by more than this factor from one frame to the next starts the window afresh
@@ -204,6 +206,8 @@ pub struct Decider {
     pinhole: Pinhole,
     window: SampleWindow,
     persistence: Persistence,
+    /// The object's motion in the world, for a decider bound to one object (`standing.rs`).
+    world_motion: Option<WorldMotionMemory>,
 }
 
 impl Decider {
@@ -217,7 +221,17 @@ impl Decider {
             body: facts.body,
             pinhole: facts.pinhole,
             window: SampleWindow::default(),
+            world_motion: None,
         }
+    }
+
+    /// This decider for one object only (an object id's, never another's): it remembers whether the
+    /// object was seen to move in the world, which the course gate reads (module docs, "Standing or
+    /// moving"). A decider whose percept may come from different objects over time (a detector's
+    /// driving percept) must not remember it.
+    pub fn for_one_object(mut self) -> Self {
+        self.world_motion = Some(WorldMotionMemory::default());
+        self
     }
 
     /// The rule.
@@ -237,6 +251,9 @@ impl Decider {
     pub fn reset(&mut self) {
         self.window.clear();
         self.persistence.clear();
+        if let Some(m) = &mut self.world_motion {
+            *m = WorldMotionMemory::default();
+        }
     }
 
     /// Whether this decider keeps state ([`DecisionRule::is_stateful`]): only then does a
@@ -282,7 +299,24 @@ impl Decider {
         self.window.push(t_s, theta_rad, &percept, &motion, keep_s);
         let min_theta_rad = rule.min_angular_size_deg.to_radians();
         let tau_s = tau::estimate(&self.window, t_s, rule.tau_window_s, min_theta_rad);
-        let course = course::assess(&self.window, t_s, theta_rad, tau_s, &motion, &rule, &self.body);
+        let course = course::assess(
+            &self.window,
+            t_s,
+            theta_rad,
+            tau_s,
+            &motion,
+            &rule,
+            &self.body,
+            self.world_motion.as_ref(),
+        );
+        if let (Some(memory), Some(f)) = (&mut self.world_motion, &course.forecast) {
+            memory.record(
+                f.t_s,
+                motion.forward_mps,
+                f.standing.then(|| f.closing_mps * f.tau_s),
+                course.seen_moving,
+            );
+        }
         let value = if rule.trigger == TriggerSignal::Tau {
             match tau_s {
                 Some(tau) if course.gate_open && percept.value >= rule.min_angular_size_deg => 1.0 / tau.max(1e-3),
