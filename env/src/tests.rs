@@ -231,7 +231,7 @@ fn options_are_validated_with_the_key() {
 #[test]
 fn vector_env_equals_single_envs_with_next_step_autoreset() {
     let opts = EnvOptions {
-        max_episode_steps: Some(18),
+        max_episode_steps: Some(8),
         ..options(ActionKind::Continuous)
     };
     // two groups (9 + 8 views) of the pipelined step: one group's detectors run while the next
@@ -247,7 +247,7 @@ fn vector_env_equals_single_envs_with_next_step_autoreset() {
     }
     let mut pending = vec![false; n];
     let mut resets = 0;
-    for t in 0..40 {
+    for t in 0..20 {
         let actions: Vec<Action> = (0..n)
             .map(|i| Action::Continuous([0.2 * (i % 5) as f32, 0.1, ((t + i) as f32 * 0.3).sin()]))
             .collect();
@@ -281,7 +281,7 @@ fn vector_env_equals_single_envs_with_next_step_autoreset() {
 #[test]
 fn batched_vector_env_with_repeats_and_held_dodges_equals_single_envs() {
     let opts = EnvOptions {
-        max_episode_steps: Some(25),
+        max_episode_steps: Some(12),
         action_repeat: 2,
         dodge_hold_s: 0.2,
         ..options(ActionKind::Discrete)
@@ -300,7 +300,7 @@ fn batched_vector_env_with_repeats_and_held_dodges_equals_single_envs() {
     }
     let mut pending = vec![false; n];
     let mut resets = 0;
-    for t in 0..40 {
+    for t in 0..20 {
         let actions: Vec<Action> = (0..n).map(|i| Action::Discrete((((t * 3 + i) % 5) % 3) as _)).collect();
         let got = batched.step(&actions).unwrap();
         assert_eq!(
@@ -609,7 +609,8 @@ fn normalized_features_stay_in_bounds_on_the_default_scenarios() {
     let escape = EnvScenario::from_file(&root.join("python/python/loomlab/scenarios/escape_default.toml")).unwrap();
     let ctx = shared_gpu_context().unwrap();
     let mut steps = 0;
-    for seed in [0, 1000] {
+    {
+        let seed = 0;
         let eps = escape.load(&opts, seed).unwrap();
         let mut env = EscapeEnv::for_episodes(&escape.path, eps, opts.clone(), ctx.clone()).unwrap();
         let numbers: Vec<usize> = (0..env.episodes().len()).collect();

@@ -73,6 +73,15 @@
 //! `R · μ` beside the camera with `μ = 2·β̇/θ̇` (the miss in object radii; |μ| < 1 iff both edges
 //! diverge) and `R̂ = sin(θ/2) · τ̂ · v̂`; the gate needs `(|μ| − 1) · R̂` ≤ the body's half-width.
 //!
+//! **Standing or moving.** Radial expansion does not prove that an object stands: a ball flying
+//! along the robot's heading expands the same way, and read as standing it looks small and close,
+//! on the robot's path (a false alarm for a ball passing beside). A decider bound to one object
+//! ([`Decider::for_one_object`]: each reference object of `ideal_course`, each of a tracker's other
+//! tracks) remembers where the object stood while it was read as standing; once it comes nearer
+//! than half of what the robot's own travel allows, it has moved in the world (a ball leaving the
+//! thrower's hand) and is never read as standing again (`standing.rs`). A detector's driving
+//! percept, which may switch objects, keeps the plain reading.
+//!
 //! **Vertically**, the elevation in object radii `sin(e)/sin(θ/2)` is linear in time on a straight
 //! course at constant speed and a parabola under gravity. When it deviates from a straight line by
 //! more than [`STRAIGHT_COURSE_MAX_RADII`] at the predicted contact, the course is curved (a lob)
@@ -226,9 +235,9 @@ impl Decider {
     }
 
     /// This decider for one object only (an object id's, never another's): it remembers whether the
-    /// object was seen to move in the world, which the course gate reads (module docs, "Standing or
-    /// moving"). A decider whose percept may come from different objects over time (a detector's
-    /// driving percept) must not remember it.
+    /// object was seen to move in the world, which the course gate reads (module docs, **Standing
+    /// or moving**). A decider whose percept may come from different objects over time (a
+    /// detector's driving percept) must not remember it.
     pub fn for_one_object(mut self) -> Self {
         self.world_motion = Some(WorldMotionMemory::default());
         self
