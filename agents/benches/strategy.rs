@@ -85,6 +85,7 @@ fn planner_choice(c: &mut Criterion) {
             arrival_vertical_m: [-0.1, 0.1],
             straight: Some(true),
             standing: false,
+            closing_measured: false,
         }
     };
     let preference = [

@@ -289,12 +289,13 @@ impl Remembered {
     }
 
     /// The factors on the forecast's metres under which the object is checked: 1 for an object
-    /// standing in the world; else [`SCALE_HYPOTHESES`], the factor that makes it close at the
+    /// standing in the world or one whose closing speed is measured (its size known from when it
+    /// stood); else [`SCALE_HYPOTHESES`], the factor that makes it close at the
     /// robot's own speed (an object standing in the world that the gate did not recognise as one)
     /// and the one that puts its bottom on the ground.
     fn scales(&self) -> [f64; HYPOTHESES] {
         let f = &self.forecast;
-        if f.standing {
+        if f.standing || f.closing_measured {
             return [1.0; HYPOTHESES];
         }
         let own_speed = (self.origin.velocity[0] / f.closing_mps).clamp(0.0, 1.0);
@@ -816,6 +817,7 @@ mod tests {
             arrival_vertical_m: [-0.5, 0.9],
             straight: Some(true),
             standing: false,
+            closing_measured: false,
         };
         let object = Remembered {
             id: 0,
@@ -862,6 +864,7 @@ mod tests {
             arrival_vertical_m: [-0.5, 0.9],
             straight: Some(true),
             standing: false,
+            closing_measured: false,
         };
         let mut planner = Planner::new(RobotFacts::default());
         let now = Odometry {

@@ -906,11 +906,27 @@ mod strategies {
             0,
             "seen standing before the throw: judged as moving"
         );
+        // its height, measured while it stood, gives its distance after the throw: the closing
+        // speed is measured (13 m/s: 12 of its own and the robot's 1; within 3 % on this box's
+        // corner elevations), and so are the metres
+        let after: Vec<_> = near_miss
+            .iter()
+            .filter(|(t, _)| (0.6..1.05).contains(t))
+            .filter_map(|(_, d)| d.forecast)
+            .collect();
+        assert!(!after.is_empty());
+        for f in &after {
+            assert!(!f.standing && f.closing_measured, "{f:?}");
+            assert!((f.closing_mps - 13.0).abs() < 0.4, "closing {:.2} m/s", f.closing_mps);
+            let centre = (f.arrival_lateral_m[0] + f.arrival_lateral_m[1]) / 2.0;
+            assert!((centre.abs() - 0.7).abs() < 0.05, "arrives {centre:.2} m beside");
+        }
+        // the frames across the throw are forgotten: no forecast until the window refills
         assert!(
             near_miss
                 .iter()
-                .any(|(t, d)| *t > 0.6 && d.forecast.is_some_and(|f| !f.standing && f.closing_mps == 10.0)),
-            "after the throw the assumed closing speed scales it"
+                .any(|(t, d)| (0.5..0.6).contains(t) && d.forecast.is_none()),
+            "the window restarts when the ball is seen to move"
         );
         assert!(
             alarms(&run_thrown_along_heading(driving.clone(), 0.7, Some(0.5))) > 0,

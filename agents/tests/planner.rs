@@ -30,6 +30,7 @@ fn forecast(
         straight: Some(true),
         // the tests' standing objects close at the robot's 1 m/s
         standing: closing_mps == 1.0,
+        closing_measured: false,
     }
 }
 

@@ -50,6 +50,10 @@ pub struct CourseForecast {
     /// Whether its edges move as those of an object standing in the world: then the closing speed
     /// is the robot's own and the metres are exact; else they scale with the assumed speed.
     pub standing: bool,
+    /// Whether the closing speed is measured, not assumed: the object was seen standing before it
+    /// moved, which gave its size, and its size gives its distance now (`standing.rs`). Then the
+    /// metres are exact too.
+    pub closing_measured: bool,
 }
 
 /// What the gate found in one frame (the course fields of [`super::Decision`]).
@@ -62,9 +66,11 @@ pub(super) struct CourseAssessment {
     pub(super) arrival_extent_m: Option<[f64; 4]>,
     pub(super) tau_rate: Option<f64>,
     pub(super) gate_open: bool,
-    /// The edges expanded as a standing object's, but the object came nearer than a standing one
-    /// could have (`standing.rs`): it moves in the world.
+    /// The object, remembered standing, came nearer than a standing one could have
+    /// (`standing.rs`): it moves in the world.
     pub(super) seen_moving: bool,
+    /// The object's vertical extent in the image (`tan top − tan bottom`) at the forecast's time.
+    pub(super) extent_tan: Option<f64>,
 }
 
 /// The edges' predicted lateral `[left, right]` and vertical `[bottom, top]` offsets (m) when the
@@ -81,6 +87,8 @@ struct EdgeForecast {
     lateral_m: [f64; 2],
     standing: bool,
     seen_moving: bool,
+    closing_measured: bool,
+    extent_tan: f64,
 }
 
 /// The estimates over the gate's window (`course_window_s`) that the gate's tests read.
@@ -143,6 +151,7 @@ pub(super) fn assess(
             arrival_vertical_m: f.edges.1,
             straight: e.straight,
             standing: f.standing,
+            closing_measured: f.closing_measured,
         }),
         miss_radii: e.miss_radii,
         vertical_miss_radii: e.vertical_miss_radii,
@@ -151,6 +160,7 @@ pub(super) fn assess(
         tau_rate: e.tau_rate,
         gate_open,
         seen_moving: e.edge_forecast.as_ref().is_some_and(|f| f.seen_moving),
+        extent_tan: e.edge_forecast.as_ref().map(|f| f.extent_tan),
     }
 }
 
@@ -239,13 +249,27 @@ where
         .filter(|s| s.edges_tan.is_some())
         .fold((0.0, 0.0), |(n, sum), s| (n + 1.0, sum + s.t));
     let t_mean = t_sum / n;
-    // radial expansion reads as standing unless the object was seen to come nearer than a
+    // radial expansion reads as standing unless the object, remembered standing, came nearer than a
     // standing one could (standing.rs)
-    let standing = radial
-        && world_motion
-            .and_then(|m| m.min_standing_tau_s(t_mean, motion.forward_mps))
-            .is_none_or(|least| tau_c >= least);
-    let closing = if standing { motion.forward_mps } else { speed };
+    let nearer_than_standing = world_motion
+        .and_then(|m| m.min_standing_tau_s(t_mean, motion.forward_mps))
+        .is_some_and(|least| tau_c < least);
+    let standing = radial && !nearer_than_standing;
+    // a moving object whose height was measured while it stood: its distance in each frame is that
+    // height over its vertical extent, and the distance falls at the closing speed (a line fitted
+    // to the distances: fitting the extent instead, which grows as 1/distance, biases it low)
+    let extent_tan = edges[3].1 - edges[2].1;
+    let measured = world_motion
+        .and_then(WorldMotionMemory::height_m)
+        .filter(|_| !standing)
+        .and_then(|h| slope(course().filter_map(|s| s.edges_tan.map(|e| (s.t, h / (e[3] - e[2]))))))
+        .map(|(rate, _, _)| -rate)
+        .filter(|v| v.is_finite() && *v > 0.0);
+    let closing = if standing {
+        motion.forward_mps
+    } else {
+        measured.unwrap_or(speed)
+    };
     let scale = closing * tau_c.powi(2);
     let lateral = |(rate, mean): (f64, f64)| scale * (rate - motion.yaw_rate_rps * (1.0 + mean * mean));
     Some(EdgeForecast {
@@ -258,7 +282,9 @@ where
         closing_mps: closing,
         lateral_m: [closing * tau_c * edges[0].1, closing * tau_c * edges[1].1],
         standing,
-        seen_moving: radial && !standing,
+        seen_moving: nearer_than_standing,
+        closing_measured: measured.is_some(),
+        extent_tan,
     })
 }
 

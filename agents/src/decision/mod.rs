@@ -79,8 +79,11 @@
 //! ([`Decider::for_one_object`]: each reference object of `ideal_course`, each of a tracker's other
 //! tracks) remembers where the object stood while it was read as standing; once it comes nearer
 //! than half of what the robot's own travel allows, it has moved in the world (a ball leaving the
-//! thrower's hand) and is never read as standing again (`standing.rs`). A detector's driving
-//! percept, which may switch objects, keeps the plain reading.
+//! thrower's hand) and is never read as standing again, and the decider restarts its window (the
+//! frames before show another course). Its distance while it stood also gave its height, and its
+//! height now gives its distance: the closing speed is then measured, not assumed, and the metres
+//! exact ([`CourseForecast::closing_measured`]; the planner then checks that one scale only)
+//! (`standing.rs`). A detector's driving percept, which may switch objects, keeps the plain reading.
 //!
 //! **Vertically**, the elevation in object radii `sin(e)/sin(θ/2)` is linear in time on a straight
 //! course at constant speed and a parabola under gravity. When it deviates from a straight line by
@@ -286,6 +289,47 @@ impl Decider {
         self.decide(t_s, percept, motion)
     }
 
+    /// Stages 1 and 2 on the window at `t_s`: τ̂ and the course gate's assessment.
+    fn estimate(&self, t_s: f64, theta_rad: f64, motion: &SelfMotion) -> (Option<f64>, course::CourseAssessment) {
+        let rule = &self.rule;
+        let tau_s = tau::estimate(
+            &self.window,
+            t_s,
+            rule.tau_window_s,
+            rule.min_angular_size_deg.to_radians(),
+        );
+        let course = course::assess(
+            &self.window,
+            t_s,
+            theta_rad,
+            tau_s,
+            motion,
+            rule,
+            &self.body,
+            self.world_motion.as_ref(),
+        );
+        (tau_s, course)
+    }
+
+    /// Tell the memory of a decider bound to one object what the gate read; whether the object was
+    /// seen to move in the world for the first time.
+    fn remember_world_motion(&mut self, course: &course::CourseAssessment, motion: &SelfMotion) -> bool {
+        let (Some(memory), Some(f)) = (&mut self.world_motion, &course.forecast) else {
+            return false;
+        };
+        let moved_before = memory.moved();
+        memory.record(
+            f.t_s,
+            motion.forward_mps,
+            f.standing
+                .then_some(course.extent_tan)
+                .flatten()
+                .map(|extent| (f.closing_mps * f.tau_s, extent)),
+            course.seen_moving,
+        );
+        memory.moved() && !moved_before
+    }
+
     /// Take this frame's percept at time `t_s` and return the decision: τ estimator → course gate →
     /// persistence (see the module docs).
     pub fn decide(&mut self, t_s: f64, percept: Percept, motion: SelfMotion) -> Decision {
@@ -306,25 +350,13 @@ impl Decider {
         };
         let keep_s = rule.tau_window_s.max(rule.course_window_s);
         self.window.push(t_s, theta_rad, &percept, &motion, keep_s);
-        let min_theta_rad = rule.min_angular_size_deg.to_radians();
-        let tau_s = tau::estimate(&self.window, t_s, rule.tau_window_s, min_theta_rad);
-        let course = course::assess(
-            &self.window,
-            t_s,
-            theta_rad,
-            tau_s,
-            &motion,
-            &rule,
-            &self.body,
-            self.world_motion.as_ref(),
-        );
-        if let (Some(memory), Some(f)) = (&mut self.world_motion, &course.forecast) {
-            memory.record(
-                f.t_s,
-                motion.forward_mps,
-                f.standing.then(|| f.closing_mps * f.tau_s),
-                course.seen_moving,
-            );
+        let (mut tau_s, mut course) = self.estimate(t_s, theta_rad, &motion);
+        if self.remember_world_motion(&course, &motion) {
+            // the object was just seen to start moving (a ball leaving the hand): the window's
+            // earlier frames show another course and predict nothing of this one
+            self.window.clear();
+            self.window.push(t_s, theta_rad, &percept, &motion, keep_s);
+            (tau_s, course) = self.estimate(t_s, theta_rad, &motion);
         }
         let value = if rule.trigger == TriggerSignal::Tau {
             match tau_s {

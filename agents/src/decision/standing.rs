@@ -11,9 +11,18 @@
 //! An object seen before it moved tells them apart: while it stood, the robot's own speed gave its
 //! distance; a standing object can come no nearer afterwards than the robot drove. When it arrives
 //! at less than [`MOVED_DISTANCE_FRACTION`] of that distance it has moved in the world (a ball
-//! leaving the thrower's hand), and from then on the gate never reads it as standing again: it
-//! scales the image with the assumed closing speed. An object that moves from the first frame it is
-//! seen keeps the ambiguity.
+//! leaving the thrower's hand), and from then on the gate never reads it as standing again. At that
+//! moment the decider also forgets its window: the frames before show another course and predict
+//! nothing of this one (fitted across the launch, they put the ball's arrival anywhere for a few
+//! frames, and a ball thrown at τ below the threshold alarmed on them at once).
+//!
+//! While it stood, its distance also gave its size: its height in metres (the distance times its
+//! vertical extent in the image, `tan top − tan bottom`, which no turn of the object changes). Once
+//! it moves, that height gives its distance in every frame, and the rate at which that distance
+//! falls its closing speed: the gate scales the image with the measured speed instead of the assumed one
+//! ([`CourseForecast::closing_measured`](super::CourseForecast::closing_measured)), and the planner
+//! needs no other hypothesis. An object that moves from the first frame it is seen keeps the
+//! ambiguity: the assumed closing speed scales it.
 
 /// The fraction of the distance a standing object would now be at (the distance it stood at, less
 /// the robot's travel since) below which the object has approached on its own: it moves in the world.
@@ -37,6 +46,8 @@ pub(super) struct WorldMotionMemory {
     standing_at: Option<(f64, f64)>,
     /// Whether it has been seen to approach faster than the robot drove.
     moved: bool,
+    /// Its height (m), measured while it stood.
+    height_m: Option<f64>,
 }
 
 impl WorldMotionMemory {
@@ -52,25 +63,40 @@ impl WorldMotionMemory {
             .then(|| MOVED_DISTANCE_FRACTION * (d0 - forward_mps * (t_s - t0).max(0.0)).max(0.0) / forward_mps)
     }
 
+    /// Whether the object was seen to move in the world.
+    pub(super) fn moved(&self) -> bool {
+        self.moved
+    }
+
+    /// The object's height (m), when it was measured while it stood.
+    pub(super) fn height_m(&self) -> Option<f64> {
+        self.height_m
+    }
+
     /// Record the gate's reading at `t_s` for a robot driving forwards at `forward_mps`: the object
-    /// stood at `distance_m` (`Some` when the gate read it as standing), or `moved` (its edges
-    /// expanded as a standing object's but it came nearer than one could).
-    pub(super) fn record(&mut self, t_s: f64, forward_mps: f64, standing_distance_m: Option<f64>, moved: bool) {
+    /// stood (`Some`: its distance in metres and its vertical extent `tan top − tan bottom` then),
+    /// or `moved` (it came nearer than a standing object could).
+    pub(super) fn record(&mut self, t_s: f64, forward_mps: f64, standing: Option<(f64, f64)>, moved: bool) {
         if moved {
             self.moved = true;
             self.standing_at = None;
             return;
         }
-        let Some(d) = standing_distance_m else { return };
-        match self.standing_at {
+        let Some((d, extent_tan)) = standing.filter(|_| !self.moved) else {
+            return;
+        };
+        let distance = match self.standing_at {
             Some((t0, d0)) => {
                 let expected = d0 - forward_mps * (t_s - t0).max(0.0);
-                if (d - expected).abs() <= STANDING_AGREEMENT * expected.abs() {
-                    self.standing_at = Some((t_s, expected + STANDING_CORRECTION * (d - expected)));
+                if (d - expected).abs() > STANDING_AGREEMENT * expected.abs() {
+                    return;
                 }
+                expected + STANDING_CORRECTION * (d - expected)
             }
-            None => self.standing_at = Some((t_s, d)),
-        }
+            None => d,
+        };
+        self.standing_at = Some((t_s, distance));
+        self.height_m = Some(distance * extent_tan).filter(|h| h.is_finite() && *h > 0.0);
     }
 }
 
@@ -82,7 +108,8 @@ mod tests {
     fn a_standing_object_may_come_as_near_as_the_robot_drove() {
         let mut m = WorldMotionMemory::default();
         assert_eq!(m.min_standing_tau_s(0.0, 1.0), None, "never seen standing");
-        m.record(0.0, 1.0, Some(12.0), false);
+        m.record(0.0, 1.0, Some((12.0, 0.05)), false);
+        assert!((m.height_m().unwrap() - 0.6).abs() < 1e-12, "12 m × 0.05");
         // 0.5 s later at 1 m/s it stands 11.5 m away: τ 11.5 s; anything above half of it passes
         let least = m.min_standing_tau_s(0.5, 1.0).unwrap();
         assert!((least - 5.75).abs() < 1e-12, "{least}");
@@ -92,10 +119,10 @@ mod tests {
             "a robot standing still measures nothing"
         );
         // a reading between agreement and half (the window sliding over a launch) keeps the anchor
-        m.record(0.5, 1.0, Some(8.0), false);
+        m.record(0.5, 1.0, Some((8.0, 0.075)), false);
         assert!((m.min_standing_tau_s(0.5, 1.0).unwrap() - 5.75).abs() < 1e-12);
         // one that agrees corrects it by a tenth: 11.0 expected, 11.2 read
-        m.record(1.0, 1.0, Some(11.2), false);
+        m.record(1.0, 1.0, Some((11.2, 0.05)), false);
         assert!((m.min_standing_tau_s(1.0, 1.0).unwrap() - 0.5 * 11.02).abs() < 1e-12);
         m.record(1.1, 1.0, None, true);
         assert_eq!(
@@ -103,7 +130,11 @@ mod tests {
             Some(f64::INFINITY),
             "once moved, always moving"
         );
-        m.record(1.2, 1.0, Some(3.0), false);
+        m.record(1.2, 1.0, Some((3.0, 0.2)), false);
         assert_eq!(m.min_standing_tau_s(1.3, 1.0), Some(f64::INFINITY));
+        assert!(
+            (m.height_m().unwrap() - 11.02 * 0.05).abs() < 1e-12,
+            "the height measured while it stood stays"
+        );
     }
 }
