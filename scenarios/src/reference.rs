@@ -23,7 +23,10 @@
 //!   and elevation, and dodging away from the side on which the gate predicts the object to
 //!   arrive. The gate's vertical test applies to objects on a straight course only: the vertical
 //!   course of a lobbed ball is curved by gravity, and the gate judges it laterally (see
-//!   [`loomlab_agents::decision`]).
+//!   [`loomlab_agents::decision`]). Each object's decider is bound to it
+//!   ([`Decider::for_one_object`](loomlab_agents::Decider::for_one_object)): an object seen standing
+//!   before it moves (a ball before it is thrown) gets its closing speed measured from its size then,
+//!   not assumed.
 //!
 //! Perfect perception has no noise to average, so `ideal_tau` and `ideal_course` estimate τ over
 //! the shortest window the estimator accepts (three frames, [`IDEAL_TAU_WINDOW_FRAMES`]) instead of
