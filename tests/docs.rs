@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use loomlab_report::markdown::{
-    REGENERATE, best_detector_row, render_compare_block, stale_blocks, stale_compare_blocks, stale_tagged_blocks,
+    REGENERATE, best_detector_row, render_compare_block, stale_compare_blocks, stale_tagged_blocks,
 };
 use loomlab_scenarios::report::Report;
 
@@ -46,24 +46,30 @@ fn generated_block(doc: &str, name: &str) -> String {
     text[begin..end].to_string()
 }
 
+/// Every generated block of suite tag `tag` in `docs` agrees with `report` (read from `baseline`).
+fn assert_blocks_fresh(docs: &[&str], report: &Report, tag: Option<&str>, baseline: &str) {
+    for doc in docs {
+        let stale = stale_tagged_blocks(&read(doc), report, tag).unwrap_or_else(|e| panic!("{doc}: {e}"));
+        assert!(
+            stale.is_empty(),
+            "{doc}: the generated block(s) {stale:?} disagree with {baseline}; regenerate them with `{REGENERATE}`"
+        );
+    }
+}
+
+/// `table` has a row for every row of `report`.
+fn assert_every_row(table: &str, report: &Report, what: &str) {
+    for label in report.detectors.keys() {
+        assert!(table.contains(&format!("| `{label}`")), "{what} lacks the row {label}");
+    }
+}
+
 #[test]
 fn generated_tables_match_the_baseline() {
     let report = baseline();
-    for doc in GENERATED {
-        let stale = stale_blocks(&read(doc), &report).unwrap_or_else(|e| panic!("{doc}: {e}"));
-        assert!(
-            stale.is_empty(),
-            "{doc}: the generated block(s) {stale:?} disagree with {BASELINE}; regenerate them with `{REGENERATE}`"
-        );
-    }
+    assert_blocks_fresh(&GENERATED, &report, None, BASELINE);
     // The README's table is one of them, and it carries the reference rows beside the detectors.
-    let table = generated_block("README.md", "results-table");
-    for label in report.detectors.keys() {
-        assert!(
-            table.contains(&format!("| `{label}`")),
-            "README table lacks the row {label}"
-        );
-    }
+    assert_every_row(&generated_block("README.md", "results-table"), &report, "README table");
     assert!(!report.references.is_empty());
 }
 
@@ -113,22 +119,16 @@ fn generated_events_tables_match_the_events_baseline() {
         (ideal.episodes, ideal.seed),
         "the default suite's episodes"
     );
-    for doc in ["README.md", "docs/events.md"] {
-        let stale = stale_tagged_blocks(&read(doc), &report, Some("events")).unwrap_or_else(|e| panic!("{doc}: {e}"));
-        assert!(
-            stale.is_empty(),
-            "{doc}: the generated block(s) {stale:?} disagree with {EVENTS_BASELINE}; regenerate them with `{REGENERATE}`"
-        );
-    }
+    assert_blocks_fresh(
+        &["README.md", "docs/events.md"],
+        &report,
+        Some("events"),
+        EVENTS_BASELINE,
+    );
     // the README's table on events has every row, the event rows among them; the frame rows read
     // the same frames as without the event camera, so they equal the default baseline's
     let table = generated_block("README.md", "results-table@events");
-    for label in report.detectors.keys() {
-        assert!(
-            table.contains(&format!("| `{label}`")),
-            "the events table lacks the row {label}"
-        );
-    }
+    assert_every_row(&table, &report, "the events table");
     for label in ["event_soc", "event_lgmd"] {
         assert!(report.detectors.contains_key(label), "{EVENTS_BASELINE} lacks {label}");
     }
@@ -145,13 +145,7 @@ fn generated_events_tables_match_the_events_baseline() {
 #[test]
 fn generated_heldout_tables_match_the_heldout_baseline() {
     let report = Report::read_json(&root().join(HELDOUT_BASELINE)).unwrap();
-    for doc in GENERATED {
-        let stale = stale_tagged_blocks(&read(doc), &report, Some("heldout")).unwrap_or_else(|e| panic!("{doc}: {e}"));
-        assert!(
-            stale.is_empty(),
-            "{doc}: the generated block(s) {stale:?} disagree with {HELDOUT_BASELINE}; regenerate them with `{REGENERATE}`"
-        );
-    }
+    assert_blocks_fresh(&GENERATED, &report, Some("heldout"), HELDOUT_BASELINE);
     // the README shows the held-out suite's short table, docs/results.md its full one with every row
     let brief = generated_block("README.md", "results-brief@heldout");
     let (best, _) = best_detector_row(&report).unwrap();
@@ -161,13 +155,11 @@ fn generated_heldout_tables_match_the_heldout_baseline() {
             "README's held-out table lacks {label}"
         );
     }
-    let full = generated_block("docs/results.md", "results-full@heldout");
-    for label in report.detectors.keys() {
-        assert!(
-            full.contains(&format!("| `{label}`")),
-            "the held-out table lacks the row {label}"
-        );
-    }
+    assert_every_row(
+        &generated_block("docs/results.md", "results-full@heldout"),
+        &report,
+        "the held-out table",
+    );
     assert!(report.suite.ends_with("suites/heldout"), "{}", report.suite);
 }
 

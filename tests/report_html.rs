@@ -98,6 +98,22 @@ fn alarm_frames_marked(gif: &Path) -> Vec<bool> {
         .collect()
 }
 
+/// `loomlab run SUITE --out OUT --quiet --no-plots EXTRA...`, which must succeed.
+fn run_without_plots(suite: &std::path::Path, out: &std::path::Path, extra: &[&str]) {
+    let mut args = vec!["run", s(suite), "--out", s(out), "--quiet", "--no-plots"];
+    args.extend_from_slice(extra);
+    let o = loomlab(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+}
+
+/// The `src` of every `<img class="CLASS">` of a page, in order.
+fn img_srcs<'a>(html: &'a str, class: &str) -> Vec<&'a str> {
+    html.split(&format!("<img class=\"{class}\" src=\""))
+        .skip(1)
+        .map(|r| &r[..r.find('"').unwrap()])
+        .collect()
+}
+
 #[test]
 fn run_report_html_renders_in_headless_chromium() {
     let dir = common::tmp("report-html", "run");
@@ -164,11 +180,7 @@ fn run_report_html_renders_in_headless_chromium() {
         let start = html.find(&format!("id=\"scenario-{scenario}\"")).unwrap();
         let section = &html[start..start + html[start..].find("</section>").unwrap()];
         assert!(section.contains("<table class=\"sortable per-scenario\">"));
-        let gifs: Vec<&str> = section
-            .split("<img class=\"view\" src=\"")
-            .skip(1)
-            .map(|r| &r[..r.find('"').unwrap()])
-            .collect();
+        let gifs = img_srcs(section, "view");
         assert!(!gifs.is_empty(), "no GIF for {scenario}");
         let mut marked = 0;
         for g in &gifs {
@@ -226,31 +238,9 @@ fn no_html_writes_no_page_and_overwrite_removes_an_old_one() {
     let dir = common::tmp("report-html", "no-html");
     let suite = tiny_suite(&dir);
     let out = dir.join("out");
-    let o = loomlab(&[
-        "run",
-        s(&suite),
-        "--out",
-        s(&out),
-        "--quiet",
-        "--no-plots",
-        "--limit",
-        "2",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    run_without_plots(&suite, &out, &["--limit", "2"]);
     assert!(out.join("report.html").is_file() && out.join("exemplars").is_dir());
-    let o = loomlab(&[
-        "run",
-        s(&suite),
-        "--out",
-        s(&out),
-        "--quiet",
-        "--no-plots",
-        "--limit",
-        "2",
-        "--overwrite",
-        "--no-html",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    run_without_plots(&suite, &out, &["--limit", "2", "--overwrite", "--no-html"]);
     assert!(out.join("report.json").is_file());
     assert!(!out.join("report.html").exists() && !out.join("exemplars").exists());
 }
@@ -260,31 +250,13 @@ fn an_event_camera_run_shows_each_exemplars_events() {
     let dir = common::tmp("report-html", "events");
     let suite = tiny_suite(&dir);
     let out = dir.join("out");
-    let o = loomlab(&[
-        "run",
-        s(&suite),
-        "--out",
-        s(&out),
-        "--quiet",
-        "--no-plots",
-        "--sensor",
-        "events",
-        "--detectors",
-        "soc,event_soc",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    run_without_plots(&suite, &out, &["--sensor", "events", "--detectors", "soc,event_soc"]);
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
-    let srcs = |class: &str| -> Vec<String> {
-        html.split(&format!("<img class=\"{class}\" src=\""))
-            .skip(1)
-            .map(|r| r[..r.find('"').unwrap()].to_string())
-            .collect()
-    };
-    let (views, events) = (srcs("view"), srcs("view events"));
+    let (views, events) = (img_srcs(&html, "view"), img_srcs(&html, "view events"));
     assert!(!views.is_empty());
     assert_eq!(views.len(), events.len(), "one events GIF per exemplar: {events:?}");
     for (v, e) in views.iter().zip(&events) {
-        assert_eq!(e, &v.replace(".gif", "_events.gif"));
+        assert_eq!(*e, v.replace(".gif", "_events.gif"));
         let (view_frames, event_frames) = (gif_frames(&out.join(v)), gif_frames(&out.join(e)));
         let event_frames: Vec<&image::RgbaImage> = event_frames.iter().map(|f| f.buffer()).collect();
         assert_eq!(view_frames.len(), event_frames.len(), "{e}: the view's frames");
@@ -296,18 +268,6 @@ fn an_event_camera_run_shows_each_exemplars_events() {
         assert!(eventful, "{e}: no events shown");
     }
     // --overwrite removes the events GIFs with the rest of the run
-    let o = loomlab(&[
-        "run",
-        s(&suite),
-        "--out",
-        s(&out),
-        "--quiet",
-        "--no-plots",
-        "--overwrite",
-        "--limit",
-        "1",
-        "--no-html",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
-    assert!(!out.join(&events[0]).exists(), "{} left behind", events[0]);
+    run_without_plots(&suite, &out, &["--overwrite", "--limit", "1", "--no-html"]);
+    assert!(!out.join(events[0]).exists(), "{} left behind", events[0]);
 }
