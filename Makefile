@@ -9,7 +9,7 @@ PYTHON ?= python3
 # Mesa's Vulkan loader complains on every device creation when XDG_RUNTIME_DIR is unset (CI, containers).
 export XDG_RUNTIME_DIR ?= $(shell d=/tmp/xdg-runtime-$$(id -u); mkdir -p -m 700 $$d && echo $$d)
 
-.PHONY: run cli test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-interpreter python-venv python-env python-examples suite-check sweep bless readme-table heldout heldout-bless events events-bless bench bench-python bench-events bench-peer figures fmt rl-env rl-train rl-train-detectors rl-train-privileged rl-table rl-table-docs rl-result
+.PHONY: run cli dev test deps lint lint-rust lint-python rust-build rust-test check-features python-test python-interpreter python-venv python-env python-examples suite-check sweep bless readme-table heldout heldout-bless events events-bless bench bench-python bench-events bench-peer figures fmt rl-env rl-train rl-train-detectors rl-train-privileged rl-table rl-table-docs rl-result
 
 # One build for everything that runs code: `make run`, the tests, the suite check, the Python
 # binding and the sweep tests all use the release profile of one workspace (one Cargo.lock, the
@@ -223,6 +223,12 @@ HELDOUT_BASELINE ?= $(HELDOUT_SUITE)/baseline/report.json
 HELDOUT_OUT ?= out/heldout
 heldout: deps cli
 	$(BIN) run $(HELDOUT_SUITE) --out $(HELDOUT_OUT) --overwrite --brief --baseline $(HELDOUT_BASELINE)
+
+## The development suite (scenarios/suites/dev: families outside the default suite that the
+## controller may be tuned on) on fresh draws: DEV_SEED (any but 0) picks them.
+DEV_SEED ?= 5
+dev: deps cli
+	$(BIN) run scenarios/suites/dev --seed $(DEV_SEED) --out out/dev --overwrite --brief
 
 heldout-bless: deps cli
 	$(BIN) run $(HELDOUT_SUITE) --out $(HELDOUT_OUT) --overwrite --brief --baseline $(HELDOUT_BASELINE) --bless

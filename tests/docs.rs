@@ -201,6 +201,17 @@ fn table_tag_updates_and_checks_only_that_suites_blocks() {
     assert!(text(&o.stderr).contains("--tag `Held Out`"), "{}", text(&o.stderr));
 }
 
+/// The scenario files of the suite folder `dir` (not its suite.toml), sorted.
+fn scenario_files(dir: &str) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(root().join(dir))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".toml") && n != "suite.toml")
+        .collect();
+    names.sort();
+    names
+}
+
 /// The held-out suite runs the default suite's detector rows, exactly (labels, thresholds,
 /// parameters), with the default suite's camera, so that each row's results compare row by row;
 /// and none of its scenario files is a default-suite file.
@@ -213,16 +224,10 @@ fn heldout_suite_runs_the_default_suites_rows_on_other_scenarios() {
         "the [defaults] (rows, camera) must be the default suite's"
     );
     assert_eq!(heldout["require_tier"].as_bool(), Some(true));
-    let files = |dir: &str| -> Vec<String> {
-        let mut names: Vec<String> = std::fs::read_dir(root().join(dir))
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .filter(|n| n.ends_with(".toml") && n != "suite.toml")
-            .collect();
-        names.sort();
-        names
-    };
-    let (ours, theirs) = (files("scenarios/suites/heldout"), files("scenarios/suites/default"));
+    let (ours, theirs) = (
+        scenario_files("scenarios/suites/heldout"),
+        scenario_files("scenarios/suites/default"),
+    );
     assert!(ours.len() >= 5, "{ours:?}");
     for f in &ours {
         assert!(!theirs.contains(f), "{f} is a default-suite scenario");
@@ -237,6 +242,37 @@ fn heldout_suite_runs_the_default_suites_rows_on_other_scenarios() {
             readme.contains(&format!("`{f}`")),
             "the held-out README does not list {f}"
         );
+    }
+}
+
+/// The development suite's detector rows are default-suite rows, copied exactly, with its camera;
+/// its families are neither default nor held-out files; its README lists them and says that it
+/// may be tuned on, unlike the held-out suite.
+#[test]
+fn dev_suite_runs_default_rows_on_families_of_its_own() {
+    let suite = |dir: &str| -> toml::Table { toml::from_str(&read(&format!("{dir}/suite.toml"))).unwrap() };
+    let (default, dev) = (suite("scenarios/suites/default"), suite("scenarios/suites/dev"));
+    let rows = |t: &toml::Table| t["defaults"]["detectors"].as_array().unwrap().clone();
+    let default_rows = rows(&default);
+    for row in rows(&dev) {
+        assert!(default_rows.contains(&row), "{row} is not a default-suite row");
+    }
+    assert_eq!(
+        dev["defaults"]["world"], default["defaults"]["world"],
+        "the camera must be the default suite's"
+    );
+    let ours = scenario_files("scenarios/suites/dev");
+    assert!(ours.len() >= 3, "{ours:?}");
+    let readme = read("scenarios/suites/dev/README.md");
+    assert!(
+        readme.contains("may be tuned"),
+        "the dev README must say what it is for"
+    );
+    for f in &ours {
+        for other in ["scenarios/suites/default", "scenarios/suites/heldout"] {
+            assert!(!scenario_files(other).contains(f), "{f} is also in {other}");
+        }
+        assert!(readme.contains(&format!("`{f}`")), "the dev README does not list {f}");
     }
 }
 

@@ -67,13 +67,15 @@ fn strategy_update(c: &mut Criterion) {
 /// closing-speed hypotheses), side by side.
 fn planner_choice(c: &mut Criterion) {
     use loomlab_agents::decision::CourseForecast;
-    use loomlab_agents::planner::{Odometry, PlanContext};
+    use loomlab_agents::planner::{Odometry, OdometryTrail, PlanContext};
     use loomlab_agents::{Candidate, DodgeSide, Planner, RobotFacts, VelocityCommand};
     let config = EscapeConfig::default();
     let cruising = Odometry {
         velocity: [1.0, 0.0, 0.0],
         ..Odometry::default()
     };
+    let mut trail = OdometryTrail::default();
+    trail.push(0.0, cruising);
     let ball = |i: usize| {
         let x = i as f64 * 0.7 - 2.0;
         CourseForecast {
@@ -99,7 +101,7 @@ fn planner_choice(c: &mut Criterion) {
     for objects in [1usize, 3, 8] {
         let mut planner = Planner::new(RobotFacts::default());
         for i in 0..objects {
-            planner.observe(i, &ball(i), 0.0, &cruising, f64::NEG_INFINITY);
+            planner.observe(i, &ball(i), 0.0, &trail);
         }
         let ctx = PlanContext {
             t_s: 0.0,

@@ -60,7 +60,7 @@ use loomlab_sim::RobotBase;
 #[allow(unused_imports)] // for doc links
 use crate::decision::{Course, MAX_PERSISTENCE_FRAMES, TriggerSignal};
 use crate::decision::{Decider, Decision, DecisionRule, Percept, SelfMotion};
-use crate::planner::{Candidate, Odometry, PlanContext, Planner};
+use crate::planner::{Candidate, Odometry, OdometryTrail, PlanContext, Planner};
 use crate::{AgentError, RobotFacts, VelocityCommand};
 use loomlab_detector::{PerceivedObject, Signals};
 
@@ -452,7 +452,7 @@ pub struct EscapeController {
     /// has been steady.
     odometry: Odometry,
     odometry_s: Option<f64>,
-    steady_since_s: f64,
+    trail: OdometryTrail,
 }
 
 impl EscapeController {
@@ -479,7 +479,7 @@ impl EscapeController {
             object_deciders: Vec::new(),
             odometry: Odometry::default(),
             odometry_s: None,
-            steady_since_s: f64::NEG_INFINITY,
+            trail: OdometryTrail::default(),
         })
     }
 
@@ -511,7 +511,7 @@ impl EscapeController {
         self.object_deciders.clear();
         self.odometry = Odometry::default();
         self.odometry_s = None;
-        self.steady_since_s = f64::NEG_INFINITY;
+        self.trail.clear();
     }
 
     /// Bring the odometry to `t_s` under the last command (`cruise` before the first).
@@ -525,16 +525,11 @@ impl EscapeController {
                 // the episode starts cruising at the cruise speed
                 self.odometry.velocity = [command.forward_mps, command.lateral_mps, command.yaw_rate_rps];
             }
-            Some(t0) if t_s > t0 => {
-                let before = self.odometry.velocity;
-                self.odometry.advance(&command, t_s - t0, &self.facts);
-                if before != self.odometry.velocity {
-                    self.steady_since_s = t_s;
-                }
-            }
+            Some(t0) if t_s > t0 => self.odometry.advance(&command, t_s - t0, &self.facts),
             Some(_) => return,
         }
         self.odometry_s = Some(t_s);
+        self.trail.push(t_s, self.odometry);
     }
 
     /// Tell the planner what the decider of object `id` decided at `t_s` (`manoeuvre = "plan"`;
@@ -545,7 +540,7 @@ impl EscapeController {
         }
         self.advance_odometry(t_s, cruise);
         if let Some(f) = &decision.forecast {
-            self.planner.observe(id, f, t_s, &self.odometry, self.steady_since_s);
+            self.planner.observe(id, f, t_s, &self.trail);
         }
     }
 

@@ -16,10 +16,14 @@
 //! # Prediction
 //! Positions are kept in the robot's **odometry frame** (its start pose; x forward, y left),
 //! integrated from its own commands through the drive's acceleration limits ([`Odometry`]). A
-//! forecast holds relative to the motion the robot had over the gate's window, so it is only taken
-//! while that motion was steady (no command change during the window): during a manoeuvre the
-//! object's image moves with the robot, and the last steady forecast is extrapolated instead. An
-//! object moves at a constant velocity: its nearest face closes at the forecast's closing speed, its
+//! forecast holds relative to the motion the robot had over the gate's window (its pose and
+//! velocity then come from the robot's recent odometry, [`OdometryTrail`]), so it replaces a
+//! remembered one only while that motion was steady (no command change during the window): during
+//! a manoeuvre the object's image moves with the robot (a standing object no longer reads as
+//! standing), and the last steady forecast is extrapolated instead — unless the object is new or
+//! its course has evidently changed (it now arrives in less than half the time the remembered
+//! forecast says: a ball thrown while the robot dodged another). An object moves at a constant
+//! velocity: its nearest face closes at the forecast's closing speed, its
 //! edges move laterally from where they are to where they arrive. An object whose vertical course
 //! is straight and passes above or below the body is no obstacle. A forecast is forgotten
 //! [`FORECAST_MEMORY_S`] after it was last refreshed.
@@ -181,6 +185,17 @@ impl Odometry {
         self.heading_rad += w * dt_s;
     }
 
+    /// This pose `back_s` earlier along its current velocity.
+    fn back(&self, back_s: f64) -> Odometry {
+        let mut origin = *self;
+        let [vf, vl, w] = self.velocity;
+        origin.heading_rad -= w * back_s;
+        let (s, c) = origin.heading_rad.sin_cos();
+        origin.position_m[0] -= (vf * c - vl * s) * back_s;
+        origin.position_m[1] -= (vf * s + vl * c) * back_s;
+        origin
+    }
+
     /// A point given in this pose's body frame (forward, left), in the odometry frame.
     fn point_in_odometry(&self, forward: f64, left: f64) -> [f64; 2] {
         let (s, c) = self.heading_rad.sin_cos();
@@ -197,6 +212,68 @@ impl Odometry {
         [dx * c + dy * s, -dx * s + dy * c]
     }
 }
+
+/// The robot's odometry over its last [`TRAIL_LENGTH`] steps, and since when its motion has been
+/// steady: what the planner needs to place a forecast made over a window in the past (a fixed
+/// buffer: pushing allocates nothing).
+#[derive(Debug, Clone)]
+pub struct OdometryTrail {
+    samples: std::collections::VecDeque<(f64, Odometry)>,
+    /// When the velocity last changed between two steps (s).
+    steady_since_s: f64,
+}
+
+/// How many steps an [`OdometryTrail`] keeps (more than a gate's window at 120 Hz).
+pub const TRAIL_LENGTH: usize = 128;
+
+impl Default for OdometryTrail {
+    fn default() -> Self {
+        Self {
+            samples: std::collections::VecDeque::with_capacity(TRAIL_LENGTH),
+            steady_since_s: f64::NEG_INFINITY,
+        }
+    }
+}
+
+impl OdometryTrail {
+    /// Forget everything (new episode).
+    pub fn clear(&mut self) {
+        self.samples.clear();
+        self.steady_since_s = f64::NEG_INFINITY;
+    }
+
+    /// Record the odometry `odometry` at `t_s` (after the previous record's time).
+    pub fn push(&mut self, t_s: f64, odometry: Odometry) {
+        if let Some((_, last)) = self.samples.back()
+            && last.velocity != odometry.velocity
+        {
+            self.steady_since_s = t_s;
+        }
+        if self.samples.len() == TRAIL_LENGTH {
+            self.samples.pop_front();
+        }
+        self.samples.push_back((t_s, odometry));
+    }
+
+    /// The latest odometry (the start pose before any record).
+    pub fn now(&self) -> Odometry {
+        self.samples.back().map(|s| s.1).unwrap_or_default()
+    }
+
+    /// The odometry at `t_s`: the first record at or after it, taken back along its velocity (the
+    /// earliest one taken back further when `t_s` is older than the trail; the latest when `t_s`
+    /// is after it).
+    pub fn at(&self, t_s: f64) -> Odometry {
+        match self.samples.iter().find(|(t, _)| *t >= t_s) {
+            Some((t, o)) => o.back(t - t_s),
+            None => self.now(),
+        }
+    }
+}
+
+/// The fraction of its remembered time to contact below which an object's new forecast replaces
+/// the remembered one even while the robot's motion changes: its course has changed (thrown).
+pub const COURSE_CHANGE_TAU_FRACTION: f64 = 0.5;
 
 /// One remembered object: its last steady forecast and the robot's pose it was made from.
 #[derive(Debug, Clone, Copy)]
@@ -470,10 +547,18 @@ impl Planner {
         !self.objects.is_empty()
     }
 
-    /// Take object `id`'s forecast made at `t_s`, the robot's odometry now being `now` and its
-    /// motion steady since `steady_since_s` (the forecast is taken only when its window, twice
-    /// its distance from now before now, lies within the steady motion).
-    pub fn observe(&mut self, id: usize, forecast: &CourseForecast, t_s: f64, now: &Odometry, steady_since_s: f64) {
+    /// The forecast remembered for object `id`.
+    pub fn forecast(&self, id: usize) -> Option<&CourseForecast> {
+        self.objects.iter().find(|o| o.id == id).map(|o| &o.forecast)
+    }
+
+    /// Take object `id`'s forecast made at `t_s`, the robot's odometry over the last moments being
+    /// `trail` (module docs, "Prediction"): taken when the robot's motion was steady over the
+    /// forecast's window (twice its distance from now before now), and otherwise only for an
+    /// object not remembered yet or one whose course changed (it now arrives in less than
+    /// [`COURSE_CHANGE_TAU_FRACTION`] of the time its remembered forecast says: a ball thrown
+    /// while the robot dodged).
+    pub fn observe(&mut self, id: usize, forecast: &CourseForecast, t_s: f64, trail: &OdometryTrail) {
         let window_start = 2.0 * forecast.t_s - t_s;
         let usable = forecast.tau_s.is_finite()
             && forecast.tau_s > 0.0
@@ -483,19 +568,17 @@ impl Planner {
                 .lateral_m
                 .iter()
                 .chain(&forecast.arrival_lateral_m)
-                .all(|v| v.is_finite())
-            && window_start >= steady_since_s - 1e-9;
-        if !usable {
+                .all(|v| v.is_finite());
+        let steady = window_start >= trail.steady_since_s - 1e-9;
+        if !usable || !(steady || self.course_changed(id, forecast)) {
             return;
         }
-        // the pose at the forecast's time: back along the steady motion
-        let mut origin = *now;
-        let back = t_s - forecast.t_s;
-        let [vf, vl, w] = now.velocity;
-        origin.heading_rad -= w * back;
-        let (s, c) = origin.heading_rad.sin_cos();
-        origin.position_m[0] -= (vf * c - vl * s) * back;
-        origin.position_m[1] -= (vf * s + vl * c) * back;
+        let origin = if steady {
+            // back along the steady motion
+            trail.now().back(t_s - forecast.t_s)
+        } else {
+            trail.at(forecast.t_s)
+        };
         // image coordinates of the edges at the forecast's time (the border is at ±1)
         let border =
             |lateral: f64| lateral / (forecast.closing_mps * forecast.tau_s) / self.facts.pinhole.tan_half_fov();
@@ -524,6 +607,15 @@ impl Planner {
             // full: replace the object that passes last
             *latest = entry;
         }
+    }
+
+    /// Whether object `id` is not remembered, or `forecast` says it arrives much sooner than its
+    /// remembered forecast does ([`COURSE_CHANGE_TAU_FRACTION`]).
+    fn course_changed(&self, id: usize, forecast: &CourseForecast) -> bool {
+        self.objects.iter().find(|o| o.id == id).is_none_or(|o| {
+            let predicted = o.forecast.tau_s - (forecast.t_s - o.forecast.t_s);
+            forecast.tau_s < COURSE_CHANGE_TAU_FRACTION * predicted
+        })
     }
 
     /// Forget forecasts not refreshed for [`FORECAST_MEMORY_S`] and objects that have passed.
@@ -871,7 +963,9 @@ mod tests {
             velocity: [1.0, 0.0, 0.0],
             ..Odometry::default()
         };
-        planner.observe(0, &forecast, 0.0, &now, f64::NEG_INFINITY);
+        let mut trail = OdometryTrail::default();
+        trail.push(0.0, now);
+        planner.observe(0, &forecast, 0.0, &trail);
         let seen = planner.objects[0];
         assert_eq!(seen.clipped, [false, true]);
         let whole = Remembered {

@@ -2,7 +2,7 @@
 //! gate forecasts them, and a robot cruising at 1 m/s.
 
 use loomlab_agents::decision::CourseForecast;
-use loomlab_agents::planner::{Odometry, PlanContext};
+use loomlab_agents::planner::{Odometry, OdometryTrail, PlanContext};
 use loomlab_agents::{Candidate, DodgeSide, EscapeConfig, Manoeuvre, Planner, RobotFacts, VelocityCommand};
 
 const CRUISE: VelocityCommand = VelocityCommand {
@@ -41,10 +41,17 @@ fn cruising() -> Odometry {
     }
 }
 
+/// A trail of a robot that has cruised since the start, at `t_s`.
+fn cruised_until(t_s: f64) -> OdometryTrail {
+    let mut trail = OdometryTrail::default();
+    trail.push(t_s, cruising());
+    trail
+}
+
 fn planner_with(objects: &[CourseForecast]) -> Planner {
     let mut planner = Planner::new(RobotFacts::default());
     for (id, f) in objects.iter().enumerate() {
-        planner.observe(id, f, 0.0, &cruising(), f64::NEG_INFINITY);
+        planner.observe(id, f, 0.0, &cruised_until(0.0));
     }
     planner
 }
@@ -184,16 +191,36 @@ fn the_running_manoeuvre_is_kept_unless_another_is_clearly_better() {
 }
 
 #[test]
-fn a_forecast_made_while_the_robot_changed_its_motion_is_not_taken() {
+fn a_forecast_made_while_the_robot_changed_its_motion_replaces_one_only_when_the_course_changed() {
     let mut planner = Planner::new(RobotFacts::default());
-    // window from t = 0.0 to 0.2 (mean 0.1), but the motion changed at 0.05
-    let mut f = forecast(8.0, 0.0, 0.0, 0.1, 10.0);
-    f.t_s = 0.1;
-    planner.observe(1, &f, 0.2, &cruising(), 0.05);
-    assert!(!planner.has_objects());
-    planner.observe(1, &f, 0.2, &cruising(), 0.0);
-    assert!(planner.has_objects());
-    // forgotten once it has passed
+    // remembered from a steady window
+    let mut steady = forecast(8.0, 0.0, 0.0, 0.1, 10.0);
+    steady.t_s = 0.1;
+    planner.observe(1, &steady, 0.2, &cruised_until(0.2));
+    assert_eq!(planner.forecast(1).map(|f| f.tau_s), Some(0.8));
+    // a window from 0.2 to 0.4 (mean 0.3) over which the robot started a sidestep at 0.25
+    let mut trail = cruised_until(0.2);
+    let mut dodging = cruising();
+    dodging.velocity[1] = 0.5;
+    trail.push(0.25, dodging);
+    trail.push(0.4, dodging);
+    let mut same_course = forecast(6.0, 0.3, 0.3, 0.1, 10.0);
+    same_course.t_s = 0.3;
+    planner.observe(1, &same_course, 0.4, &trail);
+    assert_eq!(
+        planner.forecast(1).map(|f| f.tau_s),
+        Some(0.8),
+        "the steady forecast is kept"
+    );
+    // thrown meanwhile: it arrives in 0.2 s where the remembered forecast said 0.6 s
+    let mut thrown = forecast(2.0, 0.3, 0.3, 0.1, 10.0);
+    thrown.t_s = 0.3;
+    planner.observe(1, &thrown, 0.4, &trail);
+    assert_eq!(planner.forecast(1).map(|f| f.tau_s), Some(0.2));
+    // an object not seen before is taken too
+    planner.observe(2, &same_course, 0.4, &trail);
+    assert!(planner.forecast(2).is_some());
+    // forgotten once they have passed
     planner.forget_old(5.0);
     assert!(!planner.has_objects());
 }

@@ -17,6 +17,13 @@ pub const STOPPING_TAU_RATE: f64 = -0.5;
 /// world (`d(tan a)/dt · τ = tan a`): the gate then scales the image by the robot's own speed.
 pub const STANDING_TOLERANCE: f64 = 0.1;
 
+/// An object whose edges move as a standing one's is not read as standing when, at the distance
+/// standing would put it, its bottom edge floats above the ground by more than this fraction of the
+/// body's reach below the camera (the camera's height, nearly): it lies below the horizon but less
+/// than this share of the way down to the ground. A vehicle coming along its line of sight moves in
+/// the image exactly as an object standing nearer does; only the ground tells them apart.
+pub const FLOATING_BOTTOM_FRACTION: f64 = 0.5;
+
 /// Smallest predicted lateral miss (object radii) for which
 /// [`Decision::pass_side`](super::Decision::pass_side) is given.
 pub const PASS_SIDE_MIN_RADII: f64 = 0.5;
@@ -119,7 +126,7 @@ pub(super) fn assess(
 ) -> CourseAssessment {
     let course_from = t_s - rule.course_window_s - 1e-9;
     let course = || window.since(course_from);
-    let e = estimate(course, tau_s, motion, rule, world_motion);
+    let e = estimate(course, tau_s, motion, rule, body, world_motion);
     let pass_side = match e.predicted_edges {
         Some(([l, r], _)) => {
             let (centre, half) = ((l + r) / 2.0, (r - l).abs() / 2.0);
@@ -170,6 +177,7 @@ fn estimate<'a, I>(
     tau_s: Option<f64>,
     motion: &SelfMotion,
     rule: &DecisionRule,
+    body: &BodyExtent,
     world_motion: Option<&WorldMotionMemory>,
 ) -> CourseEstimates
 where
@@ -197,7 +205,7 @@ where
         _ => None,
     };
     let speed = rule.course_closing_speed_mps.max(motion.forward_mps);
-    let edge_forecast = arrival_edges(&course, theta_fit, speed, motion, world_motion);
+    let edge_forecast = arrival_edges(&course, theta_fit, speed, motion, body, world_motion);
     let predicted_edges = edge_forecast.as_ref().map(|f| f.edges);
     // dτ/dt from ln θ = a + b·t + c·t²: τ = 1/(b + 2ct), so dτ/dt = −2c/b² at the window's mean
     let ln_theta = || course().filter(|s| s.has_theta()).map(|s| (s.t, s.theta_rad.ln()));
@@ -227,6 +235,7 @@ fn arrival_edges<'a, I>(
     theta_fit: Option<(f64, f64, f64)>,
     speed: f64,
     motion: &SelfMotion,
+    body: &BodyExtent,
     world_motion: Option<&WorldMotionMemory>,
 ) -> Option<EdgeForecast>
 where
@@ -254,7 +263,13 @@ where
     let nearer_than_standing = world_motion
         .and_then(|m| m.min_standing_tau_s(t_mean, motion.forward_mps))
         .is_some_and(|least| tau_c < least);
-    let standing = radial && !nearer_than_standing;
+    // read as standing, its bottom would float above the ground just below the horizon: it comes
+    // along its line of sight from farther away instead (the ground's height tells)
+    let floats = {
+        let below_camera_m = -motion.forward_mps * tau_c * edges[2].1;
+        below_camera_m > 0.0 && below_camera_m < FLOATING_BOTTOM_FRACTION * body.below_camera_m
+    };
+    let standing = radial && !nearer_than_standing && !floats;
     // a moving object whose height was measured while it stood: its distance in each frame is that
     // height over its vertical extent, and the distance falls at the closing speed (a line fitted
     // to the distances: fitting the extent instead, which grows as 1/distance, biases it low)
@@ -286,6 +301,29 @@ where
         closing_measured: measured.is_some(),
         extent_tan,
     })
+}
+
+/// The lateral span `[left, right]` (m) the object's edges sweep on their straight course while it
+/// passes the body's length, from `ahead_of_camera_m` in front of the camera to `behind_camera_m`
+/// behind it: an oblique object that passes the camera's depth beside the body can still strike its
+/// side further back.
+fn swept_lateral(f: &EdgeForecast, body: &BodyExtent) -> [f64; 2] {
+    let depth = f.closing_mps * f.tau_s;
+    if depth.is_nan() || depth <= 0.0 {
+        return f.edges.0;
+    }
+    // an edge's offset `d` metres ahead of the camera (negative: behind it)
+    let at = |i: usize, d: f64| f.edges.0[i] - (f.edges.0[i] - f.lateral_m[i]) / depth * d;
+    let ends = [
+        at(0, body.ahead_of_camera_m),
+        at(1, body.ahead_of_camera_m),
+        at(0, -body.behind_camera_m),
+        at(1, -body.behind_camera_m),
+    ];
+    [
+        ends.into_iter().fold(f64::INFINITY, f64::min),
+        ends.into_iter().fold(f64::NEG_INFINITY, f64::max),
+    ]
 }
 
 /// Whether an object with τ̂ `tau` will touch the body (the open gate's test).
@@ -328,7 +366,8 @@ where
     curved_course_ok
         && match (e.predicted_edges, e.miss_radii) {
             (Some((lateral, vertical)), _) => {
-                overlaps(lateral, -body.half_width_m, body.half_width_m)
+                let swept = e.edge_forecast.as_ref().map_or(lateral, |f| swept_lateral(f, body));
+                overlaps(swept, -body.half_width_m, body.half_width_m)
                     && (e.straight != Some(true) || overlaps(vertical, -body.below_camera_m, body.above_camera_m))
             }
             (None, Some(mu)) => {

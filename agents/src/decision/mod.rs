@@ -67,7 +67,9 @@
 //! growth of the object's vertical extent (the time to contact of its nearest face, whatever its
 //! shape) and the four edges are extrapolated: the object is on a collision course when its
 //! predicted extent overlaps the body's (half-width beside the camera, its reach above and below
-//! the camera). An object whose edges all move as those of an object standing in the world
+//! the camera), laterally over the whole length of the body (the edges' straight course from the
+//! body's front to its rear: an oblique object that passes the camera's depth beside the body can
+//! still strike its flank). An object whose edges all move as those of an object standing in the world
 //! (`u̇ · τ = u` within [`STANDING_TOLERANCE`]) closes at the robot's own speed, which then replaces
 //! v̂. Without an extent (a detector row), the object is taken as a sphere: its centre arrives
 //! `R · μ` beside the camera with `μ = 2·β̇/θ̇` (the miss in object radii; |μ| < 1 iff both edges
@@ -84,6 +86,10 @@
 //! height now gives its distance: the closing speed is then measured, not assumed, and the metres
 //! exact ([`CourseForecast::closing_measured`]; the planner then checks that one scale only)
 //! (`standing.rs`). A detector's driving percept, which may switch objects, keeps the plain reading.
+//! Any decider also asks the ground: an object coming along its line of sight (a vehicle in the
+//! next lane) expands exactly as one standing nearer does, but read as standing its bottom would
+//! float just below the horizon; when that bottom is less than [`FLOATING_BOTTOM_FRACTION`] of the
+//! body's reach below the camera down, the object is read as moving.
 //!
 //! **Vertically**, the elevation in object radii `sin(e)/sin(θ/2)` is linear in time on a straight
 //! course at constant speed and a parabola under gravity. When it deviates from a straight line by
@@ -142,7 +148,8 @@ mod tau;
 mod window;
 
 pub use course::{
-    CourseForecast, PASS_SIDE_MIN_RADII, STANDING_TOLERANCE, STOPPING_TAU_RATE, STRAIGHT_COURSE_MAX_RADII,
+    CourseForecast, FLOATING_BOTTOM_FRACTION, PASS_SIDE_MIN_RADII, STANDING_TOLERANCE, STOPPING_TAU_RATE,
+    STRAIGHT_COURSE_MAX_RADII,
 };
 pub use percept::{ImageExtent, Percept, SelfMotion};
 pub use rule::{BodyExtent, Course, DecisionRule, MAX_PERSISTENCE_FRAMES, TriggerSignal};
