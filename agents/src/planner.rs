@@ -809,6 +809,57 @@ mod tests {
     }
 
     #[test]
+    fn a_trail_places_a_past_time_by_the_record_after_it_and_knows_when_motion_changed() {
+        let facts = RobotFacts::default();
+        let cruise = VelocityCommand {
+            forward_mps: 1.0,
+            ..VelocityCommand::STOP
+        };
+        let sidestep = VelocityCommand {
+            lateral_mps: 1.5,
+            ..cruise
+        };
+        let mut odometry = Odometry {
+            velocity: [1.0, 0.0, 0.0],
+            ..Odometry::default()
+        };
+        let mut trail = OdometryTrail::default();
+        let dt = 1.0 / 120.0;
+        for k in 0..=60 {
+            let t = k as f64 * dt;
+            if k > 0 {
+                odometry.advance(if t > 0.3 { &sidestep } else { &cruise }, dt, &facts);
+            }
+            trail.push(t, odometry);
+        }
+        // the sidestep's acceleration changes the velocity at every step since it began
+        assert!((trail.steady_since_s - 0.5).abs() < 1e-9, "{}", trail.steady_since_s);
+        // before the sidestep: on the straight cruising path, a metre a second
+        let before = trail.at(0.2);
+        assert!((before.position_m[0] - 0.2).abs() < 1e-9 && before.position_m[1].abs() < 1e-12);
+        // during it: the recorded pose of that step, not the pose now taken back
+        let during = trail.at(40.0 * dt);
+        let now = trail.now();
+        assert!(during.position_m[1] > 0.0 && during.position_m[1] < now.position_m[1]);
+        assert!(during.velocity[1] < now.velocity[1]);
+        // older than the trail (it keeps TRAIL_LENGTH records): the earliest record taken back
+        // along its velocity
+        let mut long = OdometryTrail::default();
+        for k in 0..(TRAIL_LENGTH + 10) {
+            let t = k as f64 * dt;
+            let cruising = Odometry {
+                position_m: [t, 0.0],
+                velocity: [1.0, 0.0, 0.0],
+                ..Odometry::default()
+            };
+            long.push(t, cruising);
+        }
+        assert_eq!(long.samples.len(), TRAIL_LENGTH);
+        assert!((long.at(0.01).position_m[0] - 0.01).abs() < 1e-9);
+        assert_eq!(long.steady_since_s, f64::NEG_INFINITY);
+    }
+
+    #[test]
     fn a_crossing_car_is_a_long_narrow_box_along_its_motion_and_a_ball_a_square() {
         // a 4 × 1.8 m car (1.4 m high) driving at 29° to the line of sight: its image is as wide
         // as its projection across the line of sight
