@@ -977,6 +977,11 @@ mod strategies {
         let standing = run_moving_box(cfg.decider(&facts), [12.0, 0.1, -0.05], [0.0, 0.0], [0.2; 3], 1.0);
         assert!(standing.iter().filter_map(|d| d.forecast).all(|f| f.standing));
         assert!(standing.iter().any(|d| d.value >= cfg.alarm_threshold()));
+        // and so does one on a raised surface, its bottom 0.1 m below the camera: only a bottom
+        // nearly at the horizon is taken for an object coming from afar
+        let raised = run_moving_box(cfg.decider(&facts), [12.0, 0.1, 0.1], [0.0, 0.0], [0.2; 3], 1.0);
+        assert!(raised.iter().filter_map(|d| d.forecast).all(|f| f.standing));
+        assert!(raised.iter().any(|d| d.value >= cfg.alarm_threshold()));
     }
 
     #[test]
