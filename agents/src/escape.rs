@@ -60,7 +60,7 @@ use loomlab_sim::RobotBase;
 #[allow(unused_imports)] // for doc links
 use crate::decision::{Course, MAX_PERSISTENCE_FRAMES, TriggerSignal};
 use crate::decision::{Decider, Decision, DecisionRule, Percept, SelfMotion};
-use crate::planner::{Candidate, Odometry, OdometryTrail, PlanContext, Planner};
+use crate::planner::{Candidate, OdometryTrail, PlanContext, Planner};
 use crate::{AgentError, RobotFacts, VelocityCommand};
 use loomlab_detector::{PerceivedObject, Signals};
 
@@ -448,10 +448,8 @@ pub struct EscapeController {
     planner: Planner,
     /// One decider per object a detector lists besides its driving percept, by the detector's id.
     object_deciders: Vec<(usize, Decider)>,
-    /// The robot's pose from its own commands, the time it holds for, and since when its motion
-    /// has been steady.
-    odometry: Odometry,
-    odometry_s: Option<f64>,
+    /// The robot's recent poses from its own commands (the latest: its pose now), and since when
+    /// its motion has been steady.
     trail: OdometryTrail,
 }
 
@@ -477,8 +475,6 @@ impl EscapeController {
             dodge_offset_m: 0.0,
             planner: Planner::new(facts),
             object_deciders: Vec::new(),
-            odometry: Odometry::default(),
-            odometry_s: None,
             trail: OdometryTrail::default(),
         })
     }
@@ -509,8 +505,6 @@ impl EscapeController {
         self.dodge_offset_m = 0.0;
         self.planner.reset();
         self.object_deciders.clear();
-        self.odometry = Odometry::default();
-        self.odometry_s = None;
         self.trail.clear();
     }
 
@@ -520,16 +514,16 @@ impl EscapeController {
             return;
         }
         let command = self.last_command.unwrap_or(cruise);
-        match self.odometry_s {
+        let mut odometry = self.trail.now();
+        match self.trail.latest_s() {
             None => {
                 // the episode starts cruising at the cruise speed
-                self.odometry.velocity = [command.forward_mps, command.lateral_mps, command.yaw_rate_rps];
+                odometry.velocity = [command.forward_mps, command.lateral_mps, command.yaw_rate_rps];
             }
-            Some(t0) if t_s > t0 => self.odometry.advance(&command, t_s - t0, &self.facts),
+            Some(t0) if t_s > t0 => odometry.advance(&command, t_s - t0, &self.facts),
             Some(_) => return,
         }
-        self.odometry_s = Some(t_s);
-        self.trail.push(t_s, self.odometry);
+        self.trail.push(t_s, odometry);
     }
 
     /// Tell the planner what the decider of object `id` decided at `t_s` (`manoeuvre = "plan"`;
@@ -574,7 +568,7 @@ impl EscapeController {
     fn plan_context(&self, t_s: f64, cruise: VelocityCommand) -> PlanContext<'_> {
         PlanContext {
             t_s,
-            odometry: self.odometry,
+            odometry: self.trail.now(),
             cruise,
             dodge_offset_m: self.dodge_offset_m,
             config: &self.config,

@@ -260,6 +260,11 @@ impl OdometryTrail {
         self.samples.back().map(|s| s.1).unwrap_or_default()
     }
 
+    /// The time of the latest record (s; `None` before any).
+    pub fn latest_s(&self) -> Option<f64> {
+        self.samples.back().map(|s| s.0)
+    }
+
     /// The odometry at `t_s`: the first record at or after it, taken back along its velocity (the
     /// earliest one taken back further when `t_s` is older than the trail; the latest when `t_s`
     /// is after it).
