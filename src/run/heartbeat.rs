@@ -5,8 +5,9 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Instant;
 
 /// Seconds between two progress lines when stderr is not a terminal (no progress bar there);
-/// the environment variable `LOOMLAB_PROGRESS_S` sets another interval (e.g. for a log).
-const HEARTBEAT_S: u64 = 10;
+/// the environment variable `LOOMLAB_PROGRESS_S` sets another interval (seconds, fractions
+/// allowed: e.g. 60 for a log, 0.2 in a test).
+const HEARTBEAT_S: f64 = 10.0;
 
 /// Progress lines on a non-terminal stderr: `progress: 12 of 349 episodes done in 1 min 20 s`,
 /// every [`HEARTBEAT_S`] seconds (or `LOOMLAB_PROGRESS_S`) while episodes run, even inside one
@@ -23,17 +24,19 @@ impl Heartbeat {
         let flag = Arc::clone(&done);
         let every = std::env::var("LOOMLAB_PROGRESS_S")
             .ok()
-            .and_then(|v| v.parse::<u64>().ok())
-            .filter(|&s| s > 0)
+            .and_then(|v| v.parse::<f64>().ok())
+            .filter(|s| s.is_finite() && *s > 0.0)
             .unwrap_or(HEARTBEAT_S);
+        let poll = std::time::Duration::from_secs_f64(every.clamp(0.01, 0.2));
         let thread = std::thread::spawn(move || {
             let started = Instant::now();
             let mut next = every;
             while !flag.load(Ordering::SeqCst) {
-                std::thread::park_timeout(std::time::Duration::from_millis(200));
-                let secs = started.elapsed().as_secs();
-                if secs >= next && !flag.load(Ordering::SeqCst) {
-                    next = secs + every;
+                std::thread::park_timeout(poll);
+                let elapsed = started.elapsed().as_secs_f64();
+                if elapsed >= next && !flag.load(Ordering::SeqCst) {
+                    next = elapsed + every;
+                    let secs = elapsed as u64;
                     errln!(
                         "progress: {} of {todo} episodes {what} in {} min {} s",
                         finished.load(Ordering::Relaxed),
