@@ -244,27 +244,29 @@ test:
 	$(call STEP,-j3 deps python-venv rust-build python-env)
 	$(call STEP,-j4 --output-sync=target PREBUILT=1 lint suite-check rust-test python-test)
 
-## RL on the detector signals (issues 17 and 28; docs/tutorial.md §6, the result in docs/results.md).
-## `make rl-result` trains two PPO policies (stable-baselines3, CPU torch) on
-## loomlab/EscapeDiscrete-v0 with the defaults of `python -m loomlab.train` (action repeat 8, a
-## dodge held 0.6 s, the timely-dodge bonus), side by side, each for at most RL_WALL_S seconds:
-## one on the detector features (RL_RUN) and the learnability check on the privileged percept
-## (RL_PRIV_RUN). `rl-table` then evaluates
-## both on held-out seeds next to the calibrated threshold controllers and the reference rows,
-## writes docs/rl_result.json and docs/rl_learning_curve.png, and regenerates the README's and
-## docs/results.md's RL blocks from the JSON (`rl-table-docs`; python/tests/test_rl_result.py fails
-## while they disagree). Torch lives in its own venv ($(RL_VENV)), never in `make test`'s. A run
-## folder is never overwritten: remove $(RL_OUT) (or set RL_OUT) to start again; `make rl-train`
-## after an interruption resumes both runs.
+## RL on the detector signals (issues 17, 28 and 54; docs/tutorial.md §6, the result in docs/results.md).
+## `make rl-result` trains two PPO policies (stable-baselines3, CPU torch) on the default suite, on
+## the env's training seed stream, with the defaults of `python -m loomlab.train` (action repeat 8, a
+## dodge held 0.6 s, the timely-dodge bonus) and the escape controller's manoeuvres as actions
+## (`--env manoeuvre`), side by side, each for at most RL_WALL_S seconds: one on the suite's rows'
+## decision features at the suite's camera size (RL_RUN, `--obs decision`) and the learnability
+## check on the privileged percept (RL_PRIV_RUN). `rl-table` then evaluates both on held-out seeds
+## (RL_EVAL_SEEDS) of the default and the held-out suites, per tier, next to the suites' own rows
+## and the reference rows, writes docs/rl_result.json and docs/rl_learning_curve.png, and
+## regenerates the README's and docs/results.md's RL blocks from the JSON (`rl-table-docs`;
+## python/tests/test_rl_result.py fails while they disagree). Torch lives in its own venv
+## ($(RL_VENV)), never in `make test`'s. A run folder is never overwritten: remove $(RL_OUT) (or set
+## RL_OUT) to start again; `make rl-train` after an interruption resumes both runs.
 RL_VENV ?= .venv-rl
 RL_SEED ?= 0
-RL_WALL_S ?= 1200
-RL_STEPS ?= 200000
+RL_WALL_S ?= 2400
+RL_STEPS ?= 400000
 RL_OUT ?= out/rl
-RL_RUN = $(RL_OUT)/ppo-seed$(RL_SEED)
+RL_RUN = $(RL_OUT)/ppo-decision-seed$(RL_SEED)
 RL_PRIV_RUN = $(RL_OUT)/ppo-privileged-seed$(RL_SEED)
-RL_EVAL_SEEDS ?= 2000-2024
-RL_CALIBRATE_SEEDS ?= 7-14
+RL_EVAL_SEEDS ?= 2000
+RL_TRAIN_ARGS = --scenario suite:default --env manoeuvre --seed $(RL_SEED) --timesteps $(RL_STEPS) \
+  --max-wall-s $(RL_WALL_S) --eval-every 16384 --eval-seeds 1000 --eval-stride 4
 rl-env: deps
 	@test -x $(RL_VENV)/bin/python || $(PYTHON) -m venv $(RL_VENV)
 	$(RL_VENV)/bin/python -m pip install -q --upgrade pip maturin
@@ -274,18 +276,18 @@ rl-env: deps
 rl-train: rl-train-detectors rl-train-privileged
 
 rl-train-detectors: rl-env
-	$(RL_VENV)/bin/python -m loomlab.train --obs detectors --seed $(RL_SEED) --timesteps $(RL_STEPS) \
-	  --max-wall-s $(RL_WALL_S) --out $(RL_RUN) $$(test -e $(RL_RUN)/checkpoints/latest.json && echo --resume)
+	$(RL_VENV)/bin/python -m loomlab.train --obs decision --frame-size 96 $(RL_TRAIN_ARGS) \
+	  --out $(RL_RUN) $$(test -e $(RL_RUN)/checkpoints/latest.json && echo --resume)
 
-# The privileged observation does not depend on the frames: this run renders at n = 32 (4x fewer
-# pixels than the evaluation's 64, the same observations).
+# The privileged observation does not depend on the frames: this run renders at n = 32 (9x fewer
+# pixels than the suite's 96, the same observations).
 rl-train-privileged: rl-env
-	$(RL_VENV)/bin/python -m loomlab.train --obs privileged --frame-size 32 --seed $(RL_SEED) --timesteps $(RL_STEPS) \
-	  --max-wall-s $(RL_WALL_S) --out $(RL_PRIV_RUN) $$(test -e $(RL_PRIV_RUN)/checkpoints/latest.json && echo --resume)
+	$(RL_VENV)/bin/python -m loomlab.train --obs privileged --frame-size 32 $(RL_TRAIN_ARGS) \
+	  --out $(RL_PRIV_RUN) $$(test -e $(RL_PRIV_RUN)/checkpoints/latest.json && echo --resume)
 
 rl-table: rl-env
 	$(RL_VENV)/bin/python -m loomlab.rl_result build --run $(RL_RUN) --privileged-run $(RL_PRIV_RUN) \
-	  --seeds $(RL_EVAL_SEEDS) --calibrate-seeds $(RL_CALIBRATE_SEEDS) \
+	  --suite suite:default --suite suite:heldout --seeds $(RL_EVAL_SEEDS) --processes 2 --jobs 1 \
 	  --out docs/rl_result.json --png docs/rl_learning_curve.png
 	$(RL_VENV)/bin/python -m loomlab.rl_result tables README.md docs/results.md
 

@@ -240,7 +240,34 @@ def test_training_logs_checkpoints_resumes_and_repeats_under_a_seed(tmp_path):
     assert rep["detectors"]["cem"]["episodes"] == 2
 
 
+def test_training_on_a_suite_with_decision_features_repeats_under_a_seed(tmp_path):
+    """`make rl-result`'s configuration (the default suite's rows' decision features, the escape
+    controller's manoeuvres, every K-th held-out episode), short: same seed, same curve and weights."""
+
+    def run(out):
+        train_main(
+            ["--algo", "cem", "--scenario", "suite:default", "--tiers", "0", "--obs", "decision"]
+            + ["--env", "manoeuvre", "--n-envs", "2", "--frame-size", "32", "--max-episode-steps", "6"]
+            + ["--timesteps", "24", "--eval-every", "12", "--eval-seeds", "1000", "--eval-stride", "120"]
+            + ["--eval-limit", "240", "--seed", "3", "--out", str(out)]
+        )
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    run(a)
+    run(b)
+    rows = _progress(a)
+    assert [int(r["steps"]) for r in rows] == [0, 12, 24]
+    assert {int(r["episodes"]) for r in rows} == {2}, "every 120th of the first 240 held-out episodes"
+    keys = ["steps", "collision_rate", "unnecessary_dodge_rate", "hit_rate"]
+    assert [[r[k] for k in keys] for r in rows] == [[r[k] for k in keys] for r in _progress(b)]
+    za, zb = np.load(a / "checkpoints" / "step_24.npz"), np.load(b / "checkpoints" / "step_24.npz")
+    np.testing.assert_array_equal(za["mean"], zb["mean"])
+    assert za["mean"].size % 6 == 0, "six manoeuvre actions"
+
+
 def test_training_arguments_are_checked(tmp_path):
+    with pytest.raises(SystemExit, match="--eval-stride must be >= 1"):
+        train_main(["--algo", "cem", "--eval-stride", "0", "--out", str(tmp_path / "x")])
     with pytest.raises(SystemExit, match="--eval-seeds"):
         train_main(["--algo", "cem", "--eval-seeds", "9-3", "--out", str(tmp_path / "x")])
     with pytest.raises(SystemExit, match="no checkpoint"):

@@ -202,7 +202,7 @@ def quick_eval(policy: Any, args: argparse.Namespace) -> Dict[str, float]:
     for seed in args.eval_seeds:
         native = _native.EscapeEnv.from_suite(args.scenario, seed, args.eval_limit, opts)
         try:
-            for i in range(native.num_episodes):
+            for i in range(0, native.num_episodes, args.eval_stride):
                 rows.append(_run_episode(native, i, act, args.env != "continuous"))
         finally:
             native.close()
@@ -708,6 +708,12 @@ def parser() -> argparse.ArgumentParser:
         "--eval-seeds", type=parse_seeds, default="1000-1003", help="held-out scenario seeds (default 1000-1003)"
     )
     p.add_argument("--eval-limit", type=int, default=None, help="episodes per held-out seed (default: all)")
+    p.add_argument(
+        "--eval-stride",
+        type=int,
+        default=1,
+        help="evaluate every K-th episode of each held-out expansion (a suite's scenarios in turn; default 1: all)",
+    )
     p.add_argument("--collision-penalty", type=float, default=10.0, help="reward.collision_penalty (default 10)")
     p.add_argument(
         "--unnecessary-dodge-penalty",
@@ -753,7 +759,17 @@ def main(argv: Optional[Sequence[str]] = None) -> None:
         plot_progress(args.plot, args.plot_out, args.plot_report)
         print(f"wrote {args.plot_out}")
         return
-    for key in ("timesteps", "n_envs", "eval_every", "n_steps", "batch_size", "n_epochs", "action_repeat", "hidden"):
+    for key in (
+        "timesteps",
+        "n_envs",
+        "eval_every",
+        "eval_stride",
+        "n_steps",
+        "batch_size",
+        "n_epochs",
+        "action_repeat",
+        "hidden",
+    ):
         if getattr(args, key) < 1:
             raise SystemExit(f"--{key.replace('_', '-')} must be >= 1, got {getattr(args, key)}")
     if args.n_envs > 256:
