@@ -50,8 +50,6 @@ COLLISION_REDUCTION = 0.2
 AVOIDING_EVASION = 0.5
 """A threshold row "avoids" when it evades at least this share of the evadable threats."""
 COMPACT_REFERENCES = ("null", "oracle", "ideal_course")
-OBS_MODES = {"detectors": "normalized", "privileged": "privileged", "decision": "decision"}
-"""A training run's ``--obs`` → the environment's ``obs_mode`` (as ``loomlab.train``)."""
 
 
 def _row(summary: Dict[str, Any]) -> Dict[str, Any]:
@@ -107,6 +105,13 @@ def checks(block: Dict[str, Any]) -> Dict[str, Any]:
     return out
 
 
+def _relative(path: Optional[str]) -> Optional[str]:
+    """A path below the working directory as a relative one (the JSON is committed)."""
+    if path and os.path.isabs(path) and os.path.commonpath([path, os.getcwd()]) == os.getcwd():
+        return os.path.relpath(path)
+    return path
+
+
 def _training(run: str) -> Dict[str, Any]:
     """Steps, wall time, throughput and the environment of a training run folder."""
     with open(os.path.join(run, "config.json")) as f:
@@ -121,7 +126,7 @@ def _training(run: str) -> Dict[str, Any]:
         "checkpoint": os.path.normpath(latest["path"]),
         "obs": config.get("obs", "detectors"),
         "env": config.get("env", "discrete"),
-        "scenario": config.get("scenario"),
+        "scenario": _relative(config.get("scenario")),
         "frame_size": config.get("frame_size"),
         "seed": config["seed"],
         "n_envs": config["n_envs"],
@@ -144,6 +149,7 @@ def _training(run: str) -> Dict[str, Any]:
 def _evaluate_run(task: Tuple[str, Dict[str, Any], str, List[int], Dict[str, float], Optional[int], Optional[int]]):
     """One policy on one suite (a process of the pool): its report."""
     from .evaluation import evaluate, load_policy
+    from .train import OBS_MODES
 
     label, t, suite, seeds, thresholds, limit, jobs = task
     return evaluate(
