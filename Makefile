@@ -248,9 +248,9 @@ test:
 ## `make rl-result` trains two PPO policies (stable-baselines3, CPU torch) on the default suite, on
 ## the env's training seed stream, with the defaults of `python -m loomlab.train` (action repeat 8, a
 ## dodge held 0.6 s, the timely-dodge bonus) and the escape controller's manoeuvres as actions
-## (`--env manoeuvre`), side by side, each for at most RL_WALL_S seconds: one on the suite's rows'
-## decision features at the suite's camera size (RL_RUN, `--obs decision`) and the learnability
-## check on the privileged percept (RL_PRIV_RUN). `rl-table` then evaluates both on held-out seeds
+## (`--env manoeuvre`), side by side: one on the suite's rows' decision features at the suite's
+## camera size (RL_RUN, `--obs decision`, at most RL_DECISION_WALL_S seconds) and the learnability
+## check on the privileged percept (RL_PRIV_RUN, at most RL_WALL_S). `rl-table` then evaluates both on held-out seeds
 ## (RL_EVAL_SEEDS) of the default and the held-out suites, per tier, next to the suites' own rows
 ## and the reference rows, writes docs/rl_result.json and docs/rl_learning_curve.png, and
 ## regenerates the README's and docs/results.md's RL blocks from the JSON (`rl-table-docs`;
@@ -260,13 +260,15 @@ test:
 RL_VENV ?= .venv-rl
 RL_SEED ?= 0
 RL_WALL_S ?= 2400
+# the decision run trains on alone after the privileged one ends (the result's run: 131 k decisions)
+RL_DECISION_WALL_S ?= 5000
 RL_STEPS ?= 400000
 RL_OUT ?= out/rl
 RL_RUN = $(RL_OUT)/ppo-decision-seed$(RL_SEED)
 RL_PRIV_RUN = $(RL_OUT)/ppo-privileged-seed$(RL_SEED)
 RL_EVAL_SEEDS ?= 2000
 RL_TRAIN_ARGS = --scenario suite:default --env manoeuvre --seed $(RL_SEED) --timesteps $(RL_STEPS) \
-  --max-wall-s $(RL_WALL_S) --eval-every 16384 --eval-seeds 1000 --eval-stride 4
+  --eval-every 16384 --eval-seeds 1000 --eval-stride 4
 rl-env: deps
 	@test -x $(RL_VENV)/bin/python || $(PYTHON) -m venv $(RL_VENV)
 	$(RL_VENV)/bin/python -m pip install -q --upgrade pip maturin
@@ -276,13 +278,13 @@ rl-env: deps
 rl-train: rl-train-detectors rl-train-privileged
 
 rl-train-detectors: rl-env
-	$(RL_VENV)/bin/python -m loomlab.train --obs decision --frame-size 96 $(RL_TRAIN_ARGS) \
+	$(RL_VENV)/bin/python -m loomlab.train --obs decision --frame-size 96 $(RL_TRAIN_ARGS) --max-wall-s $(RL_DECISION_WALL_S) \
 	  --out $(RL_RUN) $$(test -e $(RL_RUN)/checkpoints/latest.json && echo --resume)
 
 # The privileged observation does not depend on the frames: this run renders at n = 32 (9x fewer
 # pixels than the suite's 96, the same observations).
 rl-train-privileged: rl-env
-	$(RL_VENV)/bin/python -m loomlab.train --obs privileged --frame-size 32 $(RL_TRAIN_ARGS) \
+	$(RL_VENV)/bin/python -m loomlab.train --obs privileged --frame-size 32 $(RL_TRAIN_ARGS) --max-wall-s $(RL_WALL_S) \
 	  --out $(RL_PRIV_RUN) $$(test -e $(RL_PRIV_RUN)/checkpoints/latest.json && echo --resume)
 
 rl-table: rl-env
