@@ -352,37 +352,31 @@ def _suite_markdown(block: Dict[str, Any], compact: bool) -> List[str]:
             f"| {name} | {_pct(r, 'collision_rate')} | {_pct(r, 'unnecessary_dodge_rate')} | "
             f"{_pct(r, 'evasion_rate')} | {r['collisions_caused']} | {per_tier} |"
         )
-    c = block.get("checks", {})
-    lines.append("")
+    phrases = _check_phrases(block)
+    if not phrases:
+        return lines
     if compact:
-        verdict = lambda key: "met" if c.get(key) else "not met"  # noqa: E731
-        parts = []
-        if "ppo_collision_reduction_vs_best_threshold" in c:
-            weak = "" if c["best_threshold_avoids"] else ", a row that does not avoid"
-            parts.append(
-                f"`ppo` collides {_less(c['ppo_collision_reduction_vs_best_threshold'])} than `{best}` "
-                f"(≥ {100 * COLLISION_REDUCTION:.0f} %{weak}): **{verdict('ppo_met')}**"
-            )
-        if "privileged_evasion_share_of_ideal_course" in c:
-            parts.append(
-                f"`ppo_privileged` evades {100 * c['privileged_evasion_share_of_ideal_course']:.0f} % as often as "
-                f"`ideal_course` (≥ {100 * PRIVILEGED_EVASION_SHARE:.0f} %): **{verdict('privileged_met')}**"
-            )
-        return lines + ["Targets at no more unnecessary dodges: " + "; ".join(parts) + "."] if parts else lines[:-1]
-    if "privileged_evasion_share_of_ideal_course" in c:
-        lines.append(
-            f"- `ppo_privileged` evades {100 * c['privileged_evasion_share_of_ideal_course']:.0f} % as often as "
-            f"`ideal_course` (target ≥ {100 * PRIVILEGED_EVASION_SHARE:.0f} % at no more unnecessary dodges): "
-            f"**{'met' if c['privileged_met'] else 'not met'}**."
-        )
+        return lines + ["", "Targets at no more unnecessary dodges: " + "; ".join(phrases) + "."]
+    return lines + [""] + [f"- Target at no more unnecessary dodges: {p}." for p in phrases]
+
+
+def _check_phrases(block: Dict[str, Any]) -> List[str]:
+    """The suite's checks (:func:`checks`) in words, with their targets and verdicts."""
+    c, best = block.get("checks", {}), block["best_threshold_controller"]
+    verdict = lambda key: "met" if c.get(key) else "not met"  # noqa: E731
+    out = []
     if "ppo_collision_reduction_vs_best_threshold" in c:
-        avoids = "" if c["best_threshold_avoids"] else f"; `{best}` does not avoid (evasion < {AVOIDING_EVASION})"
-        lines.append(
-            f"- `ppo` collides {_less(c['ppo_collision_reduction_vs_best_threshold'])} (relative) than "
-            f"`{best}` (target ≥ {100 * COLLISION_REDUCTION:.0f} % at no more unnecessary dodges, against a row "
-            f"that avoids{avoids}): **{'met' if c['ppo_met'] else 'not met'}**."
+        weak = "" if c["best_threshold_avoids"] else f", a row that does not avoid: evasion < {AVOIDING_EVASION}"
+        out.append(
+            f"`ppo` collides {_less(c['ppo_collision_reduction_vs_best_threshold'])} than `{best}` "
+            f"(≥ {100 * COLLISION_REDUCTION:.0f} % less{weak}): **{verdict('ppo_met')}**"
         )
-    return lines
+    if "privileged_evasion_share_of_ideal_course" in c:
+        out.append(
+            f"`ppo_privileged` evades {100 * c['privileged_evasion_share_of_ideal_course']:.0f} % as often as "
+            f"`ideal_course` (≥ {100 * PRIVILEGED_EVASION_SHARE:.0f} %): **{verdict('privileged_met')}**"
+        )
+    return out
 
 
 def markdown(result: Dict[str, Any], compact: bool = False) -> str:
