@@ -354,6 +354,26 @@ impl EscapeConfig {
         }
     }
 
+    /// [`Self::command`], its sidestep held at [`Self::max_dodge_offset_m`]: once the robot's
+    /// dodges have taken it `dodge_offset_m` off its cruising path (m, left positive; the lateral
+    /// speeds it commanded beyond the cruise's, integrated — what the robot knows of itself) that
+    /// far or farther to the candidate's side, the command keeps the cruise's lateral speed.
+    pub fn command_within_offset(
+        &self,
+        candidate: Candidate,
+        cruise: VelocityCommand,
+        base: RobotBase,
+        dodge_offset_m: f64,
+    ) -> VelocityCommand {
+        let mut command = self.command(candidate, cruise, base);
+        if let Some(limit) = self.max_dodge_offset_m
+            && candidate.side.sign() * dodge_offset_m >= limit
+        {
+            command.lateral_mps = cruise.lateral_mps;
+        }
+        command
+    }
+
     /// The command of `candidate` given the cruise command, on a robot with the drive `base`.
     pub fn command(&self, candidate: Candidate, cruise: VelocityCommand, base: RobotBase) -> VelocityCommand {
         let side = candidate.side;
@@ -821,15 +841,10 @@ impl EscapeController {
     }
 
     /// The manoeuvre's command towards `side`, its sidestep held once the dodges have taken the
-    /// robot `max_dodge_offset_m` to that side.
+    /// robot `max_dodge_offset_m` to that side ([`EscapeConfig::command_within_offset`]).
     fn dodge_command(&self, chosen: Candidate, cruise: VelocityCommand) -> VelocityCommand {
-        let mut command = self.config.command(chosen, cruise, self.facts.base);
-        if let Some(limit) = self.config.max_dodge_offset_m
-            && chosen.side.sign() * self.dodge_offset_m >= limit
-        {
-            command.lateral_mps = cruise.lateral_mps;
-        }
-        command
+        self.config
+            .command_within_offset(chosen, cruise, self.facts.base, self.dodge_offset_m)
     }
 
     /// Remember this step's command, and the lateral speed it adds to the cruise command (what

@@ -290,3 +290,30 @@ fn manoeuvre_actions_run_the_controllers_manoeuvres() {
     // the same seed and actions repeat exactly
     assert_eq!(moved(&mut env, 5), moved(&mut env, 5));
 }
+
+#[test]
+fn sidestep_actions_stop_at_the_scenes_max_dodge_offset_as_the_rows_dodges_do() {
+    // the robot knows the corridor it drives in: 0.05 m to either side. Asked to sidestep left for
+    // half a second, the commands take it 0.05 m off its path and then keep the cruise's lateral
+    // speed, as a row's dodge does (the same `command_within_offset`); without the limit they
+    // sidestep all the way (robot = [x, y, yaw, forward, yaw rate, lateral command, t])
+    let commanded_offset = |limit: &str| {
+        let text = format!("{HEAD_ON_ROWS}\n[controller]\n{limit}\n");
+        let scenario = EnvScenario::from_toml(&text, "head_on_rows.toml");
+        let options = EnvOptions {
+            detectors: Some(vec!["soc".into()]),
+            action_kind: ActionKind::Manoeuvre,
+            ..Default::default()
+        };
+        let mut env = EscapeEnv::new(scenario, options).unwrap();
+        env.reset(Some(3)).unwrap();
+        let dt = 1.0 / 120.0;
+        (0..60)
+            .map(|_| f64::from(env.step(Action::Discrete(1)).unwrap().obs.robot[5]) * dt)
+            .sum::<f64>()
+    };
+    let held = commanded_offset("max_dodge_offset_m = 0.05");
+    assert!((held - 0.05).abs() < 1e-4, "sidestepped {held:.4} m by command");
+    let free = commanded_offset("");
+    assert!((free - 0.75).abs() < 1e-3, "without the limit {free:.4} m");
+}

@@ -46,6 +46,10 @@ pub(super) struct Running {
     pub(super) last_looming_side: Option<f32>,
     /// The simulator seed the episode runs with.
     pub(super) sim_seed: u64,
+    /// How far the agent's commands have taken the robot off its cruising path (m, left positive):
+    /// the lateral speeds commanded beyond the cruise's, integrated (what the robot knows of
+    /// itself; the manoeuvre actions' sidesteps stop at `max_dodge_offset_m`).
+    pub(super) dodge_offset_m: f64,
 }
 
 impl EscapeEnv {
@@ -178,6 +182,7 @@ impl EscapeEnv {
             last_angular_size_deg: None,
             last_looming_side: None,
             sim_seed,
+            dodge_offset_m: 0.0,
         });
         self.normalizer.reset(self.detectors.len());
         self.privileged.reset();

@@ -101,8 +101,10 @@ impl EscapeEnv {
     }
 
     /// The command of manoeuvre action `index` now ([`crate::MANOEUVRE_ACTIONS`]): the scenario's
-    /// escape controller's command for that manoeuvre ([`EscapeConfig::command`], the first row's
-    /// configuration, the episode's robot base); `plan` runs the candidate the shadow controller's
+    /// escape controller's command for that manoeuvre, its sidestep held at the scene's
+    /// `max_dodge_offset_m` as the rows' are ([`EscapeConfig::command_within_offset`], the first
+    /// row's configuration, the episode's robot base, the offset the agent's commands have taken
+    /// the robot to); `plan` runs the candidate the shadow controller's
     /// planner chooses now, preferring the dodge away from the looming side
     /// ([`loomlab_agents::EscapeController::planned_candidate`]).
     pub(crate) fn manoeuvre_command(&self, index: i64) -> Result<VelocityCommand, EnvError> {
@@ -113,9 +115,9 @@ impl EscapeEnv {
         };
         let controller = self.agent.controller();
         let config = controller.config();
-        let (base, t_s, seen) = match &self.running {
-            Some(r) => (r.spec.facts.base, r.last_t_s, r.last_looming_side),
-            None => (controller.facts().base, 0.0, None),
+        let (base, t_s, seen, offset_m) = match &self.running {
+            Some(r) => (r.spec.facts.base, r.last_t_s, r.last_looming_side, r.dodge_offset_m),
+            None => (controller.facts().base, 0.0, None, 0.0),
         };
         let candidate = match i {
             0 => return Ok(cruise),
@@ -128,7 +130,7 @@ impl EscapeEnv {
                 controller.planned_candidate(t_s, side, cruise)
             }
         };
-        Ok(config.command(candidate, cruise, base))
+        Ok(config.command_within_offset(candidate, cruise, base, offset_m))
     }
 
     /// Applies a velocity command for one camera period (the Rust-side interface; only actions
@@ -192,6 +194,7 @@ impl EscapeEnv {
         };
         let dt = r.spec.world.dt();
         r.steps += 1;
+        r.dodge_offset_m += (command.lateral_mps - cruise.lateral_mps) * dt;
         r.last_command = command;
         r.last_cruise = cruise;
         let collision = !r.collision && out.first_collision().is_some();
