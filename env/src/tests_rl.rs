@@ -237,9 +237,10 @@ fn decision_features_hold_each_rows_decision_step() {
     }
 }
 
-#[test]
-fn manoeuvre_actions_run_the_controllers_manoeuvres() {
-    let scenario = EnvScenario::from_toml(HEAD_ON_ROWS, "head_on_rows.toml");
+/// An environment with manoeuvre actions on the scenario `text` (one cheap detector), reset with
+/// seed 3.
+fn manoeuvre_env(text: &str) -> EscapeEnv {
+    let scenario = EnvScenario::from_toml(text, "head_on_rows.toml");
     let options = EnvOptions {
         detectors: Some(vec!["soc".into()]),
         action_kind: ActionKind::Manoeuvre,
@@ -247,6 +248,12 @@ fn manoeuvre_actions_run_the_controllers_manoeuvres() {
     };
     let mut env = EscapeEnv::new(scenario, options).unwrap();
     env.reset(Some(3)).unwrap();
+    env
+}
+
+#[test]
+fn manoeuvre_actions_run_the_controllers_manoeuvres() {
+    let mut env = manoeuvre_env(HEAD_ON_ROWS);
     let episode = env.episodes()[0].clone();
     let (config, base) = (&episode.controller, episode.facts.base);
     let cruise = env.cruise();
@@ -298,15 +305,7 @@ fn sidestep_actions_stop_at_the_scenes_max_dodge_offset_as_the_rows_dodges_do() 
     // speed, as a row's dodge does (the same `command_within_offset`); without the limit they
     // sidestep all the way (robot = [x, y, yaw, forward, yaw rate, lateral command, t])
     let commanded_offset = |limit: &str| {
-        let text = format!("{HEAD_ON_ROWS}\n[controller]\n{limit}\n");
-        let scenario = EnvScenario::from_toml(&text, "head_on_rows.toml");
-        let options = EnvOptions {
-            detectors: Some(vec!["soc".into()]),
-            action_kind: ActionKind::Manoeuvre,
-            ..Default::default()
-        };
-        let mut env = EscapeEnv::new(scenario, options).unwrap();
-        env.reset(Some(3)).unwrap();
+        let mut env = manoeuvre_env(&format!("{HEAD_ON_ROWS}\n[controller]\n{limit}\n"));
         let dt = 1.0 / 120.0;
         (0..60)
             .map(|_| f64::from(env.step(Action::Discrete(1)).unwrap().obs.robot[5]) * dt)
