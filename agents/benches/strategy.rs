@@ -107,7 +107,7 @@ fn planner_choice(c: &mut Criterion) {
             t_s: 0.0,
             odometry: cruising,
             cruise: VelocityCommand::forward(1.0),
-            dodge_offset_m: 0.0,
+            dodge: loomlab_agents::DodgeOffset::default(),
             config: &config,
         };
         group.bench_function(format!("choose_{objects}_objects"), |b| {

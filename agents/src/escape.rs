@@ -61,7 +61,7 @@ use loomlab_sim::RobotBase;
 use crate::decision::{Course, MAX_PERSISTENCE_FRAMES, TriggerSignal};
 use crate::decision::{Decider, Decision, DecisionRule, Percept, SelfMotion};
 use crate::planner::{Candidate, OdometryTrail, PlanContext, Planner};
-use crate::{AgentError, RobotFacts, VelocityCommand};
+use crate::{AgentError, DodgeOffset, RobotFacts, VelocityCommand};
 use loomlab_detector::{PerceivedObject, Signals};
 
 /// The escape manoeuvre run after a trigger.
@@ -126,12 +126,14 @@ pub struct EscapeConfig {
     /// the controller re-armed following its last manoeuvre, keeps the previous dodge side: the
     /// same object is still looming, and dodging back would run into it.
     pub side_memory_s: f64,
-    /// How far (m, > 0) lateral dodges may take the robot sideways from its cruising path, all
-    /// dodges together (`None`, the default: no limit). A dodge that reaches it holds the robot's
+    /// How far (m, > 0) lateral dodges may take the robot's body sideways from its cruising path,
+    /// all dodges together (`None`, the default: no limit). A dodge's sidestep is held once the
+    /// body, braking from then on, would come to rest at the limit, and the robot keeps its
     /// lateral position for the rest of the manoeuvre. A robot that knows the width of the lane or
     /// corridor it drives in (its map) sets it, so that repeated dodges to one side never drive it
-    /// into the side. The offset is the integral of the controller's own lateral commands beyond
-    /// the cruise command (holonomic bases; a differential drive's turning dodge is not limited).
+    /// into the side. The body's offset is modelled from the controller's own lateral commands
+    /// beyond the cruise command through the drive's acceleration limit ([`DodgeOffset`];
+    /// holonomic bases; a differential drive's turning dodge is not limited).
     pub max_dodge_offset_m: Option<f64>,
     /// The manoeuvre run after a trigger.
     pub manoeuvre: Manoeuvre,
@@ -354,20 +356,20 @@ impl EscapeConfig {
         }
     }
 
-    /// [`Self::command`], its sidestep held at [`Self::max_dodge_offset_m`]: once the robot's
-    /// dodges have taken it `dodge_offset_m` off its cruising path (m, left positive; the lateral
-    /// speeds it commanded beyond the cruise's, integrated — what the robot knows of itself) that
-    /// far or farther to the candidate's side, the command keeps the cruise's lateral speed.
+    /// [`Self::command`], its sidestep held within [`Self::max_dodge_offset_m`] of the cruising
+    /// path: once the robot's body, `dodge` off that path (what the robot knows of itself), would
+    /// come to rest at the limit or beyond it braking at `facts.accel_mps2`
+    /// ([`DodgeOffset::holds`]), the command keeps the cruise's lateral speed.
     pub fn command_within_offset(
         &self,
         candidate: Candidate,
         cruise: VelocityCommand,
-        base: RobotBase,
-        dodge_offset_m: f64,
+        facts: &RobotFacts,
+        dodge: &DodgeOffset,
     ) -> VelocityCommand {
-        let mut command = self.command(candidate, cruise, base);
+        let mut command = self.command(candidate, cruise, facts.base);
         if let Some(limit) = self.max_dodge_offset_m
-            && candidate.side.sign() * dodge_offset_m >= limit
+            && dodge.holds(command.lateral_mps - cruise.lateral_mps, limit, facts.accel_mps2)
         {
             command.lateral_mps = cruise.lateral_mps;
         }
@@ -463,7 +465,7 @@ pub struct EscapeController {
     /// Time of the last step and the lateral speed its command added to the cruise command.
     last_step: Option<(f64, f64)>,
     /// How far the dodges have moved the robot sideways from its cruising path (m, + = left).
-    dodge_offset_m: f64,
+    dodge: DodgeOffset,
     /// Every perceived object's forecast (`manoeuvre = "plan"`).
     planner: Planner,
     /// One decider per object a detector lists besides its driving percept, by the detector's id.
@@ -492,7 +494,7 @@ impl EscapeController {
             object: None,
             last_object: None,
             last_step: None,
-            dodge_offset_m: 0.0,
+            dodge: DodgeOffset::default(),
             planner: Planner::new(facts),
             object_deciders: Vec::new(),
             trail: OdometryTrail::default(),
@@ -522,7 +524,7 @@ impl EscapeController {
         self.object = None;
         self.last_object = None;
         self.last_step = None;
-        self.dodge_offset_m = 0.0;
+        self.dodge = DodgeOffset::default();
         self.planner.reset();
         self.object_deciders.clear();
         self.trail.clear();
@@ -590,7 +592,7 @@ impl EscapeController {
             t_s,
             odometry: self.trail.now(),
             cruise,
-            dodge_offset_m: self.dodge_offset_m,
+            dodge: self.dodge,
             config: &self.config,
         }
     }
@@ -742,7 +744,7 @@ impl EscapeController {
             if let Some((t0, lateral_mps)) = self.last_step
                 && t_s > t0
             {
-                self.dodge_offset_m += lateral_mps * (t_s - t0);
+                self.dodge.advance(lateral_mps, t_s - t0, self.facts.accel_mps2);
             }
             if let Phase::Manoeuvre { start_s, chosen } = self.phase
                 && t_s >= start_s + cfg.duration_s
@@ -840,11 +842,11 @@ impl EscapeController {
         (command, event)
     }
 
-    /// The manoeuvre's command towards `side`, its sidestep held once the dodges have taken the
-    /// robot `max_dodge_offset_m` to that side ([`EscapeConfig::command_within_offset`]).
+    /// The manoeuvre's command towards `side`, its sidestep held once the body would come to rest
+    /// `max_dodge_offset_m` to that side ([`EscapeConfig::command_within_offset`]).
     fn dodge_command(&self, chosen: Candidate, cruise: VelocityCommand) -> VelocityCommand {
         self.config
-            .command_within_offset(chosen, cruise, self.facts.base, self.dodge_offset_m)
+            .command_within_offset(chosen, cruise, &self.facts, &self.dodge)
     }
 
     /// Remember this step's command, and the lateral speed it adds to the cruise command (what

@@ -19,6 +19,7 @@ pub mod action;
 pub mod agent;
 pub mod command;
 pub mod decision;
+pub mod dodge_offset;
 pub mod error;
 pub mod escape;
 pub mod facts;
@@ -32,6 +33,7 @@ pub use command::VelocityCommand;
 pub use decision::{
     BodyExtent, Course, Decider, Decision, DecisionRule, ImageExtent, Percept, SelfMotion, TriggerSignal,
 };
+pub use dodge_offset::DodgeOffset;
 pub use error::AgentError;
 pub use escape::{ControllerEvent, DodgeSide, EscapeConfig, EscapeController, Manoeuvre};
 pub use facts::RobotFacts;

@@ -56,7 +56,8 @@
 //! stands while waiting scores better than cruising on, at most [`MAX_WAIT_S`]; a robot that
 //! resumed its cruise at once would drive into an object crossing its path obliquely).
 //! Each is rolled out over [`PLAN_STEP_S`] steps with the drive's acceleration limits, the lateral
-//! excursion bounded by `max_dodge_offset_m` (the lane or corridor the robot knows it is in), to a
+//! excursion held within `max_dodge_offset_m` as the controller holds it (the lane or corridor the
+//! robot knows it is in: the body, braking, comes to rest at it; [`crate::DodgeOffset`]), to a
 //! horizon after the last object has passed (at most [`MAX_HORIZON_S`]). Its **clearance** under a
 //! hypothesis is the smallest gap over the horizon between the body's footprint and any object's
 //! (below; negative: they overlap); its **score** is the mean of
@@ -75,7 +76,7 @@
 
 use crate::decision::{BodyExtent, CourseForecast};
 use crate::escape::{DodgeSide, Manoeuvre};
-use crate::{EscapeConfig, RobotFacts, VelocityCommand};
+use crate::{DodgeOffset, EscapeConfig, RobotFacts, VelocityCommand};
 
 /// Most objects the planner remembers at once (the most urgent are kept).
 pub const MAX_PLANNED_OBJECTS: usize = 16;
@@ -519,8 +520,8 @@ pub struct PlanContext<'a> {
     pub odometry: Odometry,
     /// The command it follows when nothing threatens it.
     pub cruise: VelocityCommand,
-    /// The lateral offset its dodges have accumulated (m, + left).
-    pub dodge_offset_m: f64,
+    /// Where its dodges have taken it off its cruising path, and how fast it moves off it.
+    pub dodge: DodgeOffset,
     /// The controller's configuration: the manoeuvres' speeds and `duration_s`,
     /// `max_dodge_offset_m` and `clearance_margin_m`.
     pub config: &'a EscapeConfig,
@@ -707,7 +708,7 @@ impl Planner {
             *m = o.scales().map(|scale| o.motion(scale));
         }
         let mut pose = ctx.odometry;
-        let mut offset = ctx.dodge_offset_m;
+        let mut dodge = ctx.dodge;
         let mut t = ctx.t_s;
         while t < end {
             let since = t - ctx.t_s;
@@ -718,15 +719,19 @@ impl Planner {
             } else {
                 ctx.cruise
             };
+            // held as the controller holds it (`EscapeConfig::command_within_offset`)
+            let beyond_cruise = command.lateral_mps - ctx.cruise.lateral_mps;
             if let Some(limit) = ctx.config.max_dodge_offset_m
-                && (command.lateral_mps - ctx.cruise.lateral_mps) * offset.signum() > 0.0
-                && offset.abs() >= limit
+                && dodge.holds(beyond_cruise, limit, facts.accel_mps2)
             {
                 command.lateral_mps = ctx.cruise.lateral_mps;
             }
-            let before = pose.velocity[1];
+            dodge.advance(
+                command.lateral_mps - ctx.cruise.lateral_mps,
+                PLAN_STEP_S,
+                facts.accel_mps2,
+            );
             pose.advance(&command, PLAN_STEP_S, facts);
-            offset += (before + pose.velocity[1]) / 2.0 * PLAN_STEP_S - ctx.cruise.lateral_mps * PLAN_STEP_S;
             t += PLAN_STEP_S;
             for (o, motions) in self.objects.iter().zip(&motions) {
                 if o.passes_over_or_under(facts) {

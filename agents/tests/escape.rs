@@ -1,5 +1,6 @@
 //! Escape controller: every manoeuvre, cooldown, threshold crossing, dodge side.
 
+use loomlab_agents::planner::Odometry;
 use loomlab_agents::{
     AgentError, ControllerEvent, DodgeSide, EscapeConfig, EscapeController, Manoeuvre, RobotFacts, TriggerSignal,
     VelocityCommand,
@@ -1362,9 +1363,11 @@ mod strategies {
 
 #[test]
 fn repeated_dodges_to_one_side_stop_at_the_maximum_offset() {
-    // dodge 1.5 m/s for 0.5 s (0.75 m), 0.25 s cooldown, then the same side again: without a
-    // limit the robot ends 1.5 m to the left; with max_dodge_offset_m = 1.0 it sidesteps until
-    // 1.0 m and then holds its lateral position (forward motion continues)
+    // dodge 1.5 m/s for 0.5 s, 0.25 s cooldown, then the same side again: without a limit the
+    // body ends about 1.9 m to the left; with max_dodge_offset_m = 1.0 it sidesteps until the
+    // body, braking at the drive's 2.5 m/s², comes to rest at 1.0 m, and then holds its lateral
+    // position (forward motion continues). The body, not the commands, keeps within the limit: a
+    // rule on the commanded sidestep alone let it run on 0.45 m past it.
     let limited_to = |limit: Option<f64>| {
         EscapeController::new(
             EscapeConfig {
@@ -1378,23 +1381,32 @@ fn repeated_dodges_to_one_side_stop_at_the_maximum_offset() {
     let run = |limit: Option<f64>| {
         let mut c = limited_to(limit);
         let dt = 0.01;
+        // the body as the drive moves it (its acceleration limit), its sidestep off the cruise
+        let mut body = Odometry {
+            velocity: [CRUISE.forward_mps, 0.0, CRUISE.yaw_rate_rps],
+            ..Odometry::default()
+        };
         let mut offset = 0.0;
         let mut held_forward = true;
-        for k in 0..200 {
+        for k in 0..300 {
             // the looming side on the right all the time: every trigger dodges left
-            let (cmd, _) = c.step(k as f64 * dt, 20.0, Some(0.5), CRUISE);
-            offset += (cmd.lateral_mps - CRUISE.lateral_mps) * dt;
+            let (cmd, _) = c.step(k as f64 * dt, if k < 200 { 20.0 } else { 0.0 }, Some(0.5), CRUISE);
+            let before = body.velocity[1];
+            body.advance(&cmd, dt, &RobotFacts::default());
+            offset += (before + body.velocity[1]) / 2.0 * dt;
             held_forward &= cmd.forward_mps > 0.0;
         }
         assert!(held_forward);
+        assert!(body.velocity[1].abs() < 1e-9, "at rest sideways: {body:?}");
         (offset, c.triggers())
     };
     let (free, triggers) = run(None);
     assert_eq!(triggers, 3);
-    assert!((free - 3.0 * 0.75).abs() < 0.02, "{free}");
+    assert!(free > 1.8, "{free}");
     let (limited, triggers) = run(Some(1.0));
     assert_eq!(triggers, 3, "the limit holds the sidestep, not the triggers");
-    assert!((limited - 1.0).abs() <= 1.5 * 0.01 + 1e-9, "{limited}");
+    // within about one step of the sidestep (1.5 m/s × 10 ms) of the limit
+    assert!(limited <= 1.0 + 0.025 && limited > 0.95, "{limited}");
     // a dodge back towards the path is never held
     let mut c = limited_to(Some(0.5));
     for k in 0..130 {

@@ -61,7 +61,7 @@ fn ctx(config: &EscapeConfig) -> PlanContext<'_> {
         t_s: 0.0,
         odometry: cruising(),
         cruise: CRUISE,
-        dodge_offset_m: 0.0,
+        dodge: loomlab_agents::DodgeOffset::default(),
         config,
     }
 }

@@ -2,7 +2,7 @@
 
 use std::sync::Arc;
 
-use loomlab_agents::{EscapeAgent, VelocityCommand};
+use loomlab_agents::{DodgeOffset, EscapeAgent, VelocityCommand};
 use loomlab_scenarios::metrics::TraceSample;
 use loomlab_scenarios::schema::EpisodeSpec;
 use loomlab_sim::{RobotState, Sim};
@@ -46,10 +46,11 @@ pub(super) struct Running {
     pub(super) last_looming_side: Option<f32>,
     /// The simulator seed the episode runs with.
     pub(super) sim_seed: u64,
-    /// How far the agent's commands have taken the robot off its cruising path (m, left positive):
-    /// the lateral speeds commanded beyond the cruise's, integrated (what the robot knows of
-    /// itself; the manoeuvre actions' sidesteps stop at `max_dodge_offset_m`).
-    pub(super) dodge_offset_m: f64,
+    /// How far the agent's commands have taken the robot's body off its cruising path: the
+    /// lateral speeds commanded beyond the cruise's, through the drive's acceleration limit (what
+    /// the robot knows of itself; the manoeuvre actions' sidesteps hold within
+    /// `max_dodge_offset_m`).
+    pub(super) dodge: DodgeOffset,
 }
 
 impl EscapeEnv {
@@ -182,7 +183,7 @@ impl EscapeEnv {
             last_angular_size_deg: None,
             last_looming_side: None,
             sim_seed,
-            dodge_offset_m: 0.0,
+            dodge: DodgeOffset::default(),
         });
         self.normalizer.reset(self.detectors.len());
         self.privileged.reset();

@@ -2,7 +2,7 @@
 
 #[cfg(doc)]
 use loomlab_agents::EscapeConfig;
-use loomlab_agents::{Candidate, ContinuousAction, DiscreteAction, DodgeSide, VelocityCommand};
+use loomlab_agents::{Candidate, ContinuousAction, DiscreteAction, DodgeOffset, DodgeSide, VelocityCommand};
 use loomlab_scenarios::metrics::{TIME_EPS_S, TraceSample};
 use loomlab_scenarios::reference::INDICATOR_THRESHOLD;
 use loomlab_sim::{Sim, StepOutput};
@@ -115,9 +115,9 @@ impl EscapeEnv {
         };
         let controller = self.agent.controller();
         let config = controller.config();
-        let (base, t_s, seen, offset_m) = match &self.running {
-            Some(r) => (r.spec.facts.base, r.last_t_s, r.last_looming_side, r.dodge_offset_m),
-            None => (controller.facts().base, 0.0, None, 0.0),
+        let (facts, t_s, seen, dodge) = match &self.running {
+            Some(r) => (r.spec.facts, r.last_t_s, r.last_looming_side, r.dodge),
+            None => (*controller.facts(), 0.0, None, DodgeOffset::default()),
         };
         let candidate = match i {
             0 => return Ok(cruise),
@@ -130,7 +130,7 @@ impl EscapeEnv {
                 controller.planned_candidate(t_s, side, cruise)
             }
         };
-        Ok(config.command_within_offset(candidate, cruise, base, offset_m))
+        Ok(config.command_within_offset(candidate, cruise, &facts, &dodge))
     }
 
     /// Applies a velocity command for one camera period (the Rust-side interface; only actions
@@ -194,7 +194,8 @@ impl EscapeEnv {
         };
         let dt = r.spec.world.dt();
         r.steps += 1;
-        r.dodge_offset_m += (command.lateral_mps - cruise.lateral_mps) * dt;
+        r.dodge
+            .advance(command.lateral_mps - cruise.lateral_mps, dt, r.spec.facts.accel_mps2);
         r.last_command = command;
         r.last_cruise = cruise;
         let collision = !r.collision && out.first_collision().is_some();
