@@ -26,7 +26,8 @@
 //! passed through again during the cooldown `[t0 + duration_s, t0 + duration_s + cooldown_s)`, in
 //! which no new trigger is accepted; from `t0 + duration_s + cooldown_s` on the controller is armed.
 //! With `manoeuvre = "plan"`, a stop or a reversal is followed by standing while the planner predicts
-//! that cruising on would meet a perceived object that waiting lets pass (at most
+//! that cruising on would run into a perceived object standing in the world (for as long as it is
+//! in the way), or meet a moving one that waiting lets pass (at most
 //! [`crate::planner::MAX_WAIT_S`]); the cooldown starts when the wait ends.
 //! `t_s` must be non-decreasing within an episode; call [`EscapeController::reset`] between episodes.
 //!
@@ -436,7 +437,7 @@ enum Phase {
         chosen: Candidate,
     },
     /// Standing after a stop or a reversal until cruising on is clear (the planner's
-    /// [`Planner::keeps_waiting`]; at most [`crate::planner::MAX_WAIT_S`]).
+    /// [`Planner::keeps_waiting`]; at most [`crate::planner::MAX_WAIT_S`] for moving objects).
     Waiting {
         since_s: f64,
     },
@@ -597,12 +598,12 @@ impl EscapeController {
         }
     }
 
-    /// Whether the robot, standing after a stop or a reversal, keeps standing at `t_s`, `wait_s`
-    /// more at most (`manoeuvre = "plan"` with forecasts only; [`Planner::keeps_waiting`]).
+    /// Whether the robot, standing after a stop or a reversal, keeps standing at `t_s`
+    /// (`manoeuvre = "plan"` with forecasts only; [`Planner::keeps_waiting`]): while cruising on
+    /// would run into an object standing in the world, or meet a moving one that waiting `wait_s`
+    /// more at most lets pass.
     fn keeps_waiting(&self, t_s: f64, cruise: VelocityCommand, wait_s: f64) -> bool {
-        wait_s > 0.0
-            && self.config.manoeuvre == Manoeuvre::Plan
-            && self.planner.keeps_waiting(&self.plan_context(t_s, cruise), wait_s)
+        self.config.manoeuvre == Manoeuvre::Plan && self.planner.keeps_waiting(&self.plan_context(t_s, cruise), wait_s)
     }
 
     /// The manoeuvre the planner would choose now at `t_s` (`manoeuvre = "plan"`), preferring the
@@ -737,7 +738,7 @@ impl EscapeController {
     ) -> (VelocityCommand, ControllerEvent) {
         self.advance_odometry(t_s, cruise);
         if t_s.is_finite() {
-            self.planner.forget_old(t_s);
+            self.planner.forget_old(t_s, &self.trail.now());
         }
         let cfg = &self.config;
         if t_s.is_finite() {

@@ -26,7 +26,9 @@
 //! velocity: its nearest face closes at the forecast's closing speed, its
 //! edges move laterally from where they are to where they arrive. An object whose vertical course
 //! is straight and passes above or below the body is no obstacle. A forecast is forgotten
-//! [`FORECAST_MEMORY_S`] after it was last refreshed.
+//! [`FORECAST_MEMORY_S`] after it was last refreshed, or once the object has passed; an object
+//! standing in the world stays where it was seen and is remembered until the robot has driven by
+//! it (a robot standing before it sees no expansion and no new forecast).
 //!
 //! # Scale
 //! The image gives no scale: a forecast's metres hold for the closing speed the gate assumed. An
@@ -53,8 +55,11 @@
 //! Each candidate is a manoeuvre held for the controller's `duration_s`: a sidestep (holonomic
 //! base) or an arc (differential drive) to either side, then the cruise command; a stop, or
 //! reversing, then standing until cruising on is clear ([`Planner::keeps_waiting`]: the controller
-//! stands while waiting scores better than cruising on, at most [`MAX_WAIT_S`]; a robot that
-//! resumed its cruise at once would drive into an object crossing its path obliquely).
+//! stands while cruising on would run into an object standing in the world, and while waiting
+//! scores better than cruising on, at most [`MAX_WAIT_S`], for moving ones; a robot that resumed
+//! its cruise at once would drive into an object crossing its path obliquely). A rollout that
+//! waited no longer checks objects standing in the world once it drives on: the robot would stand
+//! for as long as one is in its way.
 //! Each is rolled out over [`PLAN_STEP_S`] steps with the drive's acceleration limits, the lateral
 //! excursion held within `max_dodge_offset_m` as the controller holds it (the lane or corridor the
 //! robot knows it is in: the body, braking, comes to rest at it; [`crate::DodgeOffset`]), to a
@@ -392,6 +397,18 @@ impl Remembered {
         ]
     }
 
+    /// Whether the robot at `odometry` has driven by this object standing in the world (its
+    /// footprint lies wholly behind the body's rear); always false for a moving object.
+    fn passed_by(&self, odometry: &Odometry, facts: &RobotFacts) -> bool {
+        if !self.forecast.standing {
+            return false;
+        }
+        let footprint = self.footprint(self.forecast.t_s, &self.motion(1.0));
+        let [forward, _] = odometry.point_in_body(footprint.centre);
+        let reach = footprint.half_extent[0].max(footprint.half_extent[1]);
+        forward + reach < -facts.body.behind_camera_m
+    }
+
     /// Whether the object passes above or below the body (a straight vertical course that misses).
     fn passes_over_or_under(&self, facts: &RobotFacts) -> bool {
         let [b, t] = self.forecast.arrival_vertical_m;
@@ -399,9 +416,13 @@ impl Remembered {
             && (b.min(t) > facts.body.above_camera_m || b.max(t) < -facts.body.below_camera_m)
     }
 
-    /// When the object will have passed the robot's body under the reference motion (s).
+    /// When the object will have passed the robot's body under the reference motion (s); never for
+    /// an object standing in the world (it passes only as the robot drives by it: [`Self::passed_by`]).
     fn passed_s(&self, facts: &RobotFacts) -> f64 {
         let f = &self.forecast;
+        if f.standing {
+            return f64::INFINITY;
+        }
         let depth = (f.arrival_lateral_m[1] - f.arrival_lateral_m[0]).abs().clamp(0.04, 5.0);
         let slowest = self.scales().into_iter().fold(1.0, f64::min);
         f.t_s + f.tau_s + (facts.body.behind_camera_m + depth) / (slowest * f.closing_mps).max(0.1)
@@ -498,6 +519,21 @@ struct Rollout {
     manoeuvre: VelocityCommand,
     duration_s: f64,
     wait_s: f64,
+}
+
+/// Which remembered objects a rollout is checked against.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Objects {
+    /// Every one.
+    All,
+    /// Those standing in the world.
+    Standing,
+}
+
+impl Objects {
+    fn includes(self, o: &Remembered) -> bool {
+        self == Objects::All || o.forecast.standing
+    }
 }
 
 /// The score of clearances under the hypotheses: their weighted mean, each capped at `margin`.
@@ -624,11 +660,19 @@ impl Planner {
         })
     }
 
-    /// Forget forecasts not refreshed for [`FORECAST_MEMORY_S`] and objects that have passed.
-    pub fn forget_old(&mut self, t_s: f64) {
+    /// Forget forecasts not refreshed for [`FORECAST_MEMORY_S`] and objects that have passed, the
+    /// robot being at `odometry`. An object standing in the world stays where it was seen: it is
+    /// remembered, refreshed or not (a robot that stands before it sees no expansion), until the
+    /// robot has driven by it.
+    pub fn forget_old(&mut self, t_s: f64, odometry: &Odometry) {
         let facts = self.facts;
-        self.objects
-            .retain(|o| t_s - o.refreshed_s <= FORECAST_MEMORY_S && o.passed_s(&facts) >= t_s);
+        self.objects.retain(|o| {
+            if o.forecast.standing {
+                !o.passed_by(odometry, &facts)
+            } else {
+                t_s - o.refreshed_s <= FORECAST_MEMORY_S && o.passed_s(&facts) >= t_s
+            }
+        });
     }
 
     /// The clearance (m) of `candidate` from every remembered object (`f64::INFINITY` with none
@@ -646,25 +690,35 @@ impl Planner {
     }
 
     /// Whether a robot standing after a manoeuvre that [holds](Candidate::holds) should keep
-    /// standing, `wait_s` at most: waiting, then cruising on, scores better than cruising on now
-    /// by more than [`SWITCH_MARGIN_M`] (never for an object standing in the world: it does not
-    /// pass a robot that waits).
+    /// standing: cruising on now would run into an object standing in the world (it never passes a
+    /// robot that waits: the robot stands for as long as it is in the way), or, `wait_s` more at
+    /// most, waiting and then cruising on scores better than cruising on now by more than
+    /// [`SWITCH_MARGIN_M`] (objects that move pass a robot that waits).
     pub fn keeps_waiting(&self, ctx: &PlanContext<'_>, wait_s: f64) -> bool {
         if self.objects.is_empty() {
             return false;
+        }
+        let cruise_on = Rollout {
+            manoeuvre: ctx.cruise,
+            duration_s: 0.0,
+            wait_s: 0.0,
+        };
+        if self
+            .rollout(&cruise_on, ctx, Objects::Standing)
+            .iter()
+            .any(|&c| c < 0.0)
+        {
+            return true;
         }
         let wait = Rollout {
             manoeuvre: VelocityCommand::STOP,
             duration_s: 0.0,
             wait_s,
         };
-        let cruise_on = Rollout {
-            manoeuvre: ctx.cruise,
-            duration_s: 0.0,
-            wait_s: 0.0,
-        };
         let margin = ctx.config.clearance_margin_m;
-        score_of(&self.rollout(&wait, ctx), margin) > score_of(&self.rollout(&cruise_on, ctx), margin) + SWITCH_MARGIN_M
+        wait_s > 0.0
+            && score_of(&self.rollout(&wait, ctx, Objects::All), margin)
+                > score_of(&self.rollout(&cruise_on, ctx, Objects::All), margin) + SWITCH_MARGIN_M
     }
 
     /// The clearance of `candidate` under each closing-speed hypothesis: its manoeuvre for
@@ -676,13 +730,15 @@ impl Planner {
             duration_s: ctx.config.duration_s,
             wait_s: if candidate.holds() { MAX_WAIT_S } else { 0.0 },
         };
-        self.rollout(&rollout, ctx)
+        self.rollout(&rollout, ctx, Objects::All)
     }
 
-    /// The clearance of `rollout` under each closing-speed hypothesis.
-    fn rollout(&self, rollout: &Rollout, ctx: &PlanContext<'_>) -> [f64; HYPOTHESES] {
+    /// The clearance of `rollout` from `objects` under each closing-speed hypothesis. Once a
+    /// rollout that waited drives on, objects standing in the world no longer count: the robot
+    /// stands for as long as one is in its way ([`Self::keeps_waiting`]).
+    fn rollout(&self, rollout: &Rollout, ctx: &PlanContext<'_>, objects: Objects) -> [f64; HYPOTHESES] {
         let facts = &self.facts;
-        // an object standing in the world passes a robot that waits only once it drives on
+        // a robot that waited meets the moving objects later: the horizon moves with the wait
         let delay = if rollout.wait_s > 0.0 {
             rollout.duration_s + rollout.wait_s
         } else {
@@ -691,7 +747,7 @@ impl Planner {
         let end = self
             .objects
             .iter()
-            .filter(|o| !o.passes_over_or_under(facts))
+            .filter(|o| !o.passes_over_or_under(facts) && objects.includes(o))
             .map(|o| o.passed_s(facts))
             .fold(f64::NEG_INFINITY, f64::max)
             .min(ctx.t_s + MAX_HORIZON_S)
@@ -733,8 +789,9 @@ impl Planner {
             );
             pose.advance(&command, PLAN_STEP_S, facts);
             t += PLAN_STEP_S;
+            let driving_on = rollout.wait_s > 0.0 && since >= rollout.duration_s + rollout.wait_s;
             for (o, motions) in self.objects.iter().zip(&motions) {
-                if o.passes_over_or_under(facts) {
+                if o.passes_over_or_under(facts) || !objects.includes(o) || (driving_on && o.forecast.standing) {
                     continue;
                 }
                 for (motion, c) in motions.iter().zip(clearance.iter_mut()) {

@@ -221,6 +221,55 @@ fn a_forecast_made_while_the_robot_changed_its_motion_replaces_one_only_when_the
     planner.observe(2, &same_course, 0.4, &trail);
     assert!(planner.forecast(2).is_some());
     // forgotten once they have passed
-    planner.forget_old(5.0);
+    planner.forget_old(
+        5.0,
+        &Odometry {
+            position_m: [5.0, 0.0],
+            ..cruising()
+        },
+    );
+    assert!(!planner.has_objects());
+}
+
+#[test]
+fn a_standing_box_too_wide_to_sidestep_is_stopped_before_and_waited_out() {
+    // a box 3 m wide stands 3 m ahead on the path: a sidestep (0.9 m) cannot clear it, a stop
+    // can. A stop's rollout used to drive on after the wait into it (an object standing in the
+    // world never passes a robot waiting before it), so every candidate collided and the planner
+    // took the sidestep that hit least deep; a robot that had stopped took the box for passed
+    // when the cruise would have passed it, or forgot it once no new forecast came (a robot
+    // standing before it sees no expansion), and drove on into it
+    let config = EscapeConfig::default();
+    let mut planner = planner_with(&[forecast(3.0, 0.0, 0.0, 1.5, 1.0)]);
+    let c = clearances(&planner, &config);
+    assert!(c[0].1 < 0.0 && c[1].1 < 0.0, "the sidesteps hit it: {c:?}");
+    assert!(c[2].1 > 0.3, "a stop clears it: {c:?}");
+    for first in [DodgeSide::Left, DodgeSide::Right] {
+        let chosen = planner.choose(&ctx(&config), &preference(first), None).unwrap();
+        assert_eq!(chosen, Candidate::ALL[2], "preferring {first:?}");
+    }
+    // standing 1.5 m before it 5 s later, long after the cruise would have passed it and its
+    // last forecast: it is remembered and the robot keeps standing, however long it has waited
+    let stopped = Odometry {
+        position_m: [1.5, 0.0],
+        ..Odometry::default()
+    };
+    planner.forget_old(5.0, &stopped);
+    assert!(
+        planner.has_objects(),
+        "the box is forgotten while the robot stands before it"
+    );
+    let later = PlanContext {
+        t_s: 5.0,
+        odometry: stopped,
+        ..ctx(&config)
+    };
+    assert!(planner.keeps_waiting(&later, 0.0), "the robot drives on into the box");
+    // a robot that drove by it (beside it, its rear past the box's far face) forgets it
+    let past = Odometry {
+        position_m: [8.0, 3.0],
+        ..cruising()
+    };
+    planner.forget_old(8.0, &past);
     assert!(!planner.has_objects());
 }
