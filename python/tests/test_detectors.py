@@ -187,8 +187,12 @@ class NumpySoc:
         return 0.0 if previous is None else float(np.abs(f - previous).sum())
 
 class Slow(NumpySoc):
-    # slow enough to be interrupted after its first episode; SLOW_STEP_S=0 for the resumed run
+    # slow enough to be interrupted after its first episode; SLOW_STEP_S=0 for the resumed run;
+    # SLOW_MARK: a file made on the first step (the run is in its episodes)
     def step(self, frame):
+        mark = os.environ.get("SLOW_MARK")
+        if mark and not os.path.exists(mark):
+            open(mark, "w").close()
         time.sleep(float(os.environ.get("SLOW_STEP_S", "0.01")))
         return super().step(frame)
 """
@@ -399,14 +403,20 @@ def test_a_second_ctrl_c_stops_run_suite_at_once(tmp_path):
         f"loomlab.run_suite({str(SUITE)!r}, detectors=['soc', loomlab.PythonDetector(my_detectors.Slow)], "
         "limit=4, size=32, jobs=1)\n"
     )
-    env = dict(os.environ, PYTHONPATH=str(tmp_path), SLOW_STEP_S="0.2")
+    mark = tmp_path / "stepping"
+    env = dict(os.environ, PYTHONPATH=str(tmp_path), SLOW_STEP_S="0.2", SLOW_MARK=str(mark))
     p = subprocess.Popen(
         [sys.executable, "-c", script], cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
     )
     assert p.stdout is not None and p.stdout.readline().strip() == "started"
-    time.sleep(2.0)  # inside run_suite, in the first episode (a frame takes 0.2 s)
+    # inside run_suite, in the first episode (a frame takes 0.2 s): on a loaded machine the run's
+    # setup can outlast a fixed sleep, and two interrupts that arrive before the run watches for
+    # them are one to Python
+    waited = time.monotonic()
+    while not mark.exists() and time.monotonic() - waited < 90.0:
+        time.sleep(0.05)
     p.send_signal(signal.SIGINT)
-    time.sleep(0.5)
+    time.sleep(1.0)
     started = time.monotonic()
     p.send_signal(signal.SIGINT)
     _, stderr = p.communicate(timeout=120)
