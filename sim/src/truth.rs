@@ -44,7 +44,8 @@ pub struct ObjectTruth {
     /// Azimuths of the object's left and right image edges (degrees, positive = right; `[min, max]`):
     /// the extremes over its vertices and spheres.
     pub azimuth_extent_deg: [f32; 2],
-    /// Elevations of the object's bottom and top image edges (degrees, positive = up; `[min, max]`).
+    /// Elevations of the object's bottom and top image edges (degrees, positive = up; `[min, max]`):
+    /// `atan` of the image's vertical coordinate z/x, like the azimuths.
     pub elevation_extent_deg: [f32; 2],
     /// Whether the reference point projects inside the image.
     pub in_view: bool,
@@ -130,8 +131,9 @@ pub(crate) fn angular_size(prims: &[AngularPrimitive], pose: &Pose64, eye: DVec3
 
 /// The azimuth and elevation extents (degrees, `[min, max]` each) of a set of primitives (in the
 /// body frame at `pose`) seen from the camera at `cam` (x forward, y left, z up): the extremes of
-/// the vertices' directions and of each sphere's centre ± its angular radius. Points behind the
-/// camera count at ±90°.
+/// the vertices' image coordinates, `atan(−y/x)` and `atan(z/x)` (the pinhole image's box, as
+/// angles), and of each sphere's centre ± its angular radius. Points behind the camera count at
+/// ±90°.
 pub(crate) fn angular_extent(prims: &[AngularPrimitive], pose: &Pose64, cam: &Pose64) -> ([f64; 2], [f64; 2]) {
     let to_cam = cam.rotation.inverse();
     let mut az = [f64::INFINITY, f64::NEG_INFINITY];
@@ -145,7 +147,10 @@ pub(crate) fn angular_extent(prims: &[AngularPrimitive], pose: &Pose64, cam: &Po
             (radius / len).asin().to_degrees()
         };
         let a = (-rel.y).atan2(rel.x.max(0.0)).to_degrees();
-        let e = rel.z.atan2(rel.x.hypot(rel.y)).to_degrees();
+        // the pinhole image's vertical coordinate is z/x (not the elevation above the horizontal
+        // plane, atan(z/√(x² + y²)), which differs at an object's off-axis corners: a wide box
+        // near the robot would grow at another rate in height than in width)
+        let e = rel.z.atan2(rel.x.max(0.0)).to_degrees();
         az = [az[0].min(a - half), az[1].max(a + half)];
         el = [el[0].min(e - half), el[1].max(e + half)];
     };
@@ -174,10 +179,7 @@ mod tests {
             rotation: DQuat::IDENTITY,
         };
         let (az, el) = angular_extent(&[AngularPrimitive::Sphere(DVec3::ZERO, 0.5)], &pose, &cam);
-        let (a, e) = (
-            1.0f64.atan2(10.0).to_degrees(),
-            0.5f64.atan2(101f64.sqrt()).to_degrees(),
-        );
+        let (a, e) = (1.0f64.atan2(10.0).to_degrees(), 0.5f64.atan2(10.0).to_degrees());
         let half = (0.5 / 101.25f64.sqrt()).asin().to_degrees();
         assert!(
             (az[0] - (a - half)).abs() < 1e-9 && (az[1] - (a + half)).abs() < 1e-9,
@@ -197,10 +199,9 @@ mod tests {
         let (az, el) = angular_extent(&corners, &pose, &cam);
         assert!((az[0] - 0.5f64.atan2(10.5).to_degrees()).abs() < 1e-9, "{az:?}");
         assert!((az[1] - 1.5f64.atan2(9.5).to_degrees()).abs() < 1e-9, "{az:?}");
-        assert!(
-            (el[1] - 1.0f64.atan2(9.5f64.hypot(0.5)).to_degrees()).abs() < 1e-9,
-            "{el:?}"
-        );
+        // the image's vertical coordinate z/x: the near top edge, whatever its azimuth
+        assert!((el[1] - 1.0f64.atan2(9.5).to_degrees()).abs() < 1e-9, "{el:?}");
+        assert!(el[0].abs() < 1e-9, "{el:?}");
     }
 
     #[test]
