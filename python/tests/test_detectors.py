@@ -198,6 +198,13 @@ class Slow(NumpySoc):
 """
 
 
+def _sigint_default() -> None:
+    """A child's SIGINT as a terminal's foreground process has it: a shell's background job (CI run
+    with `&`, nohup) ignores SIGINT, its children inherit that, and then Python installs no
+    KeyboardInterrupt handler and an interrupt test waits for its timeout."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _cli(tmp_path: Path, *args: str, extra_env: dict[str, str] | None = None, **kw) -> subprocess.Popen:
     (tmp_path / "my_detectors.py").write_text(MODULE)
     env = dict(os.environ, PYTHONPATH=str(tmp_path), **(extra_env or {}))
@@ -208,6 +215,7 @@ def _cli(tmp_path: Path, *args: str, extra_env: dict[str, str] | None = None, **
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=_sigint_default,
         **kw,
     )
 
@@ -406,7 +414,13 @@ def test_a_second_ctrl_c_stops_run_suite_at_once(tmp_path):
     mark = tmp_path / "stepping"
     env = dict(os.environ, PYTHONPATH=str(tmp_path), SLOW_STEP_S="0.2", SLOW_MARK=str(mark))
     p = subprocess.Popen(
-        [sys.executable, "-c", script], cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        [sys.executable, "-c", script],
+        cwd=tmp_path,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=_sigint_default,
     )
     assert p.stdout is not None and p.stdout.readline().strip() == "started"
     # inside run_suite, in the first episode (a frame takes 0.2 s): on a loaded machine the run's
