@@ -84,7 +84,7 @@ fn tiny_suite_writes_report_csv_plots_and_checks_regressions() {
         csv.lines()
             .next()
             .unwrap()
-            .ends_with(",impulse_ns,theta_required_deg,collision_caused")
+            .ends_with(",impulse_ns,theta_required_deg,collision_caused,t_in_view_s")
     );
     assert_eq!(
         report["references"],

@@ -665,6 +665,12 @@ fn brief_table(report: &Report) -> String {
                 format!("{} / {} ({})", s.evaded, s.evadable_threats, num(s.evasion_rate, 2)),
                 format!(
                     "{} / {} ({})",
+                    s.evaded_in_view,
+                    s.evadable_in_view,
+                    num(s.evasion_rate_in_view, 2)
+                ),
+                format!(
+                    "{} / {} ({})",
                     s.false_alarms,
                     s.false_alarms + s.correct_rejections,
                     num(s.false_alarm_rate, 2)
@@ -679,11 +685,15 @@ fn brief_table(report: &Report) -> String {
         &[
             "row",
             "evaded / evadable",
+            "of those in view by their deadline",
             "false alarms / non-threats",
             "collisions caused (false alarms + hits)",
         ],
         &body,
     );
+    out += "\n`*` reference row computed from ground truth; in view by their deadline: the evadable \
+            threats whose centre the camera showed at or before their escape deadline (the others enter \
+            the view too late for any controller that sees only the frames).\n";
     out
 }
 
@@ -848,6 +858,17 @@ mod tests {
         let ic = &r.detectors["ideal_course"];
         assert_eq!(ic.collisions_caused, ic.false_alarm_collisions + ic.hit_collisions);
         assert!(brief_table(&r).contains(&caused_cell(ic)));
+        // the evadable threats the camera showed in time, next to all evadable ones
+        let in_view = format!(
+            "| {} / {} ({}) | {} / {} ({}) |",
+            ic.evaded,
+            ic.evadable_threats,
+            num(ic.evasion_rate, 2),
+            ic.evaded_in_view,
+            ic.evadable_in_view,
+            num(ic.evasion_rate_in_view, 2)
+        );
+        assert!(brief_table(&r).contains(&in_view), "{in_view}");
     }
 
     #[test]

@@ -5,16 +5,17 @@
 //! outcome,collision,ttc_at_alarm_s,angular_size_at_alarm_deg,max_signal,lead_s,t_deadline_s,
 //! deadline_lead_s,evadable,l_over_v_s,eye_ttc_at_alarm_s,theta_rel_err_median,theta_rel_err_p90,
 //! theta_at_first_estimate_deg,triggers,impact_speed_mps,impulse_ns,theta_required_deg,
-//! collision_caused`
+//! collision_caused,t_in_view_s`
 //! (`theta_required_deg`: the true angular size of an evadable threat at its escape deadline, the
 //! same on every row of the episode; `collision_caused`: the row's own escape manoeuvre caused the
-//! collision, a false alarm or a hit that collided, see [`crate::metrics`]). `params` is a
+//! collision, a false alarm or a hit that collided, see [`crate::metrics`]; `t_in_view_s`: the
+//! first time a threat is in the camera's view, the same on every row). `params` is a
 //! compact JSON object of the episode's swept/sampled values (`{"speed_kmh":"50"}`), quoted as CSV
 //! requires; booleans are `true`/`false`; absent values are empty cells; numbers are written in
 //! Rust's shortest round-trip form, so a read gives back exactly what was written. `lead_s`
 //! (`t_c − t_a` for hits), `deadline_lead_s` (`t_c − t_dl`), `evadable` (a threat with a
 //! deadline) and `collision_caused` are derived and ignored on reading; files written before
-//! `collision_caused` existed (the column last) still read ([`OPTIONAL_ON_READ`]). Fields are quoted per RFC 4180 when they
+//! `collision_caused` or `t_in_view_s` existed (the last columns) still read ([`OPTIONAL_ON_READ`]). Fields are quoted per RFC 4180 when they
 //! hold a comma, quote or line break.
 //!
 //! Crash safety: [`EpisodesCsvWriter::write_episode`] writes all rows of an episode with one
@@ -31,7 +32,7 @@ use crate::metrics::{DetectorEpisode, EpisodeOutcome, Outcome, ScoringError};
 
 /// The column names, in order (new columns are appended, so that tools reading columns by position
 /// keep working).
-pub const HEADER: [&str; 27] = [
+pub const HEADER: [&str; 28] = [
     "scenario",
     "episode",
     "seed",
@@ -59,10 +60,12 @@ pub const HEADER: [&str; 27] = [
     "impulse_ns",
     "theta_required_deg",
     "collision_caused",
+    "t_in_view_s",
 ];
 
-/// Derived columns added after the first release of the format: a file without them still reads.
-pub const OPTIONAL_ON_READ: [&str; 1] = ["collision_caused"];
+/// Columns added after the first release of the format: a file without them still reads (the
+/// derived `collision_caused`; `t_in_view_s`, then unknown).
+pub const OPTIONAL_ON_READ: [&str; 2] = ["collision_caused", "t_in_view_s"];
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> ScoringError + '_ {
     move |source| ScoringError::Io {
@@ -122,6 +125,7 @@ pub fn format_rows(episode: &EpisodeOutcome) -> String {
             opt(d.impulse_ns),
             opt(d.theta_required_deg),
             d.collision_caused().to_string(),
+            opt(d.t_in_view_s),
         ];
         out += &cells.join(",");
         out.push('\n');
@@ -305,7 +309,7 @@ pub fn parse_episodes_csv(text: &str, origin: &Path) -> Result<Vec<EpisodeOutcom
                 format!("{} fields, the header has {}", r.fields.len(), header.fields.len()),
             ));
         }
-        let get = |name: &str| r.fields[col[name]].as_str();
+        let get = |name: &str| col.get(name).map_or("", |&i| r.fields[i].as_str());
         let parse_f = |name: &str| -> Result<Option<f64>, ScoringError> {
             let s = get(name);
             if s.is_empty() {
@@ -347,6 +351,7 @@ pub fn parse_episodes_csv(text: &str, origin: &Path) -> Result<Vec<EpisodeOutcom
             impact_speed_mps: parse_f("impact_speed_mps")?,
             impulse_ns: parse_f("impulse_ns")?,
             theta_required_deg: parse_f("theta_required_deg")?,
+            t_in_view_s: parse_f("t_in_view_s")?,
             ttc_at_alarm_s: parse_f("ttc_at_alarm_s")?,
             angular_size_at_alarm_deg: parse_f("angular_size_at_alarm_deg")?,
             max_signal: parse_f("max_signal")?,

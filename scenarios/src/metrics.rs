@@ -259,6 +259,11 @@ pub struct DetectorEpisode {
     /// threshold on the true angular size needs to reach to be in time (`None`: no evadable threat).
     #[serde(default)]
     pub theta_required_deg: Option<f64>,
+    /// First time the threat's reference point is in the camera's view (s; ground truth, threats
+    /// only; `None`: not before contact). An evadable threat first in view after its escape
+    /// deadline is one no camera-based controller sees in time ([`Self::seen_in_time`]).
+    #[serde(default)]
+    pub t_in_view_s: Option<f64>,
     /// Escape manoeuvres started in the closed loop (the level-triggered controller re-triggers
     /// after its cooldown while the signal stays above the threshold).
     #[serde(default)]
@@ -304,6 +309,13 @@ impl DetectorEpisode {
     /// Whether the episode is a threat that some trigger time evades.
     pub fn evadable(&self) -> bool {
         self.threat && self.t_deadline_s.is_some()
+    }
+
+    /// Whether an evadable threat was in the camera's view at or before its escape deadline: one
+    /// that a controller seeing the frames could have evaded (the others come into view too late,
+    /// thrown from outside the field of view, whatever the detector).
+    pub fn seen_in_time(&self) -> bool {
+        self.evadable() && matches!((self.t_in_view_s, self.t_deadline_s), (Some(v), Some(d)) if v <= d)
     }
 
     /// How long before contact the deadline is, `t_c − t_dl` (s; evadable threats).
@@ -453,6 +465,7 @@ pub fn score_detector_episode(
         impact_speed_mps: None,
         impulse_ns: None,
         theta_required_deg: None,
+        t_in_view_s: None,
         triggers: u64::from(t_alarm_s.is_some()),
         ttc_at_alarm_s: alarm.and_then(|s| s.ttc_s).filter(|v| v.is_finite()),
         angular_size_at_alarm_deg: alarm.and_then(|s| s.angular_size_deg).filter(|v| v.is_finite()),
@@ -523,6 +536,16 @@ pub struct DetectorSummary {
     /// 95 % Wilson interval of `evasion_rate`.
     #[serde(default)]
     pub evasion_rate_ci: Option<Interval>,
+    /// Evadable threats in the camera's view by their escape deadline
+    /// ([`DetectorEpisode::seen_in_time`]): the threats a controller seeing the frames can evade.
+    #[serde(default)]
+    pub evadable_in_view: u64,
+    /// Of those, the ones the closed loop evaded.
+    #[serde(default)]
+    pub evaded_in_view: u64,
+    /// evaded_in_view / evadable_in_view.
+    #[serde(default)]
+    pub evasion_rate_in_view: Option<f64>,
     /// Misses with an alarm after the deadline.
     #[serde(default)]
     pub late_misses: u64,
@@ -583,6 +606,8 @@ impl DetectorSummary {
         let collisions = eps.iter().filter(|e| e.collision).count() as u64;
         let evadable_threats = eps.iter().filter(|e| e.evadable()).count() as u64;
         let evaded = eps.iter().filter(|e| e.evadable() && !e.collision).count() as u64;
+        let evadable_in_view = eps.iter().filter(|e| e.seen_in_time()).count() as u64;
+        let evaded_in_view = eps.iter().filter(|e| e.seen_in_time() && !e.collision).count() as u64;
         let positives: Vec<f64> = eps.iter().filter(|e| e.evadable()).map(|e| e.roc_score()).collect();
         let negatives: Vec<f64> = eps.iter().filter(|e| !e.threat).map(|e| e.roc_score()).collect();
         let roc = stats::roc_curve(&positives, &negatives);
@@ -609,6 +634,9 @@ impl DetectorSummary {
             evaded,
             evasion_rate: stats::rate(evaded, evadable_threats),
             evasion_rate_ci: stats::wilson_95(evaded, evadable_threats),
+            evadable_in_view,
+            evaded_in_view,
+            evasion_rate_in_view: stats::rate(evaded_in_view, evadable_in_view),
             late_misses: eps.iter().filter(|e| e.is_late_miss()).count() as u64,
             silent_misses: eps.iter().filter(|e| e.is_silent_miss()).count() as u64,
             hit_collisions: eps.iter().filter(|e| e.outcome == Outcome::Hit && e.collision).count() as u64,

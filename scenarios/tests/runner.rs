@@ -17,7 +17,12 @@ fn scenario(miss: f64, detectors: &str) -> Scenario {
 
 /// [`scenario`] with `extra` TOML appended (e.g. a `[sweep]`).
 fn scenario_with(miss: f64, detectors: &str, extra: &str) -> Scenario {
-    let text = format!(
+    parse_scenario(&scenario_text(miss, detectors, extra), Path::new("slow_ball.toml"), None, &LoadOptions::default()).unwrap()
+}
+
+/// The TOML text of [`scenario_with`].
+fn scenario_text(miss: f64, detectors: &str, extra: &str) -> String {
+    format!(
         r#"
 name = "slow_ball"
 [episode]
@@ -47,8 +52,7 @@ lead_margin_s = 0.0
 {detectors}
 {extra}
 "#
-    );
-    parse_scenario(&text, Path::new("slow_ball.toml"), None, &LoadOptions::default()).unwrap()
+    )
 }
 
 /// `soc` twice: `early` alarms on the first motion of the ball, `never` never alarms.
@@ -184,6 +188,33 @@ fn an_early_alarm_evades_and_no_alarm_collides() {
     // the open-loop pass ends at the contact
     assert!(*run.trace.t_s.last().unwrap() >= t_c - 1e-9);
     assert!(*run.trace.t_s.last().unwrap() < t_c + 1.0 / 120.0 + 1e-9);
+}
+
+#[test]
+fn a_threat_is_seen_in_time_when_it_is_in_view_by_its_deadline() {
+    let r = runner(1);
+    // thrown from straight ahead: in view from the first frame, on every row
+    let ahead = run_one(&r, &scenario(0.0, EARLY_AND_NEVER));
+    for d in &ahead.outcome.detectors {
+        assert!(d.evadable(), "{}", d.detector);
+        assert_eq!(d.t_in_view_s, Some(1.0 / 120.0), "{}: the first frame", d.detector);
+        assert!(d.seen_in_time());
+    }
+    // thrown from 50° to the side (the view spans ±30°) straight at the standing camera: its
+    // bearing stays 50°, so it is never in view before it strikes; still evadable by a dodge
+    let text = scenario_text(0.0, EARLY_AND_NEVER, "").replace("launch_time_s = 0.3", "launch_time_s = 0.3\nlaunch_azimuth_deg = 50.0");
+    let side = parse_scenario(&text, Path::new("side.toml"), None, &LoadOptions::default()).unwrap();
+    let side = run_one(&r, &side);
+    for d in &side.outcome.detectors {
+        assert!(d.evadable(), "{}", d.detector);
+        assert_eq!(d.t_in_view_s, None, "{}", d.detector);
+        assert!(!d.seen_in_time());
+    }
+    let summary = loomlab_scenarios::metrics::DetectorSummary::from_episodes(&side.outcome.detectors[..1]);
+    assert_eq!((summary.evadable_threats, summary.evadable_in_view), (1, 0));
+    // a miss has no time in view
+    let miss = run_one(&r, &scenario(1.0, EARLY_AND_NEVER));
+    assert!(miss.outcome.detectors.iter().all(|d| !d.threat && d.t_in_view_s.is_none()));
 }
 
 #[test]

@@ -1766,36 +1766,54 @@ fn lv_fit_is_in_the_summary_from_three_qualifying_episodes() {
 // ---------------------------------------------------------------- episodes.csv with deadlines
 
 #[test]
-fn csv_appends_collision_caused_and_reads_files_without_it() {
-    assert_eq!(HEADER.last(), Some(&"collision_caused"), "new columns are appended");
+fn csv_appends_new_columns_and_reads_files_without_them() {
     assert_eq!(
-        HEADER[HEADER.len() - 2],
+        HEADER[HEADER.len() - 2..],
+        ["collision_caused", "t_in_view_s"],
+        "new columns are appended"
+    );
+    assert_eq!(
+        HEADER[HEADER.len() - 3],
         "theta_required_deg",
         "the columns before keep their order"
     );
     let caused = ep(false, None, Some(1.0), true, Some(9.0)); // a false alarm that collided
-    let evaded = ep(true, Some(3.0), Some(1.0), false, Some(9.0));
+    let mut evaded = ep(true, Some(3.0), Some(1.0), false, Some(9.0));
+    evaded.t_in_view_s = Some(0.25);
     let eps = vec![episode(
         "caused",
         0,
         vec![with_detector(caused, "hopfield"), with_detector(evaded, "soc")],
     )];
     let text = episodes_csv::header_line() + &episodes_csv::format_rows(&eps[0]);
-    let last: Vec<&str> = text.lines().map(|l| l.rsplit(',').next().unwrap()).collect();
-    assert_eq!(last, ["collision_caused", "true", "false"]);
+    let last_two: Vec<Vec<&str>> = text.lines().map(|l| l.rsplitn(3, ',').take(2).collect()).collect();
+    assert_eq!(
+        last_two,
+        [["t_in_view_s", "collision_caused"], ["", "true"], ["0.25", "false"]]
+    );
     assert_eq!(
         episodes_csv::parse_episodes_csv(&text, Path::new("new.csv")).unwrap(),
         eps
     );
-    // a file written before the column existed: every line without its last cell
-    let old: String = text
-        .lines()
-        .map(|l| format!("{}\n", &l[..l.rfind(',').unwrap()]))
-        .collect();
+    // files written before the columns existed: every line without its last cell, then its last two
+    let cut = |text: &str| -> String {
+        text.lines()
+            .map(|l| format!("{}\n", &l[..l.rfind(',').unwrap()]))
+            .collect()
+    };
+    let before_in_view = cut(&text);
+    assert!(!before_in_view.contains("t_in_view_s"));
+    let mut unknown_in_view = eps.clone();
+    unknown_in_view[0].detectors[1].t_in_view_s = None;
+    assert_eq!(
+        episodes_csv::parse_episodes_csv(&before_in_view, Path::new("old.csv")).unwrap(),
+        unknown_in_view
+    );
+    let old = cut(&before_in_view);
     assert!(!old.contains("collision_caused"));
     assert_eq!(
         episodes_csv::parse_episodes_csv(&old, Path::new("old.csv")).unwrap(),
-        eps
+        unknown_in_view
     );
     // any other missing column is still an error naming it
     let bad = old.replacen("theta_required_deg", "theta_req", 1);
@@ -1803,6 +1821,38 @@ fn csv_appends_collision_caused_and_reads_files_without_it() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("missing column `theta_required_deg`"), "{e}");
+}
+
+#[test]
+fn evasion_in_view_counts_the_evadable_threats_seen_by_their_deadline() {
+    // ep(): the deadline EP_DEADLINE_LEAD_S before contact
+    let deadline = 3.0 - EP_DEADLINE_LEAD_S;
+    let seen = |t_a: Option<f64>, collision: bool, t_in_view_s: Option<f64>| {
+        let mut e = ep(true, Some(3.0), t_a, collision, Some(9.0));
+        e.t_in_view_s = t_in_view_s;
+        e
+    };
+    let eps = [
+        seen(Some(1.0), false, Some(0.0)),  // seen from the start, evaded
+        seen(Some(deadline), true, Some(deadline)), // in view exactly at its deadline: seen in time
+        seen(Some(2.99), true, Some(deadline + 0.01)), // first in view after its deadline: not counted
+        seen(None, true, None),             // never in view before contact: not counted
+        ep(false, None, None, false, None), // no threat
+        ep_dl(true, Some(1.0), None, None, true, Some(0.0)), // unavoidable
+    ];
+    let in_time: Vec<bool> = eps.iter().map(|e| e.seen_in_time()).collect();
+    assert_eq!(in_time, [true, true, false, false, false, false]);
+    let s = DetectorSummary::from_episodes(&eps);
+    assert_eq!((s.evaded, s.evadable_threats), (1, 4));
+    assert_eq!((s.evaded_in_view, s.evadable_in_view), (1, 2));
+    assert_eq!(s.evasion_rate_in_view, Some(0.5));
+    // reports written before the keys existed read them as zero
+    let mut v: serde_json::Value = serde_json::to_value(&s).unwrap();
+    for k in ["evadable_in_view", "evaded_in_view", "evasion_rate_in_view"] {
+        v.as_object_mut().unwrap().remove(k);
+    }
+    let old: DetectorSummary = serde_json::from_value(v).unwrap();
+    assert_eq!((old.evadable_in_view, old.evasion_rate_in_view), (0, None));
 }
 
 #[test]

@@ -311,10 +311,18 @@ impl Runner {
             .map(|row| row.signal.iter().position(|&s| s >= row.threshold))
             .collect();
         let mut tails = self.detector_tails(&c, &rows, &first_alarms, contact_frame, &mut pass)?;
+        // the threat's first frame in the camera's view, up to its contact
+        let t_in_view_s = threat_object.and_then(|id| {
+            let until = contact_frame.map_or(pass.t_s.len(), |kc| (kc + 1).min(pass.t_s.len()));
+            (0..until)
+                .find(|&k| pass.truth[k].get(id).is_some_and(|o| o.in_view))
+                .map(|k| pass.t_s[k])
+        });
         let scoring = EpisodeScoring {
             t_s: &pass.t_s,
             ref_ttc: &ref_ttc,
             ref_theta: &ref_theta,
+            t_in_view_s,
             ground_truth: &ground_truth,
             episode_truth: &episode_truth,
             deadline: deadline.as_ref(),

@@ -21,6 +21,9 @@ pub(super) struct EpisodeScoring<'a> {
     pub(super) ref_ttc: &'a [Option<f64>],
     /// The reference object's true angular size per frame (degrees; NaN without one).
     pub(super) ref_theta: &'a [f64],
+    /// The first time the threat is in the camera's view (s; `None`: no threat, or not in view
+    /// before contact).
+    pub(super) t_in_view_s: Option<f64>,
     pub(super) ground_truth: &'a GroundTruth,
     pub(super) episode_truth: &'a EpisodeTruth,
     pub(super) deadline: Option<&'a EscapeDeadline>,
@@ -119,6 +122,7 @@ impl EpisodeScoring<'_> {
             .and_then(|dl| dl.frame)
             .and_then(|k| self.ref_theta.get(k).copied())
             .filter(|v| v.is_finite());
+        d.t_in_view_s = self.t_in_view_s;
         if let Some(a) = self.approach {
             d.l_over_v_s = Some(a.l_over_v_s);
             d.eye_ttc_at_alarm_s = first_alarm_about_threat.and_then(|k| a.eye_ttc_s(k));
