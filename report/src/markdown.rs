@@ -691,9 +691,6 @@ fn brief_table(report: &Report) -> String {
         ],
         &body,
     );
-    out += "\n`*` reference row computed from ground truth; in view by their deadline: the evadable \
-            threats whose centre the camera showed at or before their escape deadline (the others enter \
-            the view too late for any controller that sees only the frames).\n";
     out
 }
 

@@ -49,7 +49,8 @@ pub struct ObjectTruth {
     pub elevation_extent_deg: [f32; 2],
     /// Whether the reference point projects inside the image.
     pub in_view: bool,
-    /// Whether the object touches the robot's body now (from rapier's narrow phase).
+    /// Whether the object touches the robot's body now (rapier's narrow phase, its speculative
+    /// contacts left out: the two within 1 mm).
     pub in_contact: bool,
 }
 

@@ -257,3 +257,39 @@ fn contacts_below_the_harmless_speed_are_marked_harmless() {
         "{first:?}"
     );
 }
+
+#[test]
+fn a_fast_ball_passing_within_rapiers_speculative_margin_is_no_contact() {
+    // rapier reports a pair from a margin that grows with the speeds (its speculative contacts):
+    // at 12 m/s a ball passing the body's front corner within about 2 cm started a "contact" that
+    // neither touched nor pushed (no impulse), and the ground truth made the near miss a threat
+    let contacts = |miss_m: f32| {
+        let mut w = WorldDesc::empty();
+        w.projectiles.push(ProjectileDesc {
+            name: Some("ball".into()),
+            radius_m: 0.2,
+            speed_mps: 12.0,
+            launch_distance_m: 6.0,
+            miss_distance_m: miss_m,
+            ..Default::default()
+        });
+        let mut sim = Sim::new_physics_only(&w, 0).unwrap();
+        let mut contacts = Vec::new();
+        let mut touching = 0;
+        for _ in 0..120 {
+            let out = sim.step(&Command::default()).unwrap();
+            contacts.extend(out.contacts);
+            touching += usize::from(out.truth.iter().any(|o| o.in_contact));
+        }
+        (contacts, touching)
+    };
+    // 0.4 m beside the camera the ball strikes the corner (a time of impact, an impulse)
+    let (hit, _) = contacts(0.4);
+    assert_eq!(hit.len(), 1, "{hit:?}");
+    assert!(hit[0].exact_t_s.is_some() && hit[0].impulse_ns.is_some_and(|i| i > 0.0), "{hit:?}");
+    // 0.435 m beside it, rapier's pair starts without a touch or an impulse: no contact, and no
+    // frame shows it touching
+    let (passing, touching) = contacts(0.435);
+    assert!(passing.is_empty(), "{passing:?}");
+    assert_eq!(touching, 0);
+}

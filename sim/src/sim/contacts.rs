@@ -60,9 +60,15 @@ impl Sim {
 
     /// The object touched by the robot in a collision event that started, if any.
     pub(super) fn robot_contact_started(&self, ev: CollisionEvent) -> Option<usize> {
-        let CollisionEvent::Started(a, b, _) = ev else {
+        if ev.stopped() {
             return None;
-        };
+        }
+        self.robot_pair(ev)
+    }
+
+    /// The object of a collision event (started or stopped) between it and the robot, if any.
+    pub(super) fn robot_pair(&self, ev: CollisionEvent) -> Option<usize> {
+        let (a, b) = (ev.collider1(), ev.collider2());
         let other = if a == self.robot_collider {
             b
         } else if b == self.robot_collider {

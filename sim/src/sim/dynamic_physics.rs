@@ -7,6 +7,11 @@ use crate::robot::Command;
 use crate::trajectory::{Motion, Pose64, Segment, Trajectory, time_of_impact};
 use crate::truth::Contact;
 
+/// Two colliders this close (m) touch: a contact rapier reports between bodies farther apart that
+/// exchanged no impulse is speculative (its narrow phase reports pairs within a margin that grows
+/// with their speeds) and is no contact until they touch.
+pub(super) const TOUCH_M: f64 = 1e-3;
+
 /// Dynamic physics: the robot's and the projectiles' predicted motions from the start of a substep.
 #[derive(Clone)]
 pub(super) struct SubstepStart {
@@ -70,45 +75,24 @@ impl Sim {
                     .collect(),
             };
             self.physics.step_with_events(&(), &self.events);
+            // pairs rapier reported earlier that had not touched yet: they may touch now
+            for id in std::mem::take(&mut self.grazing) {
+                match self.touch(id, ts, &start) {
+                    Some(contact) => new_contacts.push(contact),
+                    None => self.grazing.push(id),
+                }
+            }
             for ev in self.take_events() {
-                let Some(id) = self.robot_contact_started(ev) else {
+                let Some(id) = self.robot_pair(ev) else {
                     continue;
                 };
-                // rapier finds a contact in the narrow phase that opens a step, so the touch may
-                // have happened in the previous substep (always, when CCD stopped a fast ball there):
-                // search it from that substep's start first, then from this one's
-                let contact = [self.previous_substep.as_ref(), Some(&start)]
-                    .into_iter()
-                    .flatten()
-                    .find_map(|from| {
-                        let o = &self.objects[id];
-                        let traj = from.balls[id].as_ref().unwrap_or(&o.spec.trajectory);
-                        time_of_impact(
-                            &from.robot,
-                            &self.robot_placed(),
-                            traj,
-                            &o.placed(),
-                            from.t_s,
-                            ts - from.t_s,
-                        )
-                        .filter(|&t| t > from.t_s)
-                        .map(|t| (t, (traj.velocity_at(t) - from.robot.velocity_at(t)).length()))
-                    });
-                let (exact, speed) = match contact {
-                    Some((t, speed)) => (Some(t), speed),
-                    None => {
-                        let traj = start.balls[id].as_ref().unwrap_or(&self.objects[id].spec.trajectory);
-                        (
-                            None,
-                            (traj.velocity_at(t_prev) - start.robot.velocity_at(t_prev)).length(),
-                        )
-                    }
-                };
-                let impulse = self
-                    .physics
-                    .contact_pair(self.robot_collider, self.objects[id].collider)
-                    .map(|p| f64::from(p.total_impulse().length()));
-                new_contacts.push(self.contact(id, ts, exact, speed, impulse));
+                if ev.stopped() {
+                    self.grazing.retain(|&g| g != id);
+                } else if let Some(contact) = self.touch(id, ts, &start) {
+                    new_contacts.push(contact);
+                } else if !self.grazing.contains(&id) {
+                    self.grazing.push(id);
+                }
             }
             self.previous_substep = Some(start);
             t_prev = ts;
@@ -118,6 +102,48 @@ impl Sim {
         self.robot_pose = self.robot_pose_now();
         self.robot_velocity = self.body_velocity();
         new_contacts
+    }
+
+    /// The contact of the robot with object `id` in the substep ending at `ts` that began at
+    /// `start`, if the two touch: a time of impact in this substep or the previous one (rapier
+    /// finds a contact in the narrow phase that opens a step, so the touch may have happened in the
+    /// previous substep: always, when CCD stopped a fast ball there), the two bodies overlapping
+    /// or touching now, or rapier's solver pushing them apart (an impulse: the simulated world
+    /// deflected the object). `None`: rapier reported the pair from its speculative margin (a fast
+    /// object passing within about its motion over a substep) and nothing touched or pushed.
+    fn touch(&self, id: usize, ts: f64, start: &SubstepStart) -> Option<Contact> {
+        let o = &self.objects[id];
+        let impact = [self.previous_substep.as_ref(), Some(start)]
+            .into_iter()
+            .flatten()
+            .find_map(|from| {
+                let traj = from.balls[id].as_ref().unwrap_or(&o.spec.trajectory);
+                time_of_impact(&from.robot, &self.robot_placed(), traj, &o.placed(), from.t_s, ts - from.t_s)
+                    .filter(|&t| t > from.t_s)
+                    .map(|t| (t, (traj.velocity_at(t) - from.robot.velocity_at(t)).length()))
+            });
+        let impulse = self
+            .physics
+            .contact_pair(self.robot_collider, o.collider)
+            .map(|p| f64::from(p.total_impulse().length()));
+        let (exact, speed) = match impact {
+            Some((t, speed)) => (Some(t), speed),
+            None if impulse.is_some_and(|i| i > 0.0) || self.bodies_touch(id) => {
+                let traj = start.balls[id].as_ref().unwrap_or(&o.spec.trajectory);
+                (None, (traj.velocity_at(start.t_s) - start.robot.velocity_at(start.t_s)).length())
+            }
+            None => return None,
+        };
+        Some(self.contact(id, ts, exact, speed, impulse))
+    }
+
+    /// Whether the robot's and object `id`'s colliders overlap or lie within [`TOUCH_M`] of each
+    /// other now.
+    pub(super) fn bodies_touch(&self, id: usize) -> bool {
+        let colliders = &self.physics.colliders;
+        let (robot, other) = (&colliders[self.robot_collider], &colliders[self.objects[id].collider]);
+        rapier3d::parry::query::distance(robot.position(), robot.shape(), other.position(), other.shape())
+            .is_ok_and(|d| f64::from(d.distance) <= TOUCH_M)
     }
 
     /// Dynamic physics: the robot body's pose.

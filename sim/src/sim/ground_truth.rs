@@ -88,10 +88,14 @@ impl Sim {
                         .physics
                         .intersection_pair(self.robot_collider, o.collider)
                         .unwrap_or(false),
-                    PhysicsMode::Dynamic => self
-                        .physics
-                        .contact_pair(self.robot_collider, o.collider)
-                        .is_some_and(ContactPair::has_any_active_contact),
+                    // rapier's active contacts include its speculative ones: a pair within a
+                    // margin that grows with the speeds, not touching yet
+                    PhysicsMode::Dynamic => {
+                        self.physics
+                            .contact_pair(self.robot_collider, o.collider)
+                            .is_some_and(ContactPair::has_any_active_contact)
+                            && self.bodies_touch(id)
+                    }
                 };
                 ObjectTruth {
                     id,

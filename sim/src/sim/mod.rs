@@ -100,6 +100,10 @@ pub struct Sim {
     robot_velocity: BodyVelocity,
     /// Dynamic physics: the state at the start of the last substep.
     previous_substep: Option<SubstepStart>,
+    /// Dynamic physics: objects whose pair with the robot rapier reported without a touch (its
+    /// speculative margin); they become a contact when they touch, and leave when rapier reports
+    /// the pair stopped.
+    grazing: Vec<usize>,
     command: Command,
     robot_shape: SharedShape,
     robot_local: Pose,
