@@ -205,11 +205,12 @@ def _sigint_default() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-def _cli(tmp_path: Path, *args: str, extra_env: dict[str, str] | None = None, **kw) -> subprocess.Popen:
+def _python(tmp_path: Path, args: list[str], extra_env: dict[str, str] | None = None, **kw) -> subprocess.Popen:
+    """`python ARGS…` in tmp_path with MODULE importable as `my_detectors`."""
     (tmp_path / "my_detectors.py").write_text(MODULE)
     env = dict(os.environ, PYTHONPATH=str(tmp_path), **(extra_env or {}))
     return subprocess.Popen(
-        [sys.executable, "-m", "loomlab", "run", str(SUITE), *args],
+        [sys.executable, *args],
         cwd=tmp_path,
         env=env,
         stdout=subprocess.PIPE,
@@ -218,6 +219,10 @@ def _cli(tmp_path: Path, *args: str, extra_env: dict[str, str] | None = None, **
         preexec_fn=_sigint_default,
         **kw,
     )
+
+
+def _cli(tmp_path: Path, *args: str, extra_env: dict[str, str] | None = None, **kw) -> subprocess.Popen:
+    return _python(tmp_path, ["-m", "loomlab", "run", str(SUITE), *args], extra_env, **kw)
 
 
 def test_python_m_loomlab_run_writes_the_run_folder(tmp_path):
@@ -404,7 +409,6 @@ def test_python_m_loomlab_run_refuses_a_clashing_label_with_exit_2(tmp_path):
 def test_a_second_ctrl_c_stops_run_suite_at_once(tmp_path):
     """Without out, run_suite waited for the episodes in flight after a second Ctrl-C; now it
     stops at once with 130, as the CLI's second Ctrl-C does."""
-    (tmp_path / "my_detectors.py").write_text(MODULE)
     script = (
         "import sys, loomlab, my_detectors\n"
         "print('started', flush=True)\n"
@@ -412,16 +416,7 @@ def test_a_second_ctrl_c_stops_run_suite_at_once(tmp_path):
         "limit=4, size=32, jobs=1)\n"
     )
     mark = tmp_path / "stepping"
-    env = dict(os.environ, PYTHONPATH=str(tmp_path), SLOW_STEP_S="0.2", SLOW_MARK=str(mark))
-    p = subprocess.Popen(
-        [sys.executable, "-c", script],
-        cwd=tmp_path,
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        preexec_fn=_sigint_default,
-    )
+    p = _python(tmp_path, ["-c", script], {"SLOW_STEP_S": "0.2", "SLOW_MARK": str(mark)})
     assert p.stdout is not None and p.stdout.readline().strip() == "started"
     # inside run_suite, in the first episode (a frame takes 0.2 s): on a loaded machine the run's
     # setup can outlast a fixed sleep, and two interrupts that arrive before the run watches for
