@@ -17,7 +17,13 @@ fn scenario(miss: f64, detectors: &str) -> Scenario {
 
 /// [`scenario`] with `extra` TOML appended (e.g. a `[sweep]`).
 fn scenario_with(miss: f64, detectors: &str, extra: &str) -> Scenario {
-    parse_scenario(&scenario_text(miss, detectors, extra), Path::new("slow_ball.toml"), None, &LoadOptions::default()).unwrap()
+    parse_scenario(
+        &scenario_text(miss, detectors, extra),
+        Path::new("slow_ball.toml"),
+        None,
+        &LoadOptions::default(),
+    )
+    .unwrap()
 }
 
 /// The TOML text of [`scenario_with`].
@@ -202,7 +208,8 @@ fn a_threat_is_seen_in_time_when_it_is_in_view_by_its_deadline() {
     }
     // thrown from 50° to the side (the view spans ±30°) straight at the standing camera: its
     // bearing stays 50°, so it is never in view before it strikes; still evadable by a dodge
-    let text = scenario_text(0.0, EARLY_AND_NEVER, "").replace("launch_time_s = 0.3", "launch_time_s = 0.3\nlaunch_azimuth_deg = 50.0");
+    let text = scenario_text(0.0, EARLY_AND_NEVER, "")
+        .replace("launch_time_s = 0.3", "launch_time_s = 0.3\nlaunch_azimuth_deg = 50.0");
     let side = parse_scenario(&text, Path::new("side.toml"), None, &LoadOptions::default()).unwrap();
     let side = run_one(&r, &side);
     for d in &side.outcome.detectors {
@@ -214,7 +221,12 @@ fn a_threat_is_seen_in_time_when_it_is_in_view_by_its_deadline() {
     assert_eq!((summary.evadable_threats, summary.evadable_in_view), (1, 0));
     // a miss has no time in view
     let miss = run_one(&r, &scenario(1.0, EARLY_AND_NEVER));
-    assert!(miss.outcome.detectors.iter().all(|d| !d.threat && d.t_in_view_s.is_none()));
+    assert!(
+        miss.outcome
+            .detectors
+            .iter()
+            .all(|d| !d.threat && d.t_in_view_s.is_none())
+    );
 }
 
 #[test]

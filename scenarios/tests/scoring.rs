@@ -1833,11 +1833,11 @@ fn evasion_in_view_counts_the_evadable_threats_seen_by_their_deadline() {
         e
     };
     let eps = [
-        seen(Some(1.0), false, Some(0.0)),  // seen from the start, evaded
-        seen(Some(deadline), true, Some(deadline)), // in view exactly at its deadline: seen in time
-        seen(Some(2.99), true, Some(deadline + 0.01)), // first in view after its deadline: not counted
-        seen(None, true, None),             // never in view before contact: not counted
-        ep(false, None, None, false, None), // no threat
+        seen(Some(1.0), false, Some(0.0)),                   // seen from the start, evaded
+        seen(Some(deadline), true, Some(deadline)),          // in view exactly at its deadline: seen in time
+        seen(Some(2.99), true, Some(deadline + 0.01)),       // first in view after its deadline: not counted
+        seen(None, true, None),                              // never in view before contact: not counted
+        ep(false, None, None, false, None),                  // no threat
         ep_dl(true, Some(1.0), None, None, true, Some(0.0)), // unavoidable
     ];
     let in_time: Vec<bool> = eps.iter().map(|e| e.seen_in_time()).collect();

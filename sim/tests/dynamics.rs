@@ -286,7 +286,10 @@ fn a_fast_ball_passing_within_rapiers_speculative_margin_is_no_contact() {
     // 0.4 m beside the camera the ball strikes the corner (a time of impact, an impulse)
     let (hit, _) = contacts(0.4);
     assert_eq!(hit.len(), 1, "{hit:?}");
-    assert!(hit[0].exact_t_s.is_some() && hit[0].impulse_ns.is_some_and(|i| i > 0.0), "{hit:?}");
+    assert!(
+        hit[0].exact_t_s.is_some() && hit[0].impulse_ns.is_some_and(|i| i > 0.0),
+        "{hit:?}"
+    );
     // 0.435 m beside it, rapier's pair starts without a touch or an impulse: no contact, and no
     // frame shows it touching
     let (passing, touching) = contacts(0.435);

@@ -118,9 +118,16 @@ impl Sim {
             .flatten()
             .find_map(|from| {
                 let traj = from.balls[id].as_ref().unwrap_or(&o.spec.trajectory);
-                time_of_impact(&from.robot, &self.robot_placed(), traj, &o.placed(), from.t_s, ts - from.t_s)
-                    .filter(|&t| t > from.t_s)
-                    .map(|t| (t, (traj.velocity_at(t) - from.robot.velocity_at(t)).length()))
+                time_of_impact(
+                    &from.robot,
+                    &self.robot_placed(),
+                    traj,
+                    &o.placed(),
+                    from.t_s,
+                    ts - from.t_s,
+                )
+                .filter(|&t| t > from.t_s)
+                .map(|t| (t, (traj.velocity_at(t) - from.robot.velocity_at(t)).length()))
             });
         let impulse = self
             .physics
@@ -130,7 +137,10 @@ impl Sim {
             Some((t, speed)) => (Some(t), speed),
             None if impulse.is_some_and(|i| i > 0.0) || self.bodies_touch(id) => {
                 let traj = start.balls[id].as_ref().unwrap_or(&o.spec.trajectory);
-                (None, (traj.velocity_at(start.t_s) - start.robot.velocity_at(start.t_s)).length())
+                (
+                    None,
+                    (traj.velocity_at(start.t_s) - start.robot.velocity_at(start.t_s)).length(),
+                )
             }
             None => return None,
         };
