@@ -108,34 +108,41 @@ impl Sim {
     /// `start`, if the two touch: a time of impact in this substep or the previous one (rapier
     /// finds a contact in the narrow phase that opens a step, so the touch may have happened in the
     /// previous substep: always, when CCD stopped a fast ball there), the two bodies overlapping
-    /// or touching now, or rapier's solver pushing them apart (an impulse: the simulated world
-    /// deflected the object). `None`: rapier reported the pair from its speculative margin (a fast
-    /// object passing within about its motion over a substep) and nothing touched or pushed.
+    /// where a search starts or touching now, or rapier's solver pushing them apart (an impulse:
+    /// the simulated world deflected the object). `None`: rapier reported the pair from its
+    /// speculative margin (a fast object passing within about its motion over a substep) and
+    /// nothing touched or pushed.
     fn touch(&self, id: usize, ts: f64, start: &SubstepStart) -> Option<Contact> {
         let o = &self.objects[id];
-        let impact = [self.previous_substep.as_ref(), Some(start)]
-            .into_iter()
-            .flatten()
-            .find_map(|from| {
-                let traj = from.balls[id].as_ref().unwrap_or(&o.spec.trajectory);
-                time_of_impact(
-                    &from.robot,
-                    &self.robot_placed(),
-                    traj,
-                    &o.placed(),
-                    from.t_s,
-                    ts - from.t_s,
-                )
-                .filter(|&t| t > from.t_s)
-                .map(|t| (t, (traj.velocity_at(t) - from.robot.velocity_at(t)).length()))
-            });
+        // the first touch, and whether the bodies already overlapped where a search started (a
+        // fast ball may pass through the body between two substep ends)
+        let (mut impact, mut overlapped) = (None, false);
+        for from in [self.previous_substep.as_ref(), Some(start)].into_iter().flatten() {
+            let traj = from.balls[id].as_ref().unwrap_or(&o.spec.trajectory);
+            let toi = time_of_impact(
+                &from.robot,
+                &self.robot_placed(),
+                traj,
+                &o.placed(),
+                from.t_s,
+                ts - from.t_s,
+            );
+            match toi {
+                Some(t) if t > from.t_s => {
+                    impact = Some((t, (traj.velocity_at(t) - from.robot.velocity_at(t)).length()));
+                    break;
+                }
+                Some(_) => overlapped = true,
+                None => {}
+            }
+        }
         let impulse = self
             .physics
             .contact_pair(self.robot_collider, o.collider)
             .map(|p| f64::from(p.total_impulse().length()));
         let (exact, speed) = match impact {
             Some((t, speed)) => (Some(t), speed),
-            None if impulse.is_some_and(|i| i > 0.0) || self.bodies_touch(id) => {
+            None if overlapped || impulse.is_some_and(|i| i > 0.0) || self.bodies_touch(id) => {
                 let traj = start.balls[id].as_ref().unwrap_or(&o.spec.trajectory);
                 (
                     None,
