@@ -10,7 +10,7 @@ use crate::truth::Contact;
 /// Two colliders this close (m) touch: a contact rapier reports between bodies farther apart that
 /// exchanged no impulse is speculative (its narrow phase reports pairs within a margin that grows
 /// with their speeds) and is no contact until they touch.
-pub(super) const TOUCH_M: f64 = 1e-3;
+const TOUCH_M: f64 = 1e-3;
 
 /// Dynamic physics: the robot's and the projectiles' predicted motions from the start of a substep.
 #[derive(Clone)]
